@@ -1,0 +1,66 @@
+"""Pseudo-rigid-body 1R model (Howell) of a straight cantilever flexure.
+
+The flexure of length L is replaced by a rigid segment of length (1 - gamma) L from the root, a pin,
+and a rigid segment of length gamma L to the tip. A torsion spring of stiffness
+K = gamma * K_theta * EI / L acts on the pin angle q[0]. The tip frame rotates with the second
+segment, so the tip angle is q[0]. Howell's defaults gamma = 0.85, K_theta = 2.65 give a tip path
+within about 0.5 % of the deflection up to about 64 degrees of tip rotation (for a tip moment the
+angle/moment relation is then approximate to a few percent).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import TipKinematics
+
+
+class PRBModel:
+    kind = "prb"
+    label = "prb"
+    n_dof = 1
+
+    def __init__(self, length: float, EI: float, gamma: float = 0.85, K_theta: float = 2.65):
+        if length <= 0 or EI <= 0:
+            raise ValueError(f"PRBModel needs length > 0 and EI > 0, got length={length!r}, EI={EI!r}")
+        if not 0.0 < gamma <= 1.0:
+            raise ValueError(f"PRBModel needs 0 < gamma <= 1, got gamma={gamma!r}")
+        self.length = float(length)
+        self.EI = float(EI)
+        self.gamma = float(gamma)
+        self.K_theta = float(K_theta)
+        self.stiffness = self.gamma * self.K_theta * self.EI / self.length
+
+    def tip(self, q: np.ndarray) -> TipKinematics:
+        q = np.asarray(q, dtype=float).reshape(1)
+        a = q[0]
+        r = self.gamma * self.length
+        c, s = np.cos(a), np.sin(a)
+        pose = np.array([(1.0 - self.gamma) * self.length + r * c, r * s, a])
+        J = np.array([[-r * s], [r * c], [1.0]])
+        H = np.array([[[-r * c]], [[-r * s]], [[0.0]]])
+        return TipKinematics(pose=pose, J=J, H=H)
+
+    def energy(self, q: np.ndarray) -> float:
+        q = np.asarray(q, dtype=float).reshape(1)
+        return 0.5 * self.stiffness * float(q[0] ** 2)
+
+    def energy_gradient(self, q: np.ndarray) -> np.ndarray:
+        q = np.asarray(q, dtype=float).reshape(1)
+        return self.stiffness * q.copy()
+
+    def energy_hessian(self, q: np.ndarray) -> np.ndarray:
+        return np.array([[self.stiffness]])
+
+    def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
+        """(num, 2) points along the two rigid segments (root, pin, tip), root first."""
+        q = np.asarray(q, dtype=float).reshape(1)
+        L, g = self.length, self.gamma
+        s = np.linspace(0.0, L, num)
+        s1 = (1.0 - g) * L
+        out = np.zeros((num, 2))
+        first = s <= s1
+        out[first, 0] = s[first]
+        d = s[~first] - s1
+        out[~first, 0] = s1 + d * np.cos(q[0])
+        out[~first, 1] = d * np.sin(q[0])
+        return out
