@@ -1,0 +1,137 @@
+"""The code generation pipeline: derive -> lower (CSE) -> print -> render -> write.
+
+``generate_files(spec, langs)`` returns {relative path: text} for one kernel; nothing touches the
+disk until ``render.write_files``. The checked-in set is ``CHECKED_IN``.
+"""
+from __future__ import annotations
+
+import math
+
+import mpmath
+import sympy as sp
+
+from flexgen.codegen.lower import count_ops, lower
+from flexgen.codegen.printers import CPrinter, NumPyPrinter, numpy_array
+from flexgen.codegen.render import render
+from flexgen.codegen.spec import BACKENDS, KernelSpec
+from flexgen.symbolic.flexure import RANGE_SAMPLES, FlexureKernel
+
+CHECKED_IN = tuple(KernelSpec(n) for n in range(1, 7)) + (
+    KernelSpec(3, "gauss"), KernelSpec(5, "gauss"))
+
+
+def command_line(kernel: FlexureKernel) -> str:
+    """The CLI call that reproduces this kernel (no paths, dates or versions)."""
+    s = kernel.spec
+    parts = [f"flexgen generate --modes {s.modes} --kernel {s.family} --range {s.range_deg:g}"]
+    parts.append(f"--degree {kernel.degree}" if s.family == "poly" else f"--nodes {kernel.nodes}")
+    return " ".join(parts)
+
+
+def _common(kernel: FlexureKernel) -> dict:
+    s = kernel.spec
+    what = ("closed-form polynomial (cos, sin -> Chebyshev interpolants of degree "
+            f"{kernel.degree} on [-{s.range_deg:g}, {s.range_deg:g}] deg)"
+            if s.family == "poly" else f"{kernel.nodes}-node Gauss-Legendre quadrature")
+    return {
+        "title": f"{kernel.name}: tip pose, Jacobian and Hessian of a {s.modes}-mode smooth "
+                 f"curvature flexure, {what}.",
+        "description": (
+            "The flexure's angle is phi(s) = sum_n q_n B_n(s/L), B_n the integral of the shifted "
+            "Legendre polynomial P_n(2t - 1); its tip is x = L int cos(phi), y = L int sin(phi), "
+            "theta = q_0." + (
+                f" The polynomial is evaluated exactly in nodal form: {kernel.nodes} Gauss nodes "
+                "integrate the degree "
+                f"{kernel.degree * s.modes} polynomial in s without error." if s.family == "poly"
+                else " Valid at any angle; the error bound is certified on |phi| <= PHI_MAX.")),
+        "command": command_line(kernel),
+        "N": s.modes,
+        "family": s.family,
+        "nodes": kernel.nodes,
+        "degree": kernel.degree,
+        "phi_max": repr(kernel.a),
+        "range_deg": f"{s.range_deg:g}",
+        "bounds": kernel.bounds,
+        "range_samples": RANGE_SAMPLES,
+    }
+
+
+def numpy_files(kernel: FlexureKernel) -> dict[str, str]:
+    N, G = kernel.modes, kernel.nodes
+    printer = NumPyPrinter()
+    phi = sp.Symbol("phi")
+    trig = kernel.trig_polynomials(phi)
+    keys = ["c", "dc", "ddc", "s", "ds", "dds"]
+    temps, reduced = sp.cse([trig[k] for k in keys], symbols=sp.numbered_symbols("u"), order="none")
+    lines = [f"{sym} = {printer.doprint(expr)}" for sym, expr in temps]
+    lines += [f"{k} = {printer.doprint(e)}" for k, e in zip(keys, reduced)]
+    lines.append(f"return {', '.join(keys)}")
+    node_ops = count_ops([e for _, e in temps] + list(reduced))
+    with mpmath.workdps(40):
+        w, b = kernel.weights, kernel.node_basis
+        jw = [[float(w[g] * b[g][i]) for i in range(N)] for g in range(G)]
+        hw = [[float(w[g] * b[g][i] * b[g][j]) for i in range(N) for j in range(N)]
+              for g in range(G)]
+    S, m = kernel.range_check
+    context = _common(kernel) | {
+        "energy_weights": numpy_array([float(x) for x in kernel.energy_weights]),
+        "node_basis": numpy_array([[float(v) for v in row] for row in b]),
+        "weights": numpy_array([float(x) for x in w]),
+        "jacobian_weights": numpy_array(jw),
+        "hessian_weights": numpy_array(hw),
+        "range_samples_matrix": numpy_array(S),
+        "range_margin": numpy_array(m),
+        "trig_lines": lines,
+        "trig_doc": "c, c', c'', s, s', s'' at the node angles phi: "
+                    + ("Chebyshev interpolants of cos, sin and their derivatives."
+                       if kernel.spec.family == "poly" else "cos, sin and their derivatives."),
+        "node_ops": str(node_ops),
+    }
+    folder = BACKENDS["numpy"].folder
+    return {f"{folder}/{kernel.name}.py": render("numpy/kernel.py.jinja", context)}
+
+
+def c_files(kernel: FlexureKernel) -> dict[str, str]:
+    lowered = lower(kernel)
+    variants = []
+    for ctype, suffix in (("double", ""), ("float", "_f")):
+        printer = CPrinter(ctype)
+        variants.append({
+            "type": ctype,
+            "suffix": suffix,
+            "temporaries": [(str(sym), printer.doprint(expr)) for sym, expr in lowered.temporaries],
+            "outputs": [(o.array, o.index, printer.doprint(o.expr)) for o in lowered.outputs],
+        })
+    printer = CPrinter("double")
+    S, m = kernel.range_check
+    q = kernel.q
+    range_lines = [printer.doprint(sp.Add(*[sp.Float(v, 17) * qn for v, qn in zip(row, q) if v]))
+                   if any(row) else "0.0" for row in S]
+    margin_terms = [f"{printer.doprint(sp.Float(mn, 17))}*fabs(q[{n}])"
+                    for n, mn in enumerate(m) if mn]
+    prefix = kernel.name
+    context = _common(kernel) | {
+        "prefix": prefix,
+        "macro": prefix.upper(),
+        "guard": f"FLEXGEN_{prefix.upper()}_H",
+        "ops": str(lowered.ops),
+        "variants": variants,
+        "range_lines": range_lines,
+        "margin_line": " + ".join(margin_terms) if margin_terms else "0.0",
+    }
+    folder = BACKENDS["c"].folder
+    return {
+        f"{folder}/{prefix}.h": render("c/kernel.h.jinja", context),
+        f"{folder}/{prefix}.c": render("c/kernel.c.jinja", context),
+    }
+
+
+EMITTERS = {"numpy": numpy_files, "c": c_files}
+
+
+def generate_files(spec: KernelSpec, langs=("numpy", "c")) -> dict[str, str]:
+    kernel = FlexureKernel(spec)
+    files: dict[str, str] = {}
+    for lang in langs:
+        files |= EMITTERS[lang](kernel)
+    return files

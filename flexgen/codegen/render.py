@@ -1,0 +1,53 @@
+"""Render: the Jinja2 environment over templates/, and deterministic writing and checking."""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import jinja2
+
+TEMPLATES = Path(__file__).resolve().parents[2] / "templates"
+
+
+def environment() -> jinja2.Environment:
+    return jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        autoescape=False,
+    )
+
+
+def render(template: str, context: dict) -> str:
+    text = environment().get_template(template).render(**context)
+    # one trailing newline, no trailing spaces: byte-stable output
+    return "\n".join(line.rstrip() for line in text.splitlines()) + "\n"
+
+
+def stale_files(files: dict[str, str], out_dir: Path) -> list[str]:
+    """Relative paths whose file in out_dir is missing or differs from the rendered text."""
+    stale = []
+    for rel, text in sorted(files.items()):
+        path = out_dir / rel
+        if not path.is_file() or path.read_text() != text:
+            stale.append(rel)
+    return stale
+
+
+def write_files(files: dict[str, str], out_dir: Path) -> list[str]:
+    """Write every file atomically (temp file + rename); returns the paths written.
+
+    All texts are rendered before this is called, so a failure leaves nothing half-written.
+    """
+    written = []
+    for rel, text in sorted(files.items()):
+        path = out_dir / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+        with os.fdopen(fd, "w", newline="\n") as handle:
+            handle.write(text)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+        written.append(str(path))
+    return written

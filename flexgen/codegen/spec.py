@@ -1,0 +1,82 @@
+"""What to generate: one KernelSpec per kernel, one small config dataclass per backend."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+FAMILIES = ("poly", "gauss")
+MAX_MODES = 8
+DEFAULT_RANGE_DEG = {"poly": 90.0, "gauss": 180.0}
+DEFAULT_TOL = 1e-10
+
+
+class SpecError(ValueError):
+    """A kernel request that cannot be generated; the message names the bad argument."""
+
+
+@dataclass(frozen=True)
+class KernelSpec:
+    """One flexure kernel.
+
+    modes     N Legendre curvature modes (1 = constant curvature).
+    family    "poly": cos/sin replaced by a Chebyshev interpolant on [-range, range], the pose a
+              closed-form polynomial in q; "gauss": Gauss-Legendre quadrature of cos/sin.
+    range_deg The angle range: poly kernels are valid only while |phi| <= range along the whole
+              flexure; for gauss kernels it is the range on which their error bound is certified.
+    degree    poly: interpolation degree (None: the smallest meeting tol).
+    nodes     gauss: number of nodes (None: the fewest meeting tol on the range).
+    tol       requested bound on the cos/sin error (poly) or the pose error (gauss), units of L.
+    """
+    modes: int
+    family: str = "poly"
+    range_deg: float | None = None
+    degree: int | None = None
+    nodes: int | None = None
+    tol: float = DEFAULT_TOL
+
+    def __post_init__(self):
+        if not isinstance(self.modes, int) or not 1 <= self.modes <= MAX_MODES:
+            raise SpecError(f"--modes: must be an integer from 1 to {MAX_MODES}, got {self.modes}")
+        if self.family not in FAMILIES:
+            raise SpecError(f"--kernel: must be one of {', '.join(FAMILIES)}, got {self.family!r}")
+        if self.range_deg is None:
+            object.__setattr__(self, "range_deg", DEFAULT_RANGE_DEG[self.family])
+        r = self.range_deg
+        if not (isinstance(r, (int, float)) and math.isfinite(r) and r > 0):
+            raise SpecError(f"--range: must be a positive number of degrees, got {r}")
+        if self.family == "poly" and r >= 180:
+            raise SpecError(f"--range: the polynomial kernel needs a range below 180 degrees, got {r:g}")
+        if self.family == "gauss" and r > 720:
+            raise SpecError(f"--range: gauss kernels certify ranges up to 720 degrees, got {r:g}")
+        if not (math.isfinite(self.tol) and 0 < self.tol < 1):
+            raise SpecError(f"--tol: must be in (0, 1), got {self.tol}")
+        if self.degree is not None and not (isinstance(self.degree, int) and 1 <= self.degree <= 60):
+            raise SpecError(f"--degree: must be an integer from 1 to 60, got {self.degree}")
+        if self.nodes is not None and not (isinstance(self.nodes, int) and 1 <= self.nodes <= 200):
+            raise SpecError(f"--nodes: must be an integer from 1 to 200, got {self.nodes}")
+        if self.family == "poly" and self.nodes is not None:
+            raise SpecError("--nodes: only for --kernel gauss")
+        if self.family == "gauss" and self.degree is not None:
+            raise SpecError("--degree: only for --kernel poly")
+
+    @property
+    def range_rad(self) -> float:
+        return math.radians(self.range_deg)
+
+
+@dataclass(frozen=True)
+class NumPyConfig:
+    """NumPy backend: one module per kernel, imports numpy only."""
+    folder: str = "numpy"
+    template_folder: str = "numpy"
+
+
+@dataclass(frozen=True)
+class CConfig:
+    """C99 backend: a header and a source per kernel, double and float entry points."""
+    folder: str = "c"
+    template_folder: str = "c"
+    float_twin: bool = True
+
+
+BACKENDS = {"numpy": NumPyConfig(), "c": CConfig()}

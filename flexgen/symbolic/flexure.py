@@ -1,0 +1,218 @@
+"""One flexure's tip pose, Jacobian and Hessian as SymPy expressions in q, with error bounds.
+
+Both kernel families integrate over sigma with a Gauss-Legendre rule on the nodes sigma_g:
+
+    x = sum_g w_g c(phi_g),  y = sum_g w_g s(phi_g),  theta = q_0,   phi_g = sum_n q_n B_n(sigma_g)
+
+* poly:  c, s are the degree-D Chebyshev interpolants C, S of cos, sin on [-a, a]. C(phi(sigma))
+  is a polynomial of degree D*N in sigma, and G = ceil((D*N + 1)/2) nodes integrate it exactly,
+  so the sum IS the closed-form polynomial x(q) of the paper (an identity, not a quadrature
+  approximation), in the cheapest evaluation structure we measured (docs/expression-growth.md):
+  fully expanded, the 6-mode degree-12 pose alone has 18,564 monomials. J and H are the exact
+  derivatives of that polynomial: dx/dq_i = sum_g w_g B_i(sigma_g) C'(phi_g), and so on.
+* gauss: c, s are cos and sin themselves; G is chosen so that the certified quadrature error on
+  the range is below the tolerance. Valid at any angle; certified only on the range.
+
+Error bounds (units of L; theta is exact):
+* poly: |x - x_true| <= sup|C - cos| (the interpolation bound of trig.py), J and H likewise with
+  the derivative bounds times int|B_i| <= ||B_i||_2 and int|B_i B_j| <= ||B_i B_j||_2.
+* gauss: the rule is exact for T(phi(sigma)) with T any polynomial of degree D' <= (2G-1-deg h)/N,
+  h the basis weight (1, B_i or B_i B_j), so the error is at most
+  (sum_g w_g |h(sigma_g)| + int |h|) * (Chebyshev truncation error of degree D' on [-a, a]).
+Both add a rounding allowance for double evaluation.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import mpmath
+import sympy as sp
+
+from flexgen.codegen.spec import KernelSpec
+from flexgen.symbolic import trig
+from flexgen.symbolic.basis import angle_basis, energy_weights, gauss_legendre, sigma
+
+UNIT_ROUNDOFF = 2.0 ** -53
+RANGE_SAMPLES = 33        # sigma samples of the in_range check (h = 1/32)
+
+
+def _l2_norm(poly: sp.Poly) -> float:
+    """sqrt(int_0^1 p^2): an upper bound on int_0^1 |p| (Cauchy-Schwarz)."""
+    return math.sqrt(float((poly * poly).integrate().eval(1)))
+
+
+@dataclass(frozen=True)
+class ErrorBounds:
+    pose: float        # max error of x, y (units of L)
+    jacobian: float    # max error of any entry of J (units of L)
+    hessian: float     # max error of any entry of H (units of L)
+
+
+class FlexureKernel:
+    """The derived kernel of one KernelSpec: node data, trig polynomials, expressions, bounds."""
+
+    def __init__(self, spec: KernelSpec):
+        self.spec = spec
+        self.modes = N = spec.modes
+        self.a = spec.range_rad
+        self.q = sp.symbols(f"q0:{N}", real=True)
+        self.basis = [angle_basis(n) for n in range(N)]
+        if spec.family == "poly":
+            self.degree = spec.degree or trig.degree_for_tolerance(self.a, spec.tol)
+            self.trig = trig.chebyshev_interpolant(self.a, self.degree)
+            self.nodes = max(1, math.ceil((self._poly_degree * N + 1) / 2))
+        else:
+            self.degree = None
+            self.trig = None
+            self.nodes = spec.nodes or self._nodes_for_tolerance(spec.tol)
+        self.sigma, self.weights = gauss_legendre(self.nodes)
+        self.node_basis = [[_poly_at(b, s) for b in self.basis] for s in self.sigma]
+
+    # -- names --------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        if self.spec.family == "poly":
+            return f"scm{self.modes}"
+        return f"scm{self.modes}_gauss{self.nodes}"
+
+    @property
+    def energy_weights(self) -> list[sp.Rational]:
+        return energy_weights(self.modes)
+
+    @property
+    def _poly_degree(self) -> int:
+        """Highest degree actually present in C or S."""
+        deg = 0
+        for coeffs in (self.trig.cos, self.trig.sin):
+            for k, c in enumerate(coeffs):
+                if c != 0:
+                    deg = max(deg, k)
+        return deg
+
+    # -- the trig stand-ins and their derivatives as polynomials in one symbol -------------
+    def trig_polynomials(self, phi: sp.Symbol) -> dict[str, sp.Expr]:
+        """c, c', c'', s, s', s'' at phi: Horner forms (poly) or cos/sin (gauss)."""
+        if self.spec.family == "gauss":
+            c, s = sp.cos(phi), sp.sin(phi)
+            return {"c": c, "dc": -s, "ddc": -c, "s": s, "ds": c, "dds": -s}
+        out = {}
+        for name, coeffs in (("c", self.trig.cos), ("s", self.trig.sin)):
+            poly = [sp.Float(c, 40) for c in coeffs]
+            d1 = [k * poly[k] for k in range(1, len(poly))]
+            d2 = [k * d1[k] for k in range(1, len(d1))]
+            out[name] = _parity_horner(poly, phi)
+            out["d" + name] = _parity_horner(d1, phi)
+            out["dd" + name] = _parity_horner(d2, phi)
+        return out
+
+    # -- expressions in q ----------------------------------------------------------------
+    @cached_property
+    def phi_nodes(self) -> list[sp.Expr]:
+        """phi_g = sum_n B_n(sigma_g) q_n."""
+        return [sp.Add(*[sp.Float(b, 40) * qn for b, qn in zip(row, self.q)])
+                for row in self.node_basis]
+
+    @cached_property
+    def expressions(self) -> dict[str, list]:
+        """pose[3], J[3][N], H[3][N][N] as SymPy expressions in q (H symmetric, shared objects)."""
+        N, G = self.modes, self.nodes
+        phi = sp.Symbol("phi")
+        polys = self.trig_polynomials(phi)
+        at = [{k: v.xreplace({phi: p}) for k, v in polys.items()} for p in self.phi_nodes]
+        w, b = self.weights, self.node_basis
+        with mpmath.workdps(40):
+            def total(key, factor):
+                return sp.Add(*[sp.Float(factor(g), 40) * at[g][key] for g in range(G)])
+            pose = [total("c", lambda g: w[g]), total("s", lambda g: w[g]), self.q[0]]
+            J = [[total("dc", lambda g, i=i: w[g] * b[g][i]) for i in range(N)],
+                 [total("ds", lambda g, i=i: w[g] * b[g][i]) for i in range(N)],
+                 [sp.Integer(1 if i == 0 else 0) for i in range(N)]]
+            H = [[[None] * N for _ in range(N)] for _ in range(3)]
+            for i in range(N):
+                for j in range(i, N):
+                    hx = total("ddc", lambda g, i=i, j=j: w[g] * b[g][i] * b[g][j])
+                    hy = total("dds", lambda g, i=i, j=j: w[g] * b[g][i] * b[g][j])
+                    H[0][i][j] = H[0][j][i] = hx
+                    H[1][i][j] = H[1][j][i] = hy
+                    H[2][i][j] = H[2][j][i] = sp.Integer(0)
+        return {"pose": pose, "J": J, "H": H}
+
+    # -- error bounds --------------------------------------------------------------------
+    @cached_property
+    def bounds(self) -> ErrorBounds:
+        N, a = self.modes, self.a
+        B = self.basis
+        if self.spec.family == "poly":
+            D = self.degree
+            rounding = (D + N + self.nodes + 4) * UNIT_ROUNDOFF * math.cosh(a)
+            pose = self.trig.bound(0) + rounding
+            jac = self.trig.bound(1) * max(_l2_norm(B[i]) for i in range(N)) + rounding * max(1, a)
+            hess = self.trig.bound(2) * max(_l2_norm(B[i] * B[j]) for i in range(N)
+                                            for j in range(N)) + rounding * max(1, a * a)
+            return ErrorBounds(pose, jac, hess)
+        return self._gauss_bounds(self.nodes)
+
+    def _gauss_bounds(self, G: int) -> ErrorBounds:
+        N, a = self.modes, self.a
+        sig, w = gauss_legendre(G)
+        B = self.basis
+        rounding = (N + G + 4) * 2 * UNIT_ROUNDOFF
+
+        def term(h: sp.Poly, h_degree: int) -> float:
+            d = (2 * G - 1 - h_degree) // N
+            if d < 0:
+                return math.inf
+            eps = max(trig.error_bound(f, a, d, kind="truncation") for f in trig.FUNCTIONS)
+            rule = float(sum(wg * abs(_poly_at(h, sg)) for wg, sg in zip(w, sig)))
+            return eps * (rule + _l2_norm(h))
+
+        one = sp.Poly(1, sigma)
+        pose = term(one, 0) + rounding
+        jac = max(term(B[i], i + 1) for i in range(N)) + rounding
+        hess = max(term(B[i] * B[j], i + j + 2) for i in range(N) for j in range(i, N)) + rounding
+        return ErrorBounds(pose, jac, hess)
+
+    def _nodes_for_tolerance(self, tol: float, max_nodes: int = 200) -> int:
+        for G in range(1, max_nodes + 1):
+            if self._gauss_bounds(G).pose <= tol:
+                return G
+        raise ValueError(f"--tol {tol:g}: needs more than {max_nodes} Gauss nodes on this range")
+
+    # -- the in_range check --------------------------------------------------------------
+    @cached_property
+    def range_check(self) -> tuple[list[list[float]], list[float]]:
+        """(S, m): |phi| <= a along the flexure if max_k |S q|_k + m . |q| <= a.
+
+        S samples phi at sigma_k = k/32; m_n = h^2/8 * n(n+1) bounds the linear-interpolation
+        error between samples, since |phi''| = |kappa'| <= sum_n n(n+1)|q_n|.
+        """
+        M = RANGE_SAMPLES
+        h = 1.0 / (M - 1)
+        S = [[float(_poly_at(b, mpmath.mpf(k) / (M - 1))) for b in self.basis] for k in range(M)]
+        m = [h * h / 8 * n * (n + 1) for n in range(self.modes)]
+        return S, m
+
+
+def _poly_at(poly: sp.Poly, s) -> mpmath.mpf:
+    """Evaluate an exact rational polynomial at an mpf point, in mpmath."""
+    with mpmath.workdps(50):
+        s = mpmath.mpf(s)
+        total = mpmath.mpf(0)
+        for c in poly.all_coeffs():
+            total = total * s + mpmath.mpf(sp.Rational(c).p) / sp.Rational(c).q
+        return total
+
+
+def _parity_horner(coeffs: list, x: sp.Symbol) -> sp.Expr:
+    """Horner form of sum_k coeffs[k] x^k in x^2, keeping the exact parity (zeros dropped)."""
+    nonzero = [k for k, c in enumerate(coeffs) if c != 0]
+    if not nonzero:
+        return sp.Integer(0)
+    parity = nonzero[0] % 2
+    x2 = x * x
+    acc = sp.Integer(0)
+    for k in range(max(nonzero) - ((max(nonzero) - parity) % 2), parity - 1, -2):
+        acc = acc * x2 + coeffs[k] if acc != 0 else coeffs[k]
+    return acc * x if parity else acc
