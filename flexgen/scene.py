@@ -10,11 +10,30 @@ frame. Every flexure has the point ``"<flexure>.tip"`` = (0, 0) in its tip frame
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Mapping
+import difflib
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping, Sequence
 
 MODEL_KINDS = ("scm", "cc", "prb", "fem", "exact")
 KERNELS = ("auto", "poly", "gauss")
+BASE = "base"
+TIP = "tip"
+
+MODEL_KEYS = ("kind", "modes", "elements", "kernel", "tolerance")
+TOP_KEYS = ("name", "model", "base", "flexure", "link", "load", "tendon", "output")
+BASE_KEYS = ("points",)
+STIFFNESS_KEYS = ("EI", "E", "I", "width", "thickness")
+FLEXURE_KEYS = ("name", "parent", "at", "length") + STIFFNESS_KEYS + ("model",) + MODEL_KEYS
+LINK_KEYS = ("name", "parent", "points")
+LOAD_KEYS = ("point", "force", "moment")
+TENDON_KEYS = ("tension", "route")
+OUTPUT_KEYS = ("points",)
 
 
 class SceneError(ValueError):
@@ -70,3 +89,542 @@ class Scene:
     loads: tuple[Load, ...] = ()
     tendons: tuple[Tendon, ...] = ()
     outputs: tuple[str, ...] = field(default=())
+    # Names of flexures and links in file (declaration) order. Empty: flexures, then links.
+    declaration_order: tuple[str, ...] = ()
+
+    # -- lookups (built lazily; the dataclass fields stay the single source of truth) ---------
+
+    @cached_property
+    def _index(self) -> dict[str, Any]:
+        kinds: dict[str, str] = {BASE: "base"}
+        parents: dict[str, str | None] = {BASE: None}
+        points: dict[str, Mapping[str, tuple[float, float]]] = {BASE: self.base_points}
+        flex = {f.name: f for f in self.flexures}
+        links = {lk.name: lk for lk in self.links}
+        for f in self.flexures:
+            kinds[f.name] = "flexure"
+            parents[f.name] = f.parent
+            points[f.name] = MappingProxyType({TIP: (0.0, 0.0)})
+        for lk in self.links:
+            kinds[lk.name] = "link"
+            parents[lk.name] = lk.parent
+            points[lk.name] = lk.points
+        order = self.declaration_order or tuple(flex) + tuple(links)
+        children: dict[str, list[str]] = {name: [] for name in kinds}
+        for name in order:
+            parent = parents.get(name)
+            if parent in children:
+                children[parent].append(name)
+        return {"kinds": kinds, "parents": parents, "points": points, "flex": flex,
+                "links": links, "order": order,
+                "children": {k: tuple(v) for k, v in children.items()}}
+
+    def _known(self, name: str) -> None:
+        if name not in self._index["kinds"]:
+            known = ", ".join(self.bodies())
+            raise SceneError(f"unknown body {name!r} (known: {known})")
+
+    def bodies(self) -> tuple[str, ...]:
+        """Every body name: "base", then flexures and links in declaration order."""
+        return (BASE,) + tuple(self._index["order"])
+
+    def body_kind(self, name: str) -> str:
+        """"base", "flexure" or "link"."""
+        self._known(name)
+        return self._index["kinds"][name]
+
+    def body_parent(self, name: str) -> str | None:
+        """The parent body of a flexure or link; None for "base"."""
+        self._known(name)
+        return self._index["parents"][name]
+
+    def body_points(self, name: str) -> Mapping[str, tuple[float, float]]:
+        """Named points of a body, in its frame (a flexure has only "tip" = (0, 0))."""
+        self._known(name)
+        return self._index["points"][name]
+
+    def children(self, body_name: str) -> tuple[str, ...]:
+        """Flexures and links whose parent is ``body_name``, in declaration order."""
+        self._known(body_name)
+        return self._index["children"][body_name]
+
+    def flexure(self, name: str) -> Flexure:
+        try:
+            return self._index["flex"][name]
+        except KeyError:
+            raise SceneError(f"unknown flexure {name!r} (known: "
+                             f"{', '.join(self._index['flex']) or 'none'})") from None
+
+    def link(self, name: str) -> Link:
+        try:
+            return self._index["links"][name]
+        except KeyError:
+            raise SceneError(f"unknown link {name!r} (known: "
+                             f"{', '.join(self._index['links']) or 'none'})") from None
+
+    def flexure_order(self) -> tuple[Flexure, ...]:
+        """All flexures, parents before children (depth-first from the base, siblings in
+        declaration order)."""
+        out: list[Flexure] = []
+        stack = [BASE]
+        seen = set()
+        while stack:
+            body = stack.pop()
+            if body in seen:
+                continue
+            seen.add(body)
+            if self._index["kinds"][body] == "flexure":
+                out.append(self._index["flex"][body])
+            stack.extend(reversed(self._index["children"][body]))
+        if len(out) != len(self.flexures):
+            lost = [f.name for f in self.flexures if f.name not in seen]
+            raise SceneError(f"flexures not connected to the base: {', '.join(lost)}")
+        return tuple(out)
+
+    def flexure_path(self, body: str) -> tuple[str, ...]:
+        """Names of the flexures between the base and ``body``, root first; ``body`` itself is
+        the last entry when it is a flexure. Empty for "base"."""
+        self._known(body)
+        path: list[str] = []
+        seen = set()
+        name: str | None = body
+        while name is not None and name != BASE:
+            if name in seen:
+                raise SceneError(f"cycle in parents at body {name!r}")
+            seen.add(name)
+            if self._index["kinds"].get(name) == "flexure":
+                path.append(name)
+            name = self._index["parents"].get(name)
+        return tuple(reversed(path))
+
+    def resolve_point(self, ref: str) -> tuple[str, tuple[float, float]]:
+        """``"<body>.<point>"`` -> (body name, (x, y) in that body's frame)."""
+        if not isinstance(ref, str) or ref.count(".") != 1:
+            raise SceneError(f"point reference must be '<body>.<point>', got {_fmt(ref)}")
+        body, point = ref.split(".")
+        self._known(body)
+        pts = self._index["points"][body]
+        if point not in pts:
+            known = ", ".join(f"{body}.{p}" for p in pts) or "none"
+            raise SceneError(f"unknown point {ref!r} (known: {known})")
+        x, y = pts[point]
+        return body, (float(x), float(y))
+
+
+# -- loading ---------------------------------------------------------------------------------
+
+_HEADER = re.compile(r"""^\s*\[\[\s*(?:"(flexure|link)"|'(flexure|link)'|(flexure|link))\s*\]\]""")
+
+
+def _declaration_order(text: str, d: Mapping[str, Any]) -> tuple[str, ...] | None:
+    """The file order of the [[flexure]] and [[link]] tables, or None if it cannot be read."""
+    kinds = []
+    for line in text.splitlines():
+        m = _HEADER.match(line)
+        if m:
+            kinds.append(next(g for g in m.groups() if g))
+    for kind in ("flexure", "link"):
+        items = d.get(kind, [])
+        if not isinstance(items, list) or kinds.count(kind) != len(items):
+            return None
+    return tuple(kinds)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a TOML scene file. Any problem raises a one-line ``SceneError``."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise SceneError(f"{path}: cannot read scene file: {e.strerror or e}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{path}: not UTF-8 text: {e}") from None
+    try:
+        d = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        msg = " ".join(str(e).split())
+        raise SceneError(f"{path}: invalid TOML: {msg}") from None
+    return scene_from_dict(d, order=_declaration_order(text, d), default_name=path.stem)
+
+
+def scene_from_dict(d: Mapping[str, Any], *, order: Sequence[str] | None = None,
+                    default_name: str = "scene") -> Scene:
+    """Validate a scene given as a dict (the structure ``tomllib`` returns).
+
+    ``order`` is the file order of the flexure and link tables as a sequence of "flexure" and
+    "link" (``load_scene`` passes it). A dict keeps flexures and links in separate lists, so
+    without ``order`` a default parent is only inferred where it does not depend on how they
+    interleave (the first flexure's, and every flexure's when there are no links).
+    """
+    return _Parser(d, order, default_name).scene
+
+
+# -- validation helpers ----------------------------------------------------------------------
+
+_MISSING = object()
+
+
+def _fmt(v: Any) -> str:
+    s = repr(v)
+    s = " ".join(s.split()) if "\n" in s else s
+    return s if len(s) <= 80 else s[:77] + "..."
+
+
+def _fail(key: str, msg: str, value: Any = _MISSING) -> SceneError:
+    text = f"{key}: {msg}" if value is _MISSING else f"{key}: {msg}, got {_fmt(value)}"
+    return SceneError(" ".join(text.split()))
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _number(v: Any, key: str, sign: str = "") -> float:
+    """sign: "" any finite, "+" positive, "0+" non-negative."""
+    desc = {"": "a finite number", "+": "a positive finite number",
+            "0+": "a non-negative finite number"}[sign]
+    if not _is_number(v):
+        raise _fail(key, f"must be {desc}", v)
+    if not math.isfinite(v) or (sign == "+" and v <= 0) or (sign == "0+" and v < 0):
+        raise _fail(key, f"must be {desc}", v)
+    return float(v)
+
+
+def _integer(v: Any, key: str, minimum: int) -> int:
+    if not isinstance(v, int) or isinstance(v, bool) or v < minimum:
+        raise _fail(key, f"must be an integer >= {minimum}", v)
+    return int(v)
+
+
+def _string(v: Any, key: str) -> str:
+    if not isinstance(v, str):
+        raise _fail(key, "must be a string", v)
+    return v
+
+
+def _table(v: Any, key: str) -> Mapping[str, Any]:
+    if not isinstance(v, Mapping):
+        raise _fail(key, "must be a table", v)
+    return v
+
+
+def _vector(v: Any, key: str, n: int) -> tuple[float, ...]:
+    if not isinstance(v, (list, tuple)) or len(v) != n:
+        raise _fail(key, f"must be a list of {n} numbers", v)
+    return tuple(_number(x, f"{key}[{i}]") for i, x in enumerate(v))
+
+
+def _identifier(v: Any, key: str, what: str) -> str:
+    v = _string(v, key)
+    if not v or "." in v or v != v.strip():
+        raise _fail(key, f"{what} must be non-empty, without '.' or surrounding spaces", v)
+    return v
+
+
+def _check_keys(tbl: Mapping[str, Any], prefix: str, allowed: Sequence[str]) -> None:
+    for k in tbl:
+        if k not in allowed:
+            key = f"{prefix}.{k}" if prefix else str(k)
+            close = difflib.get_close_matches(str(k), allowed, n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            where = "top-level key" if not prefix else "key"
+            raise _fail(key, f"unknown {where} ({hint}allowed: {', '.join(allowed)})")
+
+
+def _array_of_tables(d: Mapping[str, Any], key: str) -> list[Mapping[str, Any]]:
+    v = d.get(key, [])
+    if not isinstance(v, list):
+        raise _fail(key, f"must be an array of tables ([[{key}]])", v)
+    for i, item in enumerate(v):
+        _table(item, f"{key}[{i}]")
+    return v
+
+
+def _points(v: Any, key: str) -> Mapping[str, tuple[float, float]]:
+    tbl = _table(v, key)
+    out = {}
+    for name, xy in tbl.items():
+        _identifier(name, f"{key}", "a point name")
+        out[name] = _vector(xy, f"{key}.{name}", 2)
+    return MappingProxyType(out)
+
+
+def _model_fields(tbl: Mapping[str, Any], prefix: str) -> dict[str, Any]:
+    """Validated ModelSpec fields among MODEL_KEYS present in ``tbl``."""
+    out: dict[str, Any] = {}
+    if "kind" in tbl:
+        v = tbl["kind"]
+        if v not in MODEL_KINDS or not isinstance(v, str):
+            raise _fail(f"{prefix}kind", f"must be one of {', '.join(MODEL_KINDS)}", v)
+        out["kind"] = v
+    if "modes" in tbl:
+        out["modes"] = _integer(tbl["modes"], f"{prefix}modes", 1)
+    if "elements" in tbl:
+        out["elements"] = _integer(tbl["elements"], f"{prefix}elements", 1)
+    if "kernel" in tbl:
+        v = tbl["kernel"]
+        if v not in KERNELS or not isinstance(v, str):
+            raise _fail(f"{prefix}kernel", f"must be one of {', '.join(KERNELS)}", v)
+        out["kernel"] = v
+    if "tolerance" in tbl:
+        out["tolerance"] = _number(tbl["tolerance"], f"{prefix}tolerance", "+")
+    return out
+
+
+class _Parser:
+    def __init__(self, d: Any, order: Sequence[str] | None, default_name: str):
+        if not isinstance(d, Mapping):
+            raise _fail("scene", "must be a table", d)
+        _check_keys(d, "", TOP_KEYS)
+        name = _string(d.get("name", default_name), "name")
+
+        model_tbl = _table(d.get("model", {}), "model")
+        _check_keys(model_tbl, "model", MODEL_KEYS)
+        self.model = ModelSpec(**_model_fields(model_tbl, "model."))
+
+        base_tbl = _table(d.get("base", {}), "base")
+        _check_keys(base_tbl, "base", BASE_KEYS)
+        base_points = _points(base_tbl.get("points", {}), "base.points")
+
+        flex_tbls = _array_of_tables(d, "flexure")
+        link_tbls = _array_of_tables(d, "link")
+        load_tbls = _array_of_tables(d, "load")
+        tendon_tbls = _array_of_tables(d, "tendon")
+        if not flex_tbls:
+            raise _fail("flexure", "the scene has no [[flexure]]; at least one is required")
+        self.order = self._check_order(order, len(flex_tbls), len(link_tbls))
+
+        # names first, so that parents may refer to bodies declared later
+        self.owner: dict[str, str] = {BASE: "the ground"}
+        flex_names = [self._name(t, f"flexure[{i}]") for i, t in enumerate(flex_tbls)]
+        link_names = [self._name(t, f"link[{i}]") for i, t in enumerate(link_tbls)]
+        self.kinds = {BASE: "base", **{n: "flexure" for n in flex_names},
+                      **{n: "link" for n in link_names}}
+
+        declared: list[tuple[str, int]] = []   # (kind, index) in file order, if known
+        if self.order is not None:
+            counters = {"flexure": 0, "link": 0}
+            for kind in self.order:
+                declared.append((kind, counters[kind]))
+                counters[kind] += 1
+        self.declared = declared
+
+        flexures = tuple(self._flexure(t, i, flex_names) for i, t in enumerate(flex_tbls))
+        links = tuple(self._link(t, i, flex_names, link_names) for i, t in enumerate(link_tbls))
+        parents = {f.name: f.parent for f in flexures} | {lk.name: lk.parent for lk in links}
+        keys = {f.name: f"flexure[{i}]" for i, f in enumerate(flexures)}
+        keys |= {lk.name: f"link[{i}]" for i, lk in enumerate(links)}
+        self._check_cycles(parents, keys)
+
+        self.points: dict[str, Mapping[str, tuple[float, float]]] = {BASE: base_points}
+        self.points |= {f.name: {TIP: (0.0, 0.0)} for f in flexures}
+        self.points |= {lk.name: lk.points for lk in links}
+
+        loads = tuple(self._load(t, f"load[{i}]") for i, t in enumerate(load_tbls))
+        tendons = tuple(self._tendon(t, f"tendon[{i}]") for i, t in enumerate(tendon_tbls))
+        outputs = self._outputs(d.get("output", {}), loads)
+
+        if self.order is not None:
+            decl = tuple((flex_names if k == "flexure" else link_names)[i] for k, i in declared)
+        else:
+            decl = tuple(flex_names) + tuple(link_names)
+        self.scene = Scene(name=name, model=self.model, base_points=base_points,
+                           flexures=flexures, links=links, loads=loads, tendons=tendons,
+                           outputs=outputs, declaration_order=decl)
+
+    # -- pieces --
+
+    @staticmethod
+    def _check_order(order, n_flex: int, n_link: int) -> tuple[str, ...] | None:
+        if order is None:
+            return (("flexure",) * n_flex) if n_link == 0 else None
+        order = tuple(order)
+        if (any(k not in ("flexure", "link") for k in order)
+                or order.count("flexure") != n_flex or order.count("link") != n_link):
+            raise SceneError(f"order: must list 'flexure' {n_flex} times and 'link' {n_link} "
+                             f"times, got {_fmt(list(order))}")
+        return order
+
+    def _name(self, tbl: Mapping[str, Any], prefix: str) -> str:
+        if "name" not in tbl:
+            raise _fail(f"{prefix}.name", "missing required key")
+        name = _identifier(tbl["name"], f"{prefix}.name", "a name")
+        if name in self.owner:
+            raise _fail(f"{prefix}.name", f"duplicate name {name!r} (already used by "
+                        f"{self.owner[name]})")
+        self.owner[name] = prefix
+        return name
+
+    def _previous(self, kind: str, index: int, want_flexure: bool) -> str | None:
+        """The body (or flexure) declared just before item (kind, index) in file order."""
+        pos = self.declared.index((kind, index))
+        for k, i in reversed(self.declared[:pos]):
+            if k == "flexure" or not want_flexure:
+                return self.names[k][i]
+        return None
+
+    def _flexure(self, tbl: Mapping[str, Any], i: int, flex_names: list[str]) -> Flexure:
+        prefix = f"flexure[{i}]"
+        if "points" in tbl:
+            raise _fail(f"{prefix}.points", "a flexure has only the point 'tip'; put named "
+                        "points on a [[link]] attached to it", tbl["points"])
+        _check_keys(tbl, prefix, FLEXURE_KEYS)
+        name = flex_names[i]
+
+        if "parent" in tbl:
+            parent = _string(tbl["parent"], f"{prefix}.parent")
+            if parent not in self.kinds:
+                raise _fail(f"{prefix}.parent", f"unknown body {parent!r} (known: "
+                            f"{', '.join(self.kinds)})")
+        elif i == 0:
+            parent = BASE
+        elif self.order is None:
+            raise _fail(f"{prefix}.parent", "missing, and the declaration order of flexures "
+                        "and links is unknown (set parent, or pass order= to scene_from_dict)")
+        else:
+            parent = self._previous("flexure", i, want_flexure=False) or BASE
+
+        at = _vector(tbl["at"], f"{prefix}.at", 3) if "at" in tbl else (0.0, 0.0, 0.0)
+        if "length" not in tbl:
+            raise _fail(f"{prefix}.length", "missing required key")
+        length = _number(tbl["length"], f"{prefix}.length", "+")
+        EI = self._stiffness(tbl, prefix)
+
+        fields = _model_fields(tbl, f"{prefix}.")
+        if "model" in tbl:
+            sub = _table(tbl["model"], f"{prefix}.model")
+            _check_keys(sub, f"{prefix}.model", MODEL_KEYS)
+            for k in sub:
+                if k in tbl:
+                    raise _fail(f"{prefix}.model.{k}", f"also given as {prefix}.{k}; give it "
+                                "once", sub[k])
+            fields |= _model_fields(sub, f"{prefix}.model.")
+        model = replace(self.model, **fields)
+        return Flexure(name=name, parent=parent, at=at, length=length, EI=EI, model=model)
+
+    @staticmethod
+    def _stiffness(tbl: Mapping[str, Any], prefix: str) -> float:
+        given = {k: _number(tbl[k], f"{prefix}.{k}", "+") for k in STIFFNESS_KEYS if k in tbl}
+        how = "give EI, or E and I, or E, width and thickness"
+        if "EI" in given:
+            for k in ("E", "I", "width", "thickness"):
+                if k in given:
+                    raise _fail(f"{prefix}.{k}", f"conflicts with EI ({how})", tbl[k])
+            return given["EI"]
+        if "E" not in given:
+            raise _fail(f"{prefix}.EI", f"missing required key ({how})")
+        if "I" in given:
+            for k in ("width", "thickness"):
+                if k in given:
+                    raise _fail(f"{prefix}.{k}", f"conflicts with I ({how})", tbl[k])
+            EI = given["E"] * given["I"]
+        else:
+            for k in ("width", "thickness"):
+                if k not in given:
+                    missing = "I" if not ({"width", "thickness"} & given.keys()) else k
+                    raise _fail(f"{prefix}.{missing}", f"missing required key ({how})")
+            EI = given["E"] * given["width"] * given["thickness"] ** 3 / 12.0
+        if not (math.isfinite(EI) and EI > 0):
+            raise _fail(f"{prefix}.EI", "computed bending stiffness must be a positive finite "
+                        "number", EI)
+        return EI
+
+    def _link(self, tbl: Mapping[str, Any], i: int, flex_names: list[str],
+              link_names: list[str]) -> Link:
+        prefix = f"link[{i}]"
+        _check_keys(tbl, prefix, LINK_KEYS)
+        if "parent" in tbl:
+            parent = _string(tbl["parent"], f"{prefix}.parent")
+            kind = self.kinds.get(parent)
+            if kind is None:
+                raise _fail(f"{prefix}.parent", f"unknown body {parent!r} (known flexures: "
+                            f"{', '.join(flex_names)})")
+            if kind != "flexure":
+                raise _fail(f"{prefix}.parent", f"must be a flexure, but {parent!r} is "
+                            f"{'the base' if kind == 'base' else 'a link'} (known flexures: "
+                            f"{', '.join(flex_names)})")
+        elif self.order is None:
+            raise _fail(f"{prefix}.parent", "missing, and the declaration order of flexures "
+                        "and links is unknown (set parent, or pass order= to scene_from_dict)")
+        else:
+            parent = self._previous("link", i, want_flexure=True)
+            if parent is None:
+                raise _fail(f"{prefix}.parent", "missing, and no flexure is declared before "
+                            "this link")
+        points = _points(tbl.get("points", {}), f"{prefix}.points")
+        return Link(name=link_names[i], parent=parent, points=points)
+
+    @property
+    def names(self) -> dict[str, list[str]]:
+        return {"flexure": [n for n, k in self.kinds.items() if k == "flexure"],
+                "link": [n for n, k in self.kinds.items() if k == "link"]}
+
+    @staticmethod
+    def _check_cycles(parents: dict[str, str], keys: dict[str, str]) -> None:
+        done = {BASE}
+        for start in parents:
+            path: list[str] = []
+            node = start
+            while node not in done:
+                if node in path:
+                    cycle = path[path.index(node):] + [node]
+                    raise _fail(f"{keys[node]}.parent", "parents form a cycle ("
+                                f"{' -> '.join(cycle)})", parents[node])
+                path.append(node)
+                node = parents[node]
+            done.update(path)
+
+    def _ref(self, v: Any, key: str) -> str:
+        v = _string(v, key)
+        if v.count(".") != 1:
+            raise _fail(key, "must be a point reference '<body>.<point>'", v)
+        body, point = v.split(".")
+        if body not in self.points:
+            raise _fail(key, f"unknown body {body!r} in point {v!r} (known bodies: "
+                        f"{', '.join(self.points)})")
+        if point not in self.points[body]:
+            known = ", ".join(f"{body}.{p}" for p in self.points[body]) or "none"
+            raise _fail(key, f"unknown point {v!r} (known: {known})")
+        return v
+
+    def _load(self, tbl: Mapping[str, Any], prefix: str) -> Load:
+        _check_keys(tbl, prefix, LOAD_KEYS)
+        for k in ("point", "force"):
+            if k not in tbl:
+                raise _fail(f"{prefix}.{k}", "missing required key")
+        point = self._ref(tbl["point"], f"{prefix}.point")
+        force = _vector(tbl["force"], f"{prefix}.force", 2)
+        moment = _number(tbl.get("moment", 0.0), f"{prefix}.moment")
+        return Load(point=point, force=force, moment=moment)
+
+    def _tendon(self, tbl: Mapping[str, Any], prefix: str) -> Tendon:
+        _check_keys(tbl, prefix, TENDON_KEYS)
+        for k in ("tension", "route"):
+            if k not in tbl:
+                raise _fail(f"{prefix}.{k}", "missing required key")
+        tension = _number(tbl["tension"], f"{prefix}.tension", "0+")
+        route = tbl["route"]
+        if not isinstance(route, list):
+            raise _fail(f"{prefix}.route", "must be a list of point references", route)
+        if len(route) < 2:
+            raise _fail(f"{prefix}.route", "needs at least two points", route)
+        refs = tuple(self._ref(r, f"{prefix}.route[{j}]") for j, r in enumerate(route))
+        for j in range(1, len(refs)):
+            if refs[j] == refs[j - 1]:
+                raise _fail(f"{prefix}.route[{j}]", "repeats the previous route point "
+                            "(a segment needs two distinct points)", refs[j])
+        return Tendon(tension=tension, route=refs)
+
+    def _outputs(self, v: Any, loads: tuple[Load, ...]) -> tuple[str, ...]:
+        tbl = _table(v, "output")
+        _check_keys(tbl, "output", OUTPUT_KEYS)
+        if "points" in tbl:
+            pts = tbl["points"]
+            if not isinstance(pts, list):
+                raise _fail("output.points", "must be a list of point references", pts)
+            refs = [self._ref(r, f"output.points[{j}]") for j, r in enumerate(pts)]
+        else:
+            refs = [ld.point for ld in loads]
+        return tuple(dict.fromkeys(refs))
