@@ -1,0 +1,6 @@
+"""python -m flexgen"""
+import sys
+
+from flexgen.cli import main
+
+sys.exit(main())
