@@ -1,0 +1,647 @@
+"""Exact (elastica) reference solver for planar, inextensible Euler-Bernoulli flexures.
+
+Everything here integrates the elastica ODE with ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-13)
+and solves the boundary value problem by shooting with Newton's method and load continuation
+from the unloaded state, so the result is the equilibrium that a slowly applied load reaches.
+It is the reference the kernels are checked against: slow, but right to about 1e-9.
+
+Nondimensional form used internally, per flexure of length L and bending stiffness EI:
+sigma = s/L, (X, Y) = (x, y)/L, mu = m L/EI (internal bending moment), f = F L^2/EI:
+
+    X' = cos(phi),  Y' = sin(phi),  phi' = mu,  mu' = fx sin(phi) - fy cos(phi)
+
+where F = (Fx, Fy) is the (constant) force that the part of the mechanism beyond the section
+exerts on it, in the world frame, and m(s) = M_tip + (r_tip - r(s)) x F.
+
+Public API
+----------
+cantilever(EI, L, force=(Fx, Fy), moment=M, num=101) -> CantileverSolution
+tip_compliance(EI, L, force, moment, solution=None) -> (3, 3) d(x, y, theta)/d(Fx, Fy, M)
+euler_load(EI, L, k=1) -> (2k - 1)^2 pi^2 EI / (4 L^2)
+post_buckled(EI, L, tip_angle) -> (P, x_tip, y_tip), closed form (elliptic integrals)
+solve_exact(scene, num=65) -> SceneSolution
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+from scipy.special import ellipe, ellipk, ellipkm1
+
+RTOL = 1e-13
+ATOL = 1e-14
+
+
+# ----------------------------------------------------------------------------------------------
+# closed forms
+# ----------------------------------------------------------------------------------------------
+
+def euler_load(EI: float, L: float, k: int = 1) -> float:
+    """k-th critical axial load of a clamped-free column: (2k - 1)^2 pi^2 EI / (4 L^2)."""
+    return (2 * k - 1) ** 2 * math.pi ** 2 * EI / (4.0 * L ** 2)
+
+
+def post_buckled(EI: float, L: float, tip_angle: float):
+    """First-mode post-buckled cantilever under an axial dead end load (closed form).
+
+    Returns (P, x_tip, y_tip) for tip angle a in (0, pi): with k = sin(a/2),
+    sqrt(P/EI) L = K(k), x_tip = 2 E(k)/sqrt(P/EI) - L, y_tip = 2 k/sqrt(P/EI).
+    """
+    k = math.sin(0.5 * tip_angle)
+    m = k * k
+    K = float(ellipk(m))
+    lam = K / L
+    return EI * lam ** 2, 2.0 * float(ellipe(m)) / lam - L, 2.0 * k / lam
+
+
+def _buckled_root_moment_nd(P_nd: float) -> float:
+    """Nondimensional root moment of the first-mode post-buckled branch for P L^2/EI = P_nd
+    (> pi^2/4), bending towards +y: mu0 = 2 k sqrt(P_nd) with K(k) = sqrt(P_nd)."""
+    target = math.sqrt(P_nd)
+    # solve K(m) = target in p = 1 - m, on a log scale (p -> 0 for large loads)
+    g = lambda t: float(ellipkm1(math.exp(t))) - target
+    t = brentq(g, -700.0, 0.0, xtol=1e-15, rtol=1e-15)
+    m = 1.0 - math.exp(t)
+    return 2.0 * math.sqrt(m) * target
+
+
+# ----------------------------------------------------------------------------------------------
+# one cantilever
+# ----------------------------------------------------------------------------------------------
+
+def _rhs_sens(fx: float, fy: float, nsens: int):
+    """RHS of the nondimensional elastica with sensitivities w.r.t. (mu0, fx, fy)[:nsens]."""
+
+    def rhs(t, y):
+        c, s = math.cos(y[2]), math.sin(y[2])
+        out = np.empty_like(y)
+        out[0] = c
+        out[1] = s
+        out[2] = y[3]
+        out[3] = fx * s - fy * c
+        p = fx * c + fy * s
+        for k in range(nsens):
+            b = 4 + 4 * k
+            dphi = y[b + 2]
+            out[b] = -s * dphi
+            out[b + 1] = c * dphi
+            out[b + 2] = y[b + 3]
+            out[b + 3] = p * dphi + (s if k == 1 else (-c if k == 2 else 0.0))
+        return out
+
+    return rhs
+
+
+def _shoot(mu0: float, fx: float, fy: float, nsens: int = 1, dense: bool = False):
+    y0 = np.zeros(4 + 4 * nsens)
+    y0[3] = mu0
+    y0[4 + 3] = 1.0            # d mu(0) / d mu0
+    sol = solve_ivp(_rhs_sens(fx, fy, nsens), (0.0, 1.0), y0, method="DOP853", rtol=RTOL,
+                    atol=ATOL, dense_output=dense)
+    if not sol.success:
+        raise RuntimeError(f"elastica integration failed: {sol.message}")
+    return sol
+
+
+def _stability(sol) -> tuple[bool, float]:
+    """Jacobi test of the second variation for a clamped-free elastica with dead tip load.
+
+    With u the Jacobi field (u(0) = 0, u'(0) = 1, i.e. d phi / d mu0), the equilibrium is stable
+    iff u > 0 on (0, 1] (no conjugate point) and u'(1) = d mu(1)/d mu0 > 0 (the shooting
+    derivative). Returns (stable, u'(1)).
+    """
+    u = sol.y[6, 1:]
+    du1 = float(sol.y[7, -1])
+    return bool(np.all(u > 0.0) and du1 > 0.0), du1
+
+
+def _newton_mu0(mu0: float, fx: float, fy: float, mM: float, tol: float = 1e-13,
+                max_iter: int = 30):
+    """Newton on the root moment; returns (mu0, sol, iterations) or raises RuntimeError."""
+    for it in range(1, max_iter + 1):
+        sol = _shoot(mu0, fx, fy)
+        R = sol.y[3, -1] - mM
+        dR = sol.y[7, -1]
+        if dR == 0.0:
+            raise RuntimeError("singular shooting derivative")
+        step = -R / dR
+        # keep a Newton step from jumping across the branch
+        lim = 0.5 + abs(mu0)
+        if abs(step) > lim:
+            step = math.copysign(lim, step)
+        mu0 += step
+        if abs(step) < tol * (1.0 + abs(mu0)) and abs(R) < 1e3 * tol:
+            return mu0, _shoot(mu0, fx, fy), it
+    raise RuntimeError("Newton on the root moment did not converge")
+
+
+@dataclass
+class CantileverSolution:
+    pose: np.ndarray            # (3,) tip x, y, theta
+    shape: np.ndarray           # (num, 2) centreline, root first
+    s: np.ndarray               # (num,) arc length of the shape points
+    phi: np.ndarray             # (num,) tangent angle
+    moment: np.ndarray          # (num,) internal bending moment EI phi'
+    root_moment: float          # EI phi'(0)
+    force: np.ndarray           # (2,) applied tip force
+    tip_moment: float
+    stable: bool                # Jacobi test of the second variation
+    converged: bool
+    iterations: int             # Newton iterations over the whole continuation
+    branch: str                 # "primary" or "post-buckled"
+    critical_load_factor: float | None = None   # load factor where the path lost stability
+    critical_load: float | None = None          # |force| at that factor (axial: Euler load)
+    warnings: list = field(default_factory=list)
+
+
+def _is_symmetric_axial(fx: float, fy: float, mM: float) -> bool:
+    return fx < 0.0 and fy == 0.0 and mM == 0.0
+
+
+def _continue(fx: float, fy: float, mM: float, max_step: float = 0.25):
+    """Load continuation lam: 0 -> 1 for the nondimensional cantilever.
+
+    Returns dict(mu0, iterations, branch, lam_c, warnings)."""
+    lam, mu0 = 0.0, 0.0
+    hist = [(0.0, 0.0)]
+    dlam = min(0.1, max_step)
+    iters = 0
+    branch = "primary"
+    lam_c = None
+    warnings = []
+    stable_prev = True
+    symmetric = _is_symmetric_axial(fx, fy, mM)
+    while lam < 1.0:
+        lam_new = min(1.0, lam + dlam)
+        if branch.startswith("post-buckled"):
+            # the first-mode post-buckled branch is known in closed form: use it as predictor
+            guess = _buckled_root_moment_nd(-fx * lam_new)
+        elif len(hist) >= 2:
+            (l0, m0), (l1, m1) = hist[-2], hist[-1]
+            guess = m1 + (m1 - m0) * (lam_new - l1) / (l1 - l0)
+        else:
+            guess = mu0
+        try:
+            mu_new, sol, it = _newton_mu0(guess, lam_new * fx, lam_new * fy, lam_new * mM)
+            iters += it
+            # step control: the corrector must stay close to the predictor (no branch jumping)
+            ok = abs(mu_new - guess) < 0.1 * (1.0 + abs(mu_new))
+        except RuntimeError:
+            ok = False
+        if ok:
+            stable, _ = _stability(sol)
+            if stable_prev and not stable and not (symmetric and abs(mu_new) < 1e-9) \
+                    and dlam > 1e-6:
+                ok = False       # confirm a loss of stability with small steps (no jump)
+        if not ok:
+            dlam *= 0.5
+            if dlam < 1e-9:
+                warnings.append(f"continuation stalled at load factor {lam:.9g} (limit point?)")
+                break
+            continue
+        if stable_prev and not stable:
+            # locate the loss of stability on the path between lam and lam_new
+            def indicator(l):
+                m_, s_, _ = _newton_mu0(mu0 + (mu_new - mu0) * (l - lam) / (lam_new - lam),
+                                        l * fx, l * fy, l * mM)
+                return s_.y[7, -1]
+            try:
+                lam_c = brentq(indicator, lam, lam_new, xtol=1e-15, rtol=1e-15)
+            except (ValueError, RuntimeError):
+                lam_c = lam_new
+            if symmetric and abs(mu_new) < 1e-9:
+                # straight column past the Euler load: switch to the stable buckled branch (+y)
+                branch = "post-buckled"
+                lam = lam_c
+                mu0 = 0.0
+                hist = []
+                continue
+            warnings.append(f"equilibrium path lost stability at load factor {lam_c:.9g}")
+        stable_prev = stable
+        lam, mu0 = lam_new, mu_new
+        hist.append((lam, mu0))
+        dlam = min(max_step, dlam * (1.5 if it <= 4 else 1.0))
+    return dict(mu0=mu0, iterations=iters, branch=branch, lam_c=lam_c, warnings=warnings,
+                lam=lam)
+
+
+def cantilever(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0, num: int = 101,
+               max_step: float = 0.25) -> CantileverSolution:
+    """Exact equilibrium of a cantilever clamped at the origin along +x under a dead tip load.
+
+    force = (Fx, Fy) and moment M act at the tip and keep their world direction. The load is
+    applied by continuation from the unloaded state (adaptive load steps, secant predictor,
+    Newton on the root moment with the variational equations), so the result is the branch a
+    slowly applied load reaches. A purely compressive axial load past the first Euler load makes
+    the straight column unstable: the bifurcation is located (``critical_load_factor``,
+    ``critical_load`` = pi^2 EI/(4 L^2)) and the stable post-buckled branch that bends towards +y
+    is followed. ``stable`` is the Jacobi (conjugate point) test of the second variation.
+    """
+    EI, L = float(EI), float(L)
+    fx, fy = float(force[0]) * L ** 2 / EI, float(force[1]) * L ** 2 / EI
+    mM = float(moment) * L / EI
+    res = _continue(fx, fy, mM, max_step=max_step)
+    warnings = list(res["warnings"])
+    converged = res["lam"] >= 1.0
+    sol = _shoot(res["mu0"], res["lam"] * fx, res["lam"] * fy, dense=True)
+    stable, _ = _stability(sol)
+    sig = np.linspace(0.0, 1.0, num)
+    Y = sol.sol(sig)
+    Y[:, 0] = 0.0
+    Y[:, -1] = sol.y[:, -1]
+    lam_c = res["lam_c"]
+    crit = None if lam_c is None else lam_c * math.hypot(force[0], force[1])
+    if not converged:
+        warnings.append("load not fully applied: result is at the last converged load factor")
+    branch = "post-buckled" if res["branch"].startswith("post") else "primary"
+    return CantileverSolution(
+        pose=np.array([L * sol.y[0, -1], L * sol.y[1, -1], sol.y[2, -1]]),
+        shape=L * Y[0:2].T.copy(), s=L * sig, phi=Y[2].copy(), moment=EI / L * Y[3],
+        root_moment=EI / L * res["mu0"], force=np.array(force, dtype=float),
+        tip_moment=float(moment), stable=stable, converged=converged,
+        iterations=res["iterations"], branch=branch, critical_load_factor=lam_c,
+        critical_load=crit, warnings=warnings)
+
+
+def tip_compliance(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0,
+                   solution: CantileverSolution | None = None) -> np.ndarray:
+    """3x3 compliance d(x, y, theta)_tip / d(Fx, Fy, M) at the loaded equilibrium.
+
+    Exact (variational equations, no finite differences): with R = mu(1) - M = 0,
+    d mu0 = -(dR/dF dF - dM) / (dR/d mu0), and the tip sensitivities follow by the chain rule.
+    The equilibrium is found with ``cantilever`` unless ``solution`` is given.
+    """
+    EI, L = float(EI), float(L)
+    if solution is None:
+        solution = cantilever(EI, L, force, moment, num=3)
+    fx, fy = force[0] * L ** 2 / EI, force[1] * L ** 2 / EI
+    mu0 = solution.root_moment * L / EI
+    sol = _shoot(mu0, fx, fy, nsens=3)
+    y = sol.y[:, -1]
+    T = [y[4 + 4 * k: 4 + 4 * k + 3] for k in range(3)]   # d(X, Y, phi)(1) / d(mu0, fx, fy)
+    dR = [y[4 + 4 * k + 3] for k in range(3)]             # d mu(1) / d(mu0, fx, fy)
+    C = np.empty((3, 3))
+    C[:, 0] = T[1] - T[0] * dR[1] / dR[0]
+    C[:, 1] = T[2] - T[0] * dR[2] / dR[0]
+    C[:, 2] = T[0] / dR[0]
+    scale = np.array([[L ** 3, L ** 3, L ** 2], [L ** 3, L ** 3, L ** 2], [L ** 2, L ** 2, L]]) / EI
+    return C * scale
+
+
+# ----------------------------------------------------------------------------------------------
+# whole scenes
+# ----------------------------------------------------------------------------------------------
+
+def _compose(A, B):
+    """Frames (..., 3): A then B (B expressed in A)."""
+    c, s = np.cos(A[..., 2]), np.sin(A[..., 2])
+    return np.stack([A[..., 0] + c * B[..., 0] - s * B[..., 1],
+                     A[..., 1] + s * B[..., 0] + c * B[..., 1],
+                     A[..., 2] + B[..., 2]], axis=-1)
+
+
+@dataclass
+class SceneSolution:
+    converged: bool
+    stable: bool
+    iterations: int
+    poses: dict                 # point name -> (3,) world x, y, body angle   (output points)
+    compliance: dict            # point name -> (2, 2) d position / d force at that point
+    shapes: dict                # flexure name -> (num, 2) world centreline, root first
+    tip_frames: dict            # flexure name -> (3,) world tip frame
+    root_loads: dict            # flexure name -> (Fx, Fy, M0): force through it, root moment
+    load_factor: float          # 1.0 when the whole load was applied
+    critical_load_factor: float | None = None
+    warnings: list = field(default_factory=list)
+
+
+class _SceneProblem:
+    """Shooting formulation of a scene: unknowns per flexure (fx, fy, mu0), nondimensional."""
+
+    def __init__(self, scene):
+        self.scene = scene
+        self.flex = {f.name: f for f in scene.flexures}
+        self.links = {l.name: l for l in scene.links}
+        for l in scene.links:
+            if l.parent not in self.flex:
+                raise ValueError(f"link {l.name!r}: parent {l.parent!r} is not a flexure")
+        # topological order of the flexures (parents first)
+        order, seen = [], set()
+
+        def visit(name, stack=()):
+            if name in seen:
+                return
+            if name in stack:
+                raise ValueError(f"flexure {name!r}: parent chain is a cycle")
+            own = self.owner(self.flex[name].parent)
+            if own != "base":
+                visit(own, stack + (name,))
+            seen.add(name)
+            order.append(name)
+
+        for f in scene.flexures:
+            visit(f.name)
+        self.order = order
+        self.index = {n: i for i, n in enumerate(order)}
+        self.n = len(order)
+        self.L = np.array([self.flex[n].length for n in order])
+        self.EI = np.array([self.flex[n].EI for n in order])
+        # chain[o] = set of flexures whose subtree contains body owner o
+        self.chain = {"base": ()}
+        for n in order:
+            own = self.owner(self.flex[n].parent)
+            self.chain[n] = (n,) + self.chain[own]
+        # loads and tendons
+        self.point_names = []
+        self.loads = []
+        for ld in scene.loads:
+            self.loads.append((self._pid(ld.point), np.array(ld.force, float), float(ld.moment)))
+        self.tendons = []
+        for td in scene.tendons:
+            if len(td.route) < 2:
+                raise ValueError("tendon route needs at least two points")
+            self.tendons.append((float(td.tension), [self._pid(p) for p in td.route]))
+        outs = list(scene.outputs) or list(dict.fromkeys(ld.point for ld in scene.loads))
+        if not outs:
+            outs = [f"{n}.tip" for n in order]
+        self.outputs = outs
+        self.out_ids = [self._pid(p) for p in outs]
+        self.P_owner = [self.resolve(p)[0] for p in self.point_names]
+        self.P_local = np.array([self.resolve(p)[1] for p in self.point_names]).reshape(-1, 2)
+        # member[i, p] = point p lies in the subtree beyond flexure i
+        self.member = np.zeros((self.n, len(self.point_names)))
+        for p, o in enumerate(self.P_owner):
+            for f in self.chain[o]:
+                self.member[self.index[f], p] = 1.0
+        self.extra = np.zeros((len(self.point_names), 2))   # extra dead force per point
+
+    def owner(self, body: str) -> str:
+        if body == "base":
+            return "base"
+        if body in self.flex:
+            return body
+        if body in self.links:
+            return self.links[body].parent
+        raise ValueError(f"unknown body {body!r}")
+
+    def resolve(self, ref: str):
+        if "." not in ref:
+            raise ValueError(f"point {ref!r}: expected '<body>.<point>'")
+        body, pt = ref.rsplit(".", 1)
+        if body == "base":
+            if pt not in self.scene.base_points:
+                raise ValueError(f"point {ref!r}: no such base point")
+            return "base", tuple(map(float, self.scene.base_points[pt]))
+        if body in self.flex and pt == "tip":
+            return body, (0.0, 0.0)
+        if body in self.links:
+            pts = self.links[body].points
+            if pt not in pts:
+                raise ValueError(f"point {ref!r}: no such point on link {body!r}")
+            return self.links[body].parent, tuple(map(float, pts[pt]))
+        raise ValueError(f"point {ref!r}: unknown body or point")
+
+    def _pid(self, ref: str) -> int:
+        if ref not in self.point_names:
+            self.resolve(ref)
+            self.point_names.append(ref)
+        return self.point_names.index(ref)
+
+    # -- evaluation -------------------------------------------------------------------------
+    def evaluate(self, Z, lam, shapes_num: int = 0):
+        """Z: (K, 3n) unknowns. Returns residual (K, 3n), point world xy (K, P, 2),
+        tip frames (K, n, 3) and (for row 0) shapes if shapes_num."""
+        Z = np.atleast_2d(Z)
+        K = Z.shape[0]
+        n = self.n
+        tips = np.zeros((K, n, 3))
+        mu_tip = np.zeros((K, n))
+        shapes = {}
+        frames = {"base": np.zeros((K, 3))}
+        for i, name in enumerate(self.order):
+            fl = self.flex[name]
+            root = _compose(frames[self.owner(fl.parent)], np.asarray(fl.at, float)[None, :])
+            fx, fy, mu0 = Z[:, 3 * i], Z[:, 3 * i + 1], Z[:, 3 * i + 2]
+
+            def rhs(t, y, fx=fx, fy=fy):
+                y = y.reshape(4, K)
+                c, s = np.cos(y[2]), np.sin(y[2])
+                return np.concatenate([c, s, y[3], fx * s - fy * c])
+
+            y0 = np.concatenate([np.zeros(K), np.zeros(K), root[:, 2], mu0])
+            sol = solve_ivp(rhs, (0.0, 1.0), y0, method="DOP853", rtol=RTOL, atol=ATOL,
+                            dense_output=bool(shapes_num))
+            if not sol.success:
+                raise RuntimeError(f"elastica integration failed on {name!r}: {sol.message}")
+            yend = sol.y[:, -1].reshape(4, K)
+            Li = self.L[i]
+            tips[:, i, 0] = root[:, 0] + Li * yend[0]
+            tips[:, i, 1] = root[:, 1] + Li * yend[1]
+            tips[:, i, 2] = yend[2]
+            mu_tip[:, i] = yend[3]
+            frames[name] = tips[:, i]
+            if shapes_num:
+                sig = np.linspace(0.0, 1.0, shapes_num)
+                Yd = sol.sol(sig).reshape(4, K, shapes_num)[:, 0]
+                Yd[:, 0] = y0.reshape(4, K)[:, 0]
+                Yd[:, -1] = yend[:, 0]
+                shapes[name] = np.stack([root[0, 0] + Li * Yd[0], root[0, 1] + Li * Yd[1]], axis=1)
+        # points
+        P = len(self.point_names)
+        fr = np.stack([frames[o] for o in self.P_owner], axis=1) if P else np.zeros((K, 0, 3))
+        c, s = np.cos(fr[..., 2]), np.sin(fr[..., 2])
+        lx, ly = self.P_local[:, 0], self.P_local[:, 1]
+        pts = np.stack([fr[..., 0] + c * lx - s * ly, fr[..., 1] + s * lx + c * ly], axis=-1)
+        # forces (K, P, 2) and moments (K, P) at points
+        F = np.zeros((K, P, 2))
+        Mp = np.zeros((K, P))
+        for pid, f, m in self.loads:
+            F[:, pid] += lam * f
+            Mp[:, pid] += lam * m
+        F += self.extra[None]
+        for T, ids in self.tendons:
+            for a, b in zip(ids[:-1], ids[1:]):
+                d = pts[:, b] - pts[:, a]
+                u = d / np.linalg.norm(d, axis=-1, keepdims=True)
+                F[:, a] += lam * T * u
+                F[:, b] -= lam * T * u
+        # required force through each flexure and moment at its tip
+        N = np.einsum("ip,kpc->kic", self.member, F)                       # (K, n, 2)
+        arm = pts[:, None, :, :] - tips[:, :, None, :2]                       # (K, n, P, 2)
+        cross = arm[..., 0] * F[:, None, :, 1] - arm[..., 1] * F[:, None, :, 0]
+        Mreq = np.einsum("ip,kip->ki", self.member, cross + Mp[:, None, :])
+        R = np.empty((K, 3 * n))
+        R[:, 0::3] = Z[:, 0::3] - N[..., 0] * self.L ** 2 / self.EI
+        R[:, 1::3] = Z[:, 1::3] - N[..., 1] * self.L ** 2 / self.EI
+        R[:, 2::3] = mu_tip - Mreq * self.L / self.EI
+        return R, pts, tips, shapes, frames
+
+    def jacobian(self, z, lam, h=1e-6):
+        m = z.size
+        Z = np.repeat(z[None, :], 1 + 2 * m, axis=0)
+        for j in range(m):
+            Z[1 + 2 * j, j] += h
+            Z[2 + 2 * j, j] -= h
+        R, pts, tips, _, frames = self.evaluate(Z, lam)
+        J = (R[1::2] - R[2::2]).T / (2 * h)                       # (m, m)
+        dpts = (pts[1::2] - pts[2::2]) / (2 * h)                  # (m, P, 2)
+        return R[0], J, dpts, pts[0], tips[0]
+
+    def newton(self, z, lam, tol=1e-12, max_iter=25):
+        it = 0
+        for it in range(1, max_iter + 1):
+            R, J, _, _, _ = self.jacobian(z, lam)
+            try:
+                dz = np.linalg.solve(J, -R)
+            except np.linalg.LinAlgError:
+                raise RuntimeError("singular shooting Jacobian")
+            r0 = np.max(np.abs(R))
+            t = 1.0
+            while True:
+                Rn = self.evaluate(z + t * dz, lam)[0][0]
+                if np.max(np.abs(Rn)) < max(r0, 1e-11) or t < 1e-3:
+                    break
+                t *= 0.5
+            z = z + t * dz
+            if np.max(np.abs(t * dz)) < 1e-12 * (1 + np.max(np.abs(z))) and np.max(np.abs(Rn)) < tol:
+                return z, it
+            if np.max(np.abs(Rn)) < 1e-14:
+                return z, it
+        raise RuntimeError("shooting Newton did not converge")
+
+
+def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
+    """Exact elastica equilibrium of a whole scene (tree of flexures and links).
+
+    Unknowns: for every flexure, the force transmitted through it (world frame) and its root
+    moment; residuals: that force and the tip moment must equal the resultant of everything
+    beyond the flexure's tip (dead loads, tendon forces at the current geometry). Newton with a
+    central-difference Jacobian of the batched shooting map, load continuation lam: 0 -> 1 on all
+    loads and tendon tensions.
+
+    ``stable``: the sign of det(shooting Jacobian) is the one it has in the unloaded, stable
+    state. The shooting Jacobian is singular exactly where the second variation is, so an odd
+    number of eigenvalue crossings along the path is detected; an even number is not. If the sign
+    flips (a bifurcation, e.g. a straight column past its Euler load) the solver tries to switch
+    to the branch along the null vector oriented so that the first flexure bends
+    counter-clockwise at its root (+y for a flexure along +x), and keeps it if it is stable.
+
+    ``compliance``: d(position of p)/d(force at p), by the implicit function theorem on the
+    converged shooting system (exact dR/dF, central-difference d(pos)/dz), all other loads held.
+    """
+    prob = _SceneProblem(scene)
+    m = 3 * prob.n
+    warnings = []
+    z = np.zeros(m)
+    R, J0, _, _, _ = prob.jacobian(z, 0.0)
+    ref_sign = np.sign(np.linalg.det(J0))
+    lam, dlam = 0.0, min(0.1, max_step)
+    hist = [(0.0, z.copy())]
+    iters = 0
+    lam_c = None
+    sign = ref_sign
+    while lam < 1.0:
+        lam_new = min(1.0, lam + dlam)
+        if len(hist) >= 2:
+            (l0, z0), (l1, z1) = hist[-2], hist[-1]
+            guess = z1 + (z1 - z0) * (lam_new - l1) / (l1 - l0)
+        else:
+            guess = z.copy()
+        try:
+            z_new, it = prob.newton(guess, lam_new)
+            iters += it
+            # step control: the corrector must stay close to the predictor (no branch jumping)
+            ok = np.max(np.abs(z_new - guess)) < 0.1 * (1.0 + np.max(np.abs(z_new)))
+        except RuntimeError:
+            ok = False
+        if ok:
+            _, J, _, _, _ = prob.jacobian(z_new, lam_new)
+            s_new = np.sign(np.linalg.det(J))
+            if s_new != sign and dlam > 1e-3:
+                ok = False       # confirm a sign change of det J with small steps (no jump)
+        if not ok:
+            dlam *= 0.5
+            if dlam < 1e-7:
+                warnings.append(f"continuation stalled at load factor {lam:.6g}")
+                break
+            continue
+        if s_new != sign:
+            if lam_c is None:
+                lam_c = lam_new
+                try:   # locate the crossing
+                    def dets(l):
+                        zz = z + (z_new - z) * (l - lam) / (lam_new - lam)
+                        zz, _ = prob.newton(zz, l)
+                        return np.linalg.det(prob.jacobian(zz, l)[1])
+                    lam_c = brentq(dets, lam, lam_new, xtol=1e-12)
+                except (ValueError, RuntimeError):
+                    pass
+            switched = False
+            if s_new != ref_sign:
+                # try branch switching along the null vector
+                _, _, Vt = np.linalg.svd(J)
+                v = Vt[-1]
+                mus = v[2::3]
+                k = np.flatnonzero(np.abs(mus) > 1e-3 * np.max(np.abs(v)))
+                if k.size and mus[k[0]] < 0:
+                    v = -v
+                for eps in (0.05, 0.2, 0.5, 1.0, 2.0):
+                    try:
+                        zb, itb = prob.newton(z_new + eps * v, lam_new)
+                    except RuntimeError:
+                        continue
+                    iters += itb
+                    Jb = prob.jacobian(zb, lam_new)[1]
+                    if (np.sign(np.linalg.det(Jb)) == ref_sign
+                            and np.max(np.abs(zb - z_new)) > 1e-6):
+                        # secant from the last point before the bifurcation: predicts on the
+                        # chosen side of the pitchfork (no jump to the mirror branch)
+                        hist = [(lam, z.copy())]
+                        z_new, s_new, switched = zb, ref_sign, True
+                        warnings.append(f"bifurcation at load factor {lam_c:.9g}: "
+                                        "followed the stable branch")
+                        break
+                if not switched:
+                    warnings.append(f"equilibrium path lost stability at load factor {lam_c:.9g}")
+            sign = s_new
+        hist.append((lam_new, z_new.copy()))
+        lam, z = lam_new, z_new
+        dlam = min(max_step, dlam * (1.5 if it <= 4 else 1.0))
+    converged = lam >= 1.0
+    if not converged:
+        warnings.append("load not fully applied: result is at the last converged load factor")
+    # final quantities
+    R0, J, dpts, pts, tips = prob.jacobian(z, lam)
+    stable = bool(np.sign(np.linalg.det(J)) == ref_sign)
+    _, _, _, shapes, frames = prob.evaluate(z, lam, shapes_num=num)
+    poses, compl = {}, {}
+    for name, pid in zip(prob.outputs, prob.out_ids):
+        th = frames[prob.P_owner[pid]][0, 2]
+        poses[name] = np.array([pts[pid, 0], pts[pid, 1], th])
+        if prob.P_owner[pid] == "base":
+            compl[name] = np.zeros((2, 2))
+            continue
+        # dR/dF_p (analytic): force rows -L^2/EI, moment rows -(L/EI) (r_p - r_tip) x e
+        B = np.zeros((m, 2))
+        for i in range(prob.n):
+            if prob.member[i, pid]:
+                a = pts[pid] - tips[i, :2]
+                B[3 * i, 0] = -prob.L[i] ** 2 / prob.EI[i]
+                B[3 * i + 1, 1] = -prob.L[i] ** 2 / prob.EI[i]
+                B[3 * i + 2, 0] = -prob.L[i] / prob.EI[i] * (-a[1])
+                B[3 * i + 2, 1] = -prob.L[i] / prob.EI[i] * a[0]
+        dz = -np.linalg.solve(J, B)                  # (m, 2)
+        C = dpts[:, pid, :].T @ dz                   # (2, 2)
+        compl[name] = C
+    root_loads = {}
+    for i, name in enumerate(prob.order):
+        sc = prob.EI[i] / prob.L[i] ** 2
+        root_loads[name] = np.array([z[3 * i] * sc, z[3 * i + 1] * sc,
+                                     z[3 * i + 2] * prob.EI[i] / prob.L[i]])
+    return SceneSolution(
+        converged=converged, stable=stable, iterations=iters, poses=poses, compliance=compl,
+        shapes=shapes, tip_frames={n: tips[i] for i, n in enumerate(prob.order)},
+        root_loads=root_loads, load_factor=lam, critical_load_factor=lam_c, warnings=warnings)
