@@ -1,0 +1,315 @@
+"""Tree kinematics of a scene: the world pose, Jacobian and Hessian of any point.
+
+A scene is a tree of bodies. The base is the world frame. A flexure's root frame is its ``at``
+offset in its parent body's frame; its tip frame is the root frame composed with the tip transform
+its model gives (``FlexureModel.tip``). A link's frame is its parent flexure's tip frame, so a link
+is the same body frame as that flexure's tip, carrying more named points.
+
+All flexures' generalized coordinates are packed into one vector ``q`` in the order the scene
+declares the flexures; ``Chain.slices[name]`` is each flexure's part.
+
+Every planar transform is composed with the product rule, so each body frame carries its world pose
+``(x, y, angle)``, Jacobian ``(3, ndof)`` and Hessian ``(3, ndof, ndof)`` exactly (to the accuracy
+of the flexure models). Composing a parent frame ``P`` with a local transform ``(v, phi)`` whose
+derivatives may depend on q::
+
+    r' = r_P + R(th_P) v          th' = th_P + phi
+    dr'   = dr_P + S w dth_P + R dv                         (w = R v, S = rotation by +90 deg)
+    d2r'  = d2r_P - w dth_P dth_P + S w d2th_P + S R dv dth_P + dth_P S R dv + R d2v
+
+The tendon potential ``T l(q)`` (``l`` the sum of straight segment lengths between the route points)
+and its exact gradient and Hessian follow from the points' Jacobians and Hessians by the chain rule.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from .models.base import FlexureModel
+from .scene import Scene
+
+BASE = "base"
+_S = np.array([[0.0, -1.0], [1.0, 0.0]])   # rotation by +90 degrees
+
+
+class ChainError(ValueError):
+    """A chain that cannot be evaluated (unknown point, missing model, degenerate tendon)."""
+
+
+@dataclass(frozen=True)
+class PointKinematics:
+    """World pose ``(x, y, body angle)`` of a point and its derivatives in the packed ``q``."""
+
+    pose: np.ndarray   # (3,)
+    J: np.ndarray      # (3, ndof)
+    H: np.ndarray      # (3, ndof, ndof)
+
+
+def _rot(th: float) -> np.ndarray:
+    c, s = np.cos(th), np.sin(th)
+    return np.array([[c, -s], [s, c]])
+
+
+def _compose(parent: PointKinematics, v: np.ndarray, phi: float = 0.0,
+             dv: np.ndarray | None = None, d2v: np.ndarray | None = None) -> PointKinematics:
+    """Parent frame composed with the local transform (translation v, rotation phi).
+
+    ``dv`` (3, ndof) and ``d2v`` (3, ndof, ndof) are the local transform's derivatives (rows x, y,
+    angle), or None for a constant transform.
+    """
+    R = _rot(parent.pose[2])
+    w = R @ v
+    Sw = _S @ w
+    Jth = parent.J[2]
+    Hth = parent.H[2]
+    pose = np.empty(3)
+    pose[:2] = parent.pose[:2] + w
+    pose[2] = parent.pose[2] + phi
+    J = parent.J.copy()
+    H = parent.H.copy()
+    J[:2] += np.outer(Sw, Jth)
+    H[:2] += (Sw[:, None, None] * Hth[None] - w[:, None, None] * np.outer(Jth, Jth)[None])
+    if dv is not None:
+        RJ = R @ dv[:2]                      # (2, ndof)
+        SRJ = _S @ RJ
+        J[:2] += RJ
+        J[2] += dv[2]
+        cross = SRJ[:, :, None] * Jth[None, None, :]
+        H[:2] += cross + cross.transpose(0, 2, 1)
+        H[:2] += np.einsum("ab,bij->aij", R, d2v[:2])
+        H[2] += d2v[2]
+    return PointKinematics(pose, J, H)
+
+
+def _split_ref(ref: str) -> tuple[str, str]:
+    if not isinstance(ref, str) or "." not in ref:
+        raise ChainError(f"point reference {ref!r} is not of the form '<body>.<point>'")
+    body, point = ref.rsplit(".", 1)
+    return body, point
+
+
+class Chain:
+    """Kinematics and potential energy of a scene's tree of flexures and links.
+
+    ``models`` maps every flexure name to its ``FlexureModel``.
+    """
+
+    def __init__(self, scene: Scene, models: Mapping[str, FlexureModel]):
+        self.scene = scene
+        self.flexures = {f.name: f for f in scene.flexures}
+        self.links = {l.name: l for l in scene.links}
+        missing = [name for name in self.flexures if name not in models]
+        if missing:
+            raise ChainError(f"no model for flexure {missing[0]!r}")
+        self.models = {name: models[name] for name in self.flexures}
+        self.names: tuple[str, ...] = tuple(self.flexures)
+        self.slices: dict[str, slice] = {}
+        start = 0
+        for name in self.names:
+            n = int(self.models[name].n_dof)
+            self.slices[name] = slice(start, start + n)
+            start += n
+        self.ndof = start
+        self._order = self._body_order()
+        self._cache_key: bytes | None = None
+        self._cache: dict[str, PointKinematics] = {}
+        self._roots: dict[str, PointKinematics] = {}
+
+    # ---- scene structure ------------------------------------------------------------------
+
+    def body_parent(self, body: str) -> str | None:
+        if body == BASE:
+            return None
+        if body in self.flexures:
+            return self.flexures[body].parent
+        if body in self.links:
+            return self.links[body].parent
+        raise ChainError(f"unknown body {body!r}")
+
+    def _body_order(self) -> list[str]:
+        """Flexures and links, every body after its parent (cycles and unknown parents raise)."""
+        order: list[str] = []
+        state: dict[str, int] = {}
+
+        def visit(body: str, trail: tuple[str, ...]) -> None:
+            if body == BASE or state.get(body) == 2:
+                return
+            if state.get(body) == 1:
+                raise ChainError(f"the scene's bodies form a cycle: {' -> '.join(trail + (body,))}")
+            state[body] = 1
+            parent = self.body_parent(body)
+            if parent != BASE and parent not in self.flexures and parent not in self.links:
+                raise ChainError(f"body {body!r} has unknown parent {parent!r}")
+            visit(parent, trail + (body,))
+            state[body] = 2
+            order.append(body)
+
+        for body in list(self.flexures) + list(self.links):
+            visit(body, ())
+        return order
+
+    def resolve_point(self, ref: str) -> tuple[str, tuple[float, float]]:
+        """``"<body>.<point>"`` -> (body, point coordinates in the body's frame)."""
+        body, point = _split_ref(ref)
+        if body == BASE:
+            pts = self.scene.base_points
+        elif body in self.flexures:
+            if point == "tip":
+                return body, (0.0, 0.0)
+            raise ChainError(f"flexure {body!r} has only the point 'tip', not {point!r} (in {ref!r})")
+        elif body in self.links:
+            pts = self.links[body].points
+        else:
+            raise ChainError(f"point {ref!r} names unknown body {body!r}")
+        if point not in pts:
+            raise ChainError(f"body {body!r} has no point {point!r} (in {ref!r})")
+        x, y = pts[point]
+        return body, (float(x), float(y))
+
+    def children(self, body: str) -> list[str]:
+        return [b for b in self._order if self.body_parent(b) == body]
+
+    # ---- packing --------------------------------------------------------------------------
+
+    def split(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        q = np.asarray(q, dtype=float)
+        return {name: q[sl].copy() for name, sl in self.slices.items()}
+
+    def pack(self, parts: Mapping[str, Sequence[float]]) -> np.ndarray:
+        q = np.zeros(self.ndof)
+        for name, values in parts.items():
+            if name not in self.slices:
+                raise ChainError(f"unknown flexure {name!r}")
+            q[self.slices[name]] = np.asarray(values, dtype=float)
+        return q
+
+    def zeros(self) -> np.ndarray:
+        return np.zeros(self.ndof)
+
+    # ---- kinematics -----------------------------------------------------------------------
+
+    def _check_q(self, q) -> np.ndarray:
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.ndof,):
+            raise ChainError(f"q has shape {q.shape}, expected ({self.ndof},)")
+        return q
+
+    def frames(self, q) -> dict[str, PointKinematics]:
+        """World pose, Jacobian and Hessian of every body frame (cached for the last ``q``)."""
+        q = self._check_q(q)
+        key = q.tobytes()
+        if key == self._cache_key:
+            return self._cache
+        n = self.ndof
+        frames = {BASE: PointKinematics(np.zeros(3), np.zeros((3, n)), np.zeros((3, n, n)))}
+        roots: dict[str, PointKinematics] = {}
+        for body in self._order:
+            parent = frames[self.body_parent(body)]
+            if body in self.links:
+                frames[body] = parent
+                continue
+            flex = self.flexures[body]
+            ax, ay, ath = (float(v) for v in flex.at)
+            root = _compose(parent, np.array([ax, ay]), ath)
+            roots[body] = root
+            sl = self.slices[body]
+            tk = self.models[body].tip(q[sl])
+            dv = np.zeros((3, n))
+            d2v = np.zeros((3, n, n))
+            dv[:, sl] = tk.J
+            d2v[:, sl, sl] = tk.H
+            tp = np.asarray(tk.pose, dtype=float)
+            frames[body] = _compose(root, tp[:2], float(tp[2]), dv, d2v)
+        self._cache_key, self._cache, self._roots = key, frames, roots
+        return frames
+
+    def root_frame(self, name: str, q) -> PointKinematics:
+        """World frame of flexure ``name``'s root (s = 0)."""
+        self.frames(q)
+        return self._roots[name]
+
+    def point(self, ref: str, q) -> PointKinematics:
+        """World pose ``(x, y, body angle)``, J (3, ndof), H (3, ndof, ndof) of ``"<body>.<point>"``."""
+        body, xy = self.resolve_point(ref)
+        frame = self.frames(q)[body]
+        if xy == (0.0, 0.0):
+            return frame
+        return _compose(frame, np.array(xy))
+
+    def pose(self, ref: str, q) -> np.ndarray:
+        return self.point(ref, q).pose.copy()
+
+    # ---- energy ---------------------------------------------------------------------------
+
+    def energy(self, q) -> float:
+        q = self._check_q(q)
+        return float(sum(self.models[n].energy(q[sl]) for n, sl in self.slices.items()))
+
+    def energy_gradient(self, q) -> np.ndarray:
+        q = self._check_q(q)
+        g = np.zeros(self.ndof)
+        for n, sl in self.slices.items():
+            g[sl] = self.models[n].energy_gradient(q[sl])
+        return g
+
+    def energy_hessian(self, q) -> np.ndarray:
+        """Block-diagonal Hessian of the total elastic energy."""
+        q = self._check_q(q)
+        K = np.zeros((self.ndof, self.ndof))
+        for n, sl in self.slices.items():
+            K[sl, sl] = self.models[n].energy_hessian(q[sl])
+        return K
+
+    # ---- tendons --------------------------------------------------------------------------
+
+    def tendon_length(self, route: Sequence[str], q) -> tuple[float, np.ndarray, np.ndarray]:
+        """Length l of a route of straight segments, with its gradient and Hessian in q."""
+        pts = [self.point(ref, q) for ref in route]
+        n = self.ndof
+        length, grad, hess = 0.0, np.zeros(n), np.zeros((n, n))
+        for k in range(len(pts) - 1):
+            a, b = pts[k], pts[k + 1]
+            d = b.pose[:2] - a.pose[:2]
+            rho = float(np.hypot(d[0], d[1]))
+            if rho == 0.0:
+                raise ChainError(f"tendon segment {route[k]!r} -> {route[k + 1]!r} has zero length")
+            u = d / rho
+            Jd = b.J[:2] - a.J[:2]
+            Hd = b.H[:2] - a.H[:2]
+            length += rho
+            grad += u @ Jd
+            P = (np.eye(2) - np.outer(u, u)) / rho
+            hess += Jd.T @ P @ Jd + np.einsum("a,aij->ij", u, Hd)
+        return length, grad, hess
+
+    def tendon_potential(self, q, scale: float = 1.0) -> tuple[float, np.ndarray, np.ndarray]:
+        """Sum over the scene's tendons of ``scale * T * l(q)``, with gradient and Hessian."""
+        n = self.ndof
+        V, g, H = 0.0, np.zeros(n), np.zeros((n, n))
+        for tendon in self.scene.tendons:
+            T = scale * float(tendon.tension)
+            if T == 0.0:
+                continue
+            l, gl, hl = self.tendon_length(tendon.route, q)
+            V += T * l
+            g += T * gl
+            H += T * hl
+        return V, g, 0.5 * (H + H.T)
+
+    # ---- plots ----------------------------------------------------------------------------
+
+    def shapes(self, q, num: int = 64) -> dict[str, np.ndarray]:
+        """Each flexure's centreline in the world frame, (num, 2), root first."""
+        q = self._check_q(q)
+        self.frames(q)
+        out = {}
+        for name, sl in self.slices.items():
+            root = self._roots[name]
+            local = np.asarray(self.models[name].shape(q[sl], num), dtype=float)
+            out[name] = root.pose[:2] + local @ _rot(root.pose[2]).T
+        return out
+
+
+__all__ = ["Chain", "ChainError", "PointKinematics"]

@@ -1,0 +1,125 @@
+"""The result of solving a scene: equilibrium, stability, compliance of the output points.
+
+``Result.to_json()`` gives exactly the fields of the public contract (``scene-format.md``, plus
+``"reason"`` when not converged); ``Result`` itself carries a few more for the Python API
+(full 3x3 compliance, critical load factors, the load factor reached).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+def ellipse(C: np.ndarray) -> dict[str, float]:
+    """Eigenvalues of a symmetric 2x2 compliance (``major`` >= ``minor``) and the angle of the
+    major axis from the world x axis in (-pi/2, pi/2] (0 when the ellipse is a circle)."""
+    C = np.asarray(C, dtype=float)
+    C = 0.5 * (C + C.T)
+    if not np.all(np.isfinite(C)):
+        return {"major": math.nan, "minor": math.nan, "angle": math.nan}
+    w, V = np.linalg.eigh(C)
+    minor, major = float(w[0]), float(w[1])
+    if major - minor <= 1e-14 * max(abs(major), abs(minor), 1e-300):
+        angle = 0.0
+    else:
+        vx, vy = V[:, 1]
+        angle = math.atan2(vy, vx)
+        if angle <= -math.pi / 2:
+            angle += math.pi
+        elif angle > math.pi / 2:
+            angle -= math.pi
+    return {"major": major, "minor": minor, "angle": float(angle)}
+
+
+@dataclass
+class PointResult:
+    pose: list[float]                 # world x, y and body angle
+    compliance: list[list[float]]     # 2x2 d(position)/d(force at the point)
+    ellipse: dict[str, float]         # major, minor, angle
+    compliance3: list[list[float]]    # 3x3 d(x, y, angle)/d(fx, fy, moment)
+
+    def contract(self) -> dict[str, Any]:
+        return {"pose": list(self.pose), "compliance": [list(r) for r in self.compliance],
+                "ellipse": dict(self.ellipse)}
+
+
+@dataclass
+class Result:
+    scene: str
+    converged: bool
+    stable: bool
+    iterations: int
+    model: dict[str, dict[str, Any]]
+    q: dict[str, list[float]]
+    points: dict[str, PointResult]
+    warnings: list[str] = field(default_factory=list)
+    reason: str | None = None
+    critical_load_factors: list[float] = field(default_factory=list)
+    load_factor: float = 1.0          # load factor of the reported state (1 when converged)
+    energy: float | None = None       # elastic energy at equilibrium
+    residual: float | None = None     # relative residual at equilibrium (see solve.py)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every field, as plain Python data."""
+        return asdict(self)
+
+    def contract(self) -> dict[str, Any]:
+        """Exactly the fields of the JSON contract (plus ``reason`` when not converged)."""
+        out: dict[str, Any] = {
+            "scene": self.scene,
+            "converged": bool(self.converged),
+            "stable": bool(self.stable),
+            "iterations": int(self.iterations),
+            "model": {k: dict(v) for k, v in self.model.items()},
+            "q": {k: [float(x) for x in v] for k, v in self.q.items()},
+            "points": {ref: p.contract() for ref, p in self.points.items()},
+            "warnings": list(self.warnings),
+        }
+        if not self.converged:
+            out["reason"] = self.reason or "not converged"
+        return out
+
+    def to_json(self, indent: int | None = None) -> str:
+        """The contract object as JSON (non-finite numbers become null)."""
+        return json.dumps(_finite(self.contract()), indent=indent, allow_nan=False)
+
+    def table(self) -> str:
+        """A human-readable summary."""
+        lines = [f"scene: {self.scene}"]
+        if self.converged:
+            lines.append(f"converged in {self.iterations} Newton iterations; "
+                         f"{'stable' if self.stable else 'UNSTABLE'} equilibrium")
+        else:
+            lines.append(f"NOT converged after {self.iterations} Newton iterations: {self.reason}")
+        for name, spec in self.model.items():
+            detail = ", ".join(f"{k}={v}" for k, v in spec.items() if k != "kind")
+            qs = " ".join(f"{x:+.6g}" for x in self.q.get(name, []))
+            lines.append(f"  {name}: {spec.get('kind')}" + (f" ({detail})" if detail else "")
+                         + (f"  q = [{qs}]" if qs else ""))
+        if self.points:
+            w = max(len(ref) for ref in self.points)
+            lines.append(f"  {'point':<{w}}  {'x':>12} {'y':>12} {'angle':>10}  "
+                         f"{'major':>11} {'minor':>11} {'ell. angle':>10}")
+            for ref, p in self.points.items():
+                e = p.ellipse
+                lines.append(f"  {ref:<{w}}  {p.pose[0]:>12.6g} {p.pose[1]:>12.6g} {p.pose[2]:>10.5f}  "
+                             f"{e['major']:>11.5g} {e['minor']:>11.5g} {e['angle']:>10.5f}")
+        for lam in self.critical_load_factors:
+            lines.append(f"  critical load factor: {lam:.8g}")
+        for msg in self.warnings:
+            lines.append(f"  warning: {msg}")
+        return "\n".join(lines)
+
+
+def _finite(obj):
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj

@@ -1,0 +1,480 @@
+"""Equilibrium, stability and compliance of a scene under dead loads and tendons.
+
+Total potential at load factor ``lam`` (every load and tendon tension scaled by ``lam``)::
+
+    Pi(q) = U(q) - lam * sum_p F_p . pose_p(q) + lam * sum_t T_t l_t(q)      F_p = (fx, fy, moment)
+    r(q)  = grad U - lam * sum_p J_p^T F_p + lam * sum_t T_t grad l_t        (residual = grad Pi)
+    K(q)  = hess U - lam * sum_p H_p^T F_p + lam * sum_t T_t hess l_t        (stiffness = hess Pi)
+
+A moment acts on the angle row of its point's pose (the body's angle), a force on the position rows.
+
+Continuation. The solve starts from the unloaded state (q = 0 at lam = 0) and raises lam to 1 in
+adaptive steps (tangent predictor dq/dlam = K^-1 Q_ext while K is positive definite, then Newton
+with a backtracking line search on |r|; the step grows after quick convergence and halves after a
+failure), so the answer is the branch a slowly applied load reaches.
+
+Stability and bifurcations. After every step the smallest eigenvalue of K is checked. When it turns
+negative along the path, the crossing is located by regula falsi (Illinois) on that eigenvalue,
+re-solving the equilibrium at each trial load factor from the last stable state. If the path
+continues through the crossing (a bifurcation: buckling), the critical load factor is recorded with
+a warning and the solve leaves the unstable branch: from the unstable state it descends the
+potential (Newton with the eigenvalues of K made positive, Armijo line search on Pi) starting at
+q +- eps v, v the eigenvector of the lost mode, and keeps the stable side with the lower potential;
+when both sides have the same potential (a symmetric pitchfork) it keeps the side that moves the
+output points to larger mean world y (then: larger mean body angle, i.e. counter-clockwise). If the
+path ends (a limit point: no equilibrium nearby past it) the same descent finds the equilibrium the
+structure snaps to, with a warning.
+
+Convergence. The residual is relative to the scale of the generalized forces in the problem:
+
+    rel = |r|_inf / max(|grad U|_inf, lam |sum_p J_p^T F_p|_inf, lam |sum_t T_t grad l_t|_inf)
+
+evaluated at the current q; an equilibrium is accepted when rel <= tol (default 1e-12). This is
+invariant under a change of units. The unloaded state (all terms zero) counts as converged.
+
+If no equilibrium is found (Newton fails even at the smallest step, too many continuation steps, a
+model raising an error such as a kernel out of its range), ``solve`` returns a Result with
+``converged=False`` and a ``reason``; it raises only for invalid input (unknown points, missing
+models).
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Callable, Mapping
+
+import numpy as np
+import scipy.linalg
+
+from .chain import Chain
+from .models.base import FlexureModel
+from .result import PointResult, Result, ellipse
+from .scene import Flexure, Scene
+
+_EVAL_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
+
+
+@dataclass
+class State:
+    """Everything about one configuration ``q`` at load factor ``lam``."""
+
+    q: np.ndarray
+    lam: float
+    Pi: float         # total potential
+    U: float          # elastic energy
+    r: np.ndarray     # residual (gradient of Pi)
+    K: np.ndarray     # stiffness (Hessian of Pi)
+    Q: np.ndarray     # external generalized force at lam = 1 (loads minus tendons)
+    scale: float      # force scale of the relative residual
+    kg: float = 0.0   # norm of the load (geometric) part of K
+
+    @property
+    def rel(self) -> float:
+        rn = float(np.max(np.abs(self.r))) if self.r.size else 0.0
+        if rn == 0.0:
+            return 0.0
+        return rn / self.scale if self.scale > 0 else math.inf
+
+
+class System:
+    """A Chain with the scene's loads and tendons: potential, residual and stiffness."""
+
+    def __init__(self, chain: Chain, loads=None, tendons=None):
+        self.chain = chain
+        scene = chain.scene
+        loads = scene.loads if loads is None else loads
+        self.loads = [(ld.point, np.array([ld.force[0], ld.force[1], ld.moment], dtype=float))
+                      for ld in loads]
+        self.tendons = [(float(t.tension), tuple(t.route))
+                        for t in (scene.tendons if tendons is None else tendons)]
+        for ref, _ in self.loads:
+            chain.resolve_point(ref)
+        for _, route in self.tendons:
+            for ref in route:
+                chain.resolve_point(ref)
+
+    def state(self, q, lam: float) -> State:
+        ch = self.chain
+        q = np.asarray(q, dtype=float)
+        n = ch.ndof
+        U = ch.energy(q)
+        gU = ch.energy_gradient(q)
+        KU = ch.energy_hessian(q)
+        W, QL, GL = 0.0, np.zeros(n), np.zeros((n, n))
+        for ref, F in self.loads:
+            pk = ch.point(ref, q)
+            W += float(F @ pk.pose)
+            QL += F @ pk.J
+            GL += np.einsum("a,aij->ij", F, pk.H)
+        V, QT, GT = 0.0, np.zeros(n), np.zeros((n, n))
+        for T, route in self.tendons:
+            if T == 0.0:
+                continue
+            l, gl, hl = ch.tendon_length(route, q)
+            V += T * l
+            QT += T * gl
+            GT += T * hl
+        r = gU - lam * QL + lam * QT
+        K = KU - lam * GL + lam * GT
+        K = 0.5 * (K + K.T)
+        scale = max(float(np.max(np.abs(gU), initial=0.0)),
+                    lam * float(np.max(np.abs(QL), initial=0.0)),
+                    lam * float(np.max(np.abs(QT), initial=0.0)))
+        kg = float(np.linalg.norm(lam * (GT - GL)))
+        return State(q.copy(), float(lam), U - lam * W + lam * V, U, r, K, QL - QT, scale, kg)
+
+
+def _cholesky_ok(K: np.ndarray) -> bool:
+    if K.size == 0:
+        return True
+    try:
+        np.linalg.cholesky(K)
+        return True
+    except np.linalg.LinAlgError:
+        return False
+
+
+def _min_eig(K: np.ndarray) -> tuple[float, np.ndarray]:
+    w, V = np.linalg.eigh(K)
+    return float(w[0]), V[:, 0]
+
+
+class _Solver:
+    def __init__(self, system: System, tol: float, max_iterations: int):
+        self.sys = system
+        self.tol = tol
+        self.max_iterations = max_iterations
+        self.iterations = 0
+        self.last_error: str | None = None
+
+    def evaluate(self, q, lam) -> State | None:
+        try:
+            st = self.sys.state(q, lam)
+        except _EVAL_ERRORS as exc:
+            self.last_error = str(exc)
+            return None
+        if not (np.isfinite(st.Pi) and np.all(np.isfinite(st.r)) and np.all(np.isfinite(st.K))):
+            self.last_error = "a model returned a non-finite value"
+            return None
+        return st
+
+    def newton(self, q0, lam, descent=False, max_iterations=None) -> State | None:
+        """Newton from q0 at load factor lam. ``descent`` makes every step a descent direction of
+        Pi (eigenvalues of K replaced by their magnitudes) so it ends at a stable equilibrium."""
+        max_it = self.max_iterations if max_iterations is None else max_iterations
+        st = self.evaluate(q0, lam)
+        if st is None:
+            return None
+        history = []
+        for k in range(max_it + 1):
+            if st.rel <= self.tol:
+                return st        # the caller checks stability
+            if k == max_it:
+                break
+            history.append(st.rel)
+            if not descent and k >= 8 and st.rel > 0.5 * history[k - 6]:
+                self.last_error = (f"Newton stagnates at load factor {lam:.6g} "
+                                   f"(relative residual {st.rel:.2e})")
+                return None
+            self.iterations += 1
+            indefinite = False
+            if descent:
+                w, V = np.linalg.eigh(st.K)
+                top = max(float(np.max(np.abs(w))), 1e-300)
+                indefinite = bool(w[0] <= 1e-10 * top)
+                wm = np.maximum(np.abs(w), 1e-10 * top)
+                d = -(V @ ((V.T @ st.r) / wm))
+            else:
+                try:
+                    d = -np.linalg.solve(st.K, st.r)
+                except np.linalg.LinAlgError:
+                    d = -np.linalg.lstsq(st.K, st.r, rcond=None)[0]
+            new = self._line_search(st, d, descent, indefinite)
+            if new is None:
+                return None
+            st = new
+        self.last_error = f"Newton did not converge in {max_it} iterations (relative residual {st.rel:.2e})"
+        return None
+
+    def _line_search(self, st: State, d, descent: bool, indefinite: bool) -> State | None:
+        rn = float(np.linalg.norm(st.r))
+        slope = float(st.r @ d)
+        alpha = 1.0
+        best = None
+        for _ in range(30):
+            trial = self.evaluate(st.q + alpha * d, st.lam)
+            if trial is not None:
+                tn = float(np.linalg.norm(trial.r))
+                if descent:
+                    ok = trial.Pi <= st.Pi + 1e-4 * alpha * slope
+                    roundoff = abs(trial.Pi - st.Pi) <= 1e-13 * (abs(st.Pi) + abs(st.U)) and tn < rn
+                    if ok or roundoff:
+                        best = trial
+                        if ok and indefinite and alpha >= 1.0:
+                            # negative curvature: expand while the potential keeps falling
+                            a = alpha
+                            for _ in range(40):
+                                a *= 2.0
+                                t2 = self.evaluate(st.q + a * d, st.lam)
+                                if t2 is None or t2.Pi >= best.Pi:
+                                    break
+                                best = t2
+                        return best
+                elif tn <= (1.0 - 1e-4 * alpha) * rn:
+                    return trial
+            alpha *= 0.5
+        self.last_error = (f"line search failed at load factor {st.lam:.6g} "
+                           f"(relative residual {st.rel:.2e})")
+        return None
+
+
+def _output_points(scene: Scene, chain: Chain) -> list[str]:
+    if scene.outputs:
+        return list(scene.outputs)
+    refs = list(dict.fromkeys(ld.point for ld in scene.loads))
+    if refs:
+        return refs
+    # no loads: the tips of the flexures that carry no other flexure
+    parents = {chain.body_parent(f.name) for f in scene.flexures}
+    link_parent = {l.name: l.parent for l in scene.links}
+    leaf = []
+    for f in scene.flexures:
+        carries = any(p == f.name or link_parent.get(p) == f.name for p in parents)
+        if not carries:
+            leaf.append(f"{f.name}.tip")
+    return leaf
+
+
+def _model_info(model: FlexureModel) -> dict:
+    kind = getattr(model, "kind", "?")
+    info = {"kind": kind}
+    if kind in ("scm", "cc"):
+        info["modes"] = int(getattr(model, "modes", model.n_dof))
+    elif kind == "fem":
+        info["elements"] = int(getattr(model, "elements", model.n_dof))
+    return info
+
+
+def _load_scene(scene) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
+    from . import scene as scene_mod
+    if isinstance(scene, (str, os.PathLike)) and hasattr(scene_mod, "load_scene"):
+        return scene_mod.load_scene(scene)
+    if isinstance(scene, Mapping) and hasattr(scene_mod, "scene_from_dict"):
+        return scene_mod.scene_from_dict(scene)
+    raise TypeError(f"solve() needs a Scene, not {type(scene).__name__}")
+
+
+def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
+          model_factory: Callable[[Flexure], FlexureModel] | None = None,
+          tol: float = 1e-12, max_iterations: int = 50, max_steps: int = 500,
+          initial_step: float = 0.1, max_step: float = 0.25, min_step: float = 1e-5,
+          max_dq: float = 0.5) -> Result:
+    """Solve ``scene`` under its loads and tendons by load continuation from the unloaded state.
+
+    ``models`` gives the FlexureModel of some or all flexures; the others are built by
+    ``model_factory`` (default ``flexgen.models.registry.build_model``, from each flexure's
+    ModelSpec). ``tol`` is the relative residual (see the module docstring); ``max_iterations``
+    bounds the Newton iterations of one continuation step; ``max_steps`` the continuation steps;
+    ``initial_step``, ``max_step``, ``min_step`` the load-factor steps; ``max_dq`` the largest
+    change of any generalized coordinate in one step along the path (larger changes count as a
+    jump to another branch and make the step shorter).
+    """
+    scene = _load_scene(scene)
+    from .models.registry import build_models
+    models = build_models(scene, models, model_factory)
+    chain = Chain(scene, models)
+    system = System(chain)
+    outputs = _output_points(scene, chain)
+    for ref in outputs:
+        chain.resolve_point(ref)
+    info = {name: _model_info(m) for name, m in models.items()}
+    sol = _Solver(system, tol, max_iterations)
+    warnings: list[str] = []
+    critical: list[float] = []
+
+    def fail(reason: str, lam: float) -> Result:
+        return Result(scene=scene.name, converged=False, stable=False, iterations=sol.iterations,
+                      model=info, q={}, points={}, warnings=warnings, reason=reason,
+                      critical_load_factors=critical, load_factor=lam)
+
+    st = sol.newton(chain.zeros(), 0.0)
+    if st is None:
+        return fail(f"no equilibrium of the unloaded scene: {sol.last_error}", 0.0)
+    lam, dlam, steps = 0.0, float(initial_step), 0
+    while lam < 1.0:
+        steps += 1
+        if steps > max_steps:
+            return fail(f"load continuation needed more than {max_steps} steps "
+                        f"(reached load factor {lam:.6g})", lam)
+        lam_n = min(1.0, lam + dlam)
+        it0 = sol.iterations
+        new = _path_step(sol, st, lam_n, max_dq)
+        used = sol.iterations - it0
+        if new is not None and not _cholesky_ok(new.K) and _cholesky_ok(st.K):
+            if _is_bifurcation(new):
+                new = _cross_bifurcation(sol, st, new, outputs, chain, warnings, critical)
+                if new is None:
+                    return fail(f"no stable equilibrium found past the bifurcation near load "
+                                f"factor {lam:.6g}: {sol.last_error}", lam)
+                st, lam, dlam = new, lam_n, float(initial_step)
+                continue
+            new = None        # landed on the unstable side of a limit point: a shorter step
+        if new is None:
+            if dlam > min_step:
+                dlam = max(0.5 * dlam, min_step)
+                continue
+            # the path ends here (limit point): descend to the equilibrium it snaps to
+            new = sol.newton(st.q, lam_n, descent=True, max_iterations=20 * max_iterations)
+            if new is None or not _cholesky_ok(new.K):
+                return fail(f"no equilibrium found beyond load factor {lam:.6g}: {sol.last_error}", lam)
+            critical.append(float(lam))
+            warnings.append(f"snap-through: the equilibrium path ends at a limit point near load "
+                            f"factor {lam:.6g}; the solve continued from the stable equilibrium "
+                            f"it jumps to")
+            st, lam, dlam = new, lam_n, float(initial_step)
+            continue
+        if used <= 3:
+            dlam = min(2.0 * dlam, max_step)
+        elif used <= 6:
+            dlam = min(1.2 * dlam, max_step)
+        st, lam = new, lam_n
+
+    return _result(scene, chain, system, st, outputs, info, sol.iterations, warnings, critical)
+
+
+def _path_step(sol: _Solver, st: State, lam_n: float, max_dq: float) -> State | None:
+    """Newton at lam_n from the tangent predictor (or from st.q); None if it fails or jumps."""
+    starts = []
+    if _cholesky_ok(st.K):
+        try:
+            starts.append(st.q + (lam_n - st.lam) * np.linalg.solve(st.K, st.Q))
+        except np.linalg.LinAlgError:
+            pass
+    starts.append(st.q)
+    for q0 in starts:
+        new = sol.newton(q0, lam_n)
+        if new is not None:
+            if float(np.max(np.abs(new.q - st.q), initial=0.0)) <= max_dq:
+                return new
+            sol.last_error = f"the path jumped by more than {max_dq} in q at load factor {lam_n:.6g}"
+    return None
+
+
+def _is_bifurcation(b: State, threshold: float = 1e-6) -> bool:
+    """At a bifurcation the external load does no work along the lost mode v (v . Q = 0, e.g. by
+    symmetry); at a limit point it does. Measured against |Q| + |geometric stiffness|."""
+    _, v = _min_eig(b.K)
+    scale = float(np.linalg.norm(b.Q)) + b.kg
+    return abs(float(v @ b.Q)) <= threshold * scale if scale > 0 else True
+
+
+def _cross_bifurcation(sol: _Solver, a: State, b: State, outputs, chain: Chain,
+                       warnings: list[str], critical: list[float]) -> State | None:
+    """The path went from stable ``a`` through a bifurcation to unstable ``b``: locate the critical
+    load factor, then leave the unstable branch at ``b``'s load factor for a stable one."""
+    lo, hi = a, b
+    mu_lo, _ = _min_eig(lo.K)
+    mu_hi, _ = _min_eig(hi.K)
+    side = 0          # Illinois bookkeeping
+    for _ in range(100):
+        if hi.lam - lo.lam <= 1e-13 * max(1.0, hi.lam):
+            break
+        t = mu_lo / (mu_lo - mu_hi) if mu_lo != mu_hi else 0.5
+        t = min(max(t, 0.01), 0.99)
+        lam_m = lo.lam + t * (hi.lam - lo.lam)
+        m = sol.newton(lo.q + t * (hi.q - lo.q), lam_m)
+        if m is None:
+            break
+        mu_m, _ = _min_eig(m.K)
+        if mu_m == 0.0:
+            lo = hi = m
+            break
+        if mu_m > 0:
+            lo, mu_lo = m, mu_m
+            if side == -1:
+                mu_hi *= 0.5
+            side = -1
+        else:
+            hi, mu_hi = m, mu_m
+            if side == 1:
+                mu_lo *= 0.5
+            side = 1
+        if abs(mu_m) <= 1e-13 * max(1.0, float(np.max(np.abs(m.K)))):
+            break
+    m_lo, _ = _min_eig(lo.K)
+    m_hi, _ = _min_eig(hi.K)
+    lam_c = lo.lam if m_lo == m_hi else lo.lam + m_lo / (m_lo - m_hi) * (hi.lam - lo.lam)
+
+    # leave the unstable branch at b's load factor: descend from b +- eps v
+    _, v = _min_eig(b.K)
+    eps = 1e-3 * max(1.0, float(np.linalg.norm(b.q)))
+    candidates = []
+    for sign in (1.0, -1.0):
+        s = sol.newton(b.q + sign * eps * v, b.lam, descent=True,
+                       max_iterations=20 * sol.max_iterations)
+        if s is not None and _cholesky_ok(s.K):
+            candidates.append(s)
+    if not candidates:
+        return None
+    if len(candidates) == 1:
+        choice, why = candidates[0], "the only stable side found"
+    else:
+        s1, s2 = candidates
+        Pscale = max(abs(s1.Pi), abs(s2.Pi), abs(s1.U), abs(s2.U), 1e-300)
+        if abs(s1.Pi - s2.Pi) > 1e-9 * Pscale:
+            choice = s1 if s1.Pi < s2.Pi else s2
+            why = "the side of lower potential energy"
+        else:
+            def mean_row(s, row):
+                if not outputs:
+                    return 0.0
+                return float(np.mean([chain.point(ref, s.q).pose[row] for ref in outputs]))
+            y1, y2 = mean_row(s1, 1), mean_row(s2, 1)
+            if abs(y1 - y2) > 1e-9 * max(abs(y1), abs(y2), 1e-300):
+                choice = s1 if y1 > y2 else s2
+                why = "symmetric: the side of larger world y, by convention"
+            else:
+                choice = s1 if mean_row(s1, 2) >= mean_row(s2, 2) else s2
+                why = "symmetric: the counter-clockwise side, by convention"
+    critical.append(float(lam_c))
+    warnings.append(f"buckling: bifurcation at critical load factor {lam_c:.10g} (the stiffness "
+                    f"matrix lost positive definiteness); continued on the stable post-buckled "
+                    f"branch ({why})")
+    return choice
+
+
+def compliance(system: System, st: State, ref: str) -> np.ndarray:
+    """3x3 compliance d(x, y, angle)/d(fx, fy, moment) of point ``ref`` at state ``st``:
+    J K^-1 J^T with the full stiffness (geometric stiffness of every load included)."""
+    J = system.chain.point(ref, st.q).J
+    try:
+        X = scipy.linalg.solve(st.K, J.T, assume_a="sym")
+    except (np.linalg.LinAlgError, scipy.linalg.LinAlgError):
+        return np.full((3, 3), np.nan)
+    C = J @ X
+    return 0.5 * (C + C.T)
+
+
+def _result(scene, chain, system, st: State, outputs, info, iterations, warnings, critical) -> Result:
+    stable = _cholesky_ok(st.K)
+    if not stable:
+        warnings.append("the equilibrium is unstable: the stiffness matrix is not positive definite")
+    points = {}
+    for ref in outputs:
+        pose = chain.point(ref, st.q).pose
+        C3 = compliance(system, st, ref)
+        if not np.all(np.isfinite(C3)):
+            warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
+        C2 = C3[:2, :2]
+        points[ref] = PointResult(pose=[float(x) for x in pose], compliance=C2.tolist(),
+                                  ellipse=ellipse(C2), compliance3=C3.tolist())
+    q = {name: [float(x) for x in v] for name, v in chain.split(st.q).items()}
+    return Result(scene=scene.name, converged=True, stable=stable, iterations=iterations,
+                  model=info, q=q, points=points, warnings=warnings, reason=None,
+                  critical_load_factors=critical, load_factor=1.0, energy=st.U, residual=st.rel)
+
+
+__all__ = ["solve", "System", "State", "compliance"]
