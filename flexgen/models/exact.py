@@ -250,7 +250,7 @@ def cantilever(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0, num: 
     stable, _ = _stability(sol)
     sig = np.linspace(0.0, 1.0, num)
     Y = sol.sol(sig)
-    Y[:, 0] = 0.0
+    Y[:, 0] = sol.y[:, 0]
     Y[:, -1] = sol.y[:, -1]
     lam_c = res["lam_c"]
     crit = None if lam_c is None else lam_c * math.hypot(force[0], force[1])
