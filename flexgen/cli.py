@@ -50,9 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen = sub.add_parser("generate", help="emit flexure kernels (NumPy modules, C99 sources)",
                          description=(
         "Emit the kernel of one flexure: tip pose, Jacobian and Hessian in closed form. Without "
-        "--modes, regenerates the checked-in set (scm1..scm6 polynomial at 90 degrees, "
-        "scm3/scm5 Gauss). With --check, writes nothing and exits 1 naming the files in --out "
-        "that differ from a fresh generation."))
+        "--modes, regenerates the checked-in set (scm1..scm8 polynomial at 90 degrees, Gauss "
+        "kernels for 1..6 modes). With --check, writes nothing and exits 1 naming the files in "
+        "--out that differ from a fresh generation."))
     gen.add_argument("--modes", type=_modes, help="Legendre curvature modes N (1..8)")
     gen.add_argument("--kernel", default="poly", choices=FAMILIES,
                      help="poly: cos/sin as a Chebyshev polynomial on the range (closed-form "

@@ -16,8 +16,11 @@ from flexgen.codegen.render import render
 from flexgen.codegen.spec import BACKENDS, KernelSpec
 from flexgen.symbolic.flexure import RANGE_SAMPLES, FlexureKernel
 
-CHECKED_IN = tuple(KernelSpec(n) for n in range(1, 7)) + (
-    KernelSpec(3, "gauss"), KernelSpec(5, "gauss"))
+# Polynomial kernels at 90 degrees for 1..8 modes (mode selection may need up to 8) and Gauss
+# kernels, certified on 180 degrees, for 1..6 modes:
+# the runtime falls back to them past the polynomial range.
+CHECKED_IN = tuple(KernelSpec(n) for n in range(1, 9)) + tuple(
+    KernelSpec(n, "gauss") for n in range(1, 7))
 
 
 def command_line(kernel: FlexureKernel) -> str:

@@ -1,0 +1,25 @@
+# flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
+PYTHON ?= python3
+
+.PHONY: setup test regen check-generated bench bench-kernels demo
+
+setup:
+	$(PYTHON) -m pip install --quiet -e ".[test]"
+
+test:
+	$(PYTHON) -m pytest -q
+
+# Rewrite generated/ on purpose (the golden test compares it to a fresh generation).
+regen:
+	$(PYTHON) -m flexgen generate --out generated
+
+check-generated:
+	$(PYTHON) -m flexgen generate --out generated --check
+
+bench: bench-kernels
+
+bench-kernels:
+	$(PYTHON) benchmarks/kernels.py --out docs/benchmarks.md
+
+demo:
+	$(PYTHON) examples/demo.py

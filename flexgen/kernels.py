@@ -1,0 +1,76 @@
+"""Find and load the generated kernels: NumPy modules (runtime) and C sources (tests, benchmarks).
+
+Generated modules never import flexgen; flexgen loads them from ``generated/`` by file path, so
+they need not be on sys.path. Kernel names: ``scm{N}`` (polynomial, 90 degrees) and
+``scm{N}_gauss{G}`` (Gauss-Legendre quadrature).
+"""
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import re
+import subprocess
+from functools import lru_cache
+from pathlib import Path
+from types import ModuleType
+
+GENERATED = Path(__file__).resolve().parents[1] / "generated"
+C_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
+_NAME = re.compile(r"^scm(\d+)(?:_gauss(\d+))?$")
+
+
+class KernelNotFound(LookupError):
+    """No generated kernel of that name; the message says how to generate one."""
+
+
+def available(folder: Path = GENERATED) -> list[str]:
+    """Names of the NumPy kernels in folder/numpy, sorted by modes then family."""
+    names = [p.stem for p in (folder / "numpy").glob("scm*.py") if _NAME.match(p.stem)]
+    return sorted(names, key=lambda n: (int(_NAME.match(n)[1]), n))
+
+
+def gauss_kernel_name(modes: int, folder: Path = GENERATED) -> str:
+    """The Gauss kernel for this many modes with the most nodes (the most accurate)."""
+    found = [n for n in available(folder) if _NAME.match(n)[1] == str(modes) and "_gauss" in n]
+    if not found:
+        raise KernelNotFound(f"no Gauss kernel for {modes} modes in {folder}/numpy; run "
+                             f"`flexgen generate --modes {modes} --kernel gauss`")
+    return max(found, key=lambda n: int(_NAME.match(n)[2]))
+
+
+@lru_cache(maxsize=None)
+def load_numpy(name: str, folder: Path = GENERATED) -> ModuleType:
+    """Import generated/numpy/<name>.py as a module."""
+    path = folder / "numpy" / f"{name}.py"
+    if not path.is_file():
+        match = _NAME.match(name)
+        hint = (f"`flexgen generate --modes {match[1]}"
+                + (f" --kernel gauss --nodes {match[2]}`" if match and match[2] else "`")
+                if match else "a name like scm3 or scm3_gauss25")
+        raise KernelNotFound(f"kernel {name!r} not found in {folder}/numpy; generate it with {hint}")
+    spec = importlib.util.spec_from_file_location(f"flexgen_generated_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def compile_c(name: str, build_dir: Path, folder: Path = GENERATED,
+              extra_flags: tuple[str, ...] = ()) -> ctypes.CDLL:
+    """Compile generated/c/<name>.c with the strict flags into a shared library and load it."""
+    source = folder / "c" / f"{name}.c"
+    if not source.is_file():
+        raise KernelNotFound(f"C kernel {name!r} not found in {folder}/c")
+    build_dir.mkdir(parents=True, exist_ok=True)
+    library = build_dir / f"lib{name}.so"
+    subprocess.run(["gcc", *C_FLAGS, *extra_flags, "-shared", "-fPIC", str(source), "-lm",
+                    "-o", str(library)], check=True, capture_output=True, text=True)
+    lib = ctypes.CDLL(str(library))
+    double_p, float_p = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_float)
+    for suffix, ptr in (("", double_p), ("_f", float_p)):
+        fn = getattr(lib, f"{name}_evaluate{suffix}")
+        fn.argtypes = [ptr] * 4
+        fn.restype = None
+    in_range = getattr(lib, f"{name}_in_range")
+    in_range.argtypes = [double_p]
+    in_range.restype = ctypes.c_int
+    return lib

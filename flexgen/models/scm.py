@@ -1,0 +1,89 @@
+"""The smooth curvature model of one flexure, through the generated NumPy kernels.
+
+q are the Legendre curvature coefficients (kappa L = sum q_n P_n(2s/L - 1)), dimensionless, so
+q[0] is the tip angle. kernel = "poly" uses the closed-form polynomial kernel scm{N} (valid while
+|phi| <= its PHI_MAX along the flexure); "gauss" the Gauss kernel scm{N}_gauss{G} (any angle,
+certified on its range); "auto" the polynomial while in range and the Gauss kernel past it
+(``switched`` records that it happened, so the solver can warn). ``cc`` is this model with one mode.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numpy.polynomial import legendre
+
+from flexgen import kernels
+from flexgen.models.base import TipKinematics
+
+KERNEL_CHOICES = ("auto", "poly", "gauss")
+
+
+def angle_basis(modes: int, sigma: np.ndarray) -> np.ndarray:
+    """B[k, n] = int_0^sigma_k P_n(2t - 1) dt (numpy only: the runtime does not import SymPy)."""
+    cols = []
+    for n in range(modes):
+        c = np.zeros(n + 1)
+        c[n] = 1
+        cols.append(legendre.legval(2 * sigma - 1, legendre.legint(c, lbnd=-1) / 2))
+    return np.array(cols).T
+
+
+class SCMModel:
+    kind = "scm"
+
+    def __init__(self, length: float, EI: float, modes: int = 3, kernel: str = "auto"):
+        if kernel not in KERNEL_CHOICES:
+            raise ValueError(f"kernel: must be one of {', '.join(KERNEL_CHOICES)}, got {kernel!r}")
+        self.length, self.EI, self.n_dof, self.kernel = float(length), float(EI), modes, kernel
+        self.label = "cc" if modes == 1 else f"scm{modes}"
+        self.poly = kernels.load_numpy(f"scm{modes}") if kernel != "gauss" else None
+        self.gauss = (kernels.load_numpy(kernels.gauss_kernel_name(modes))
+                      if kernel != "poly" else None)
+        self.weights = (self.poly or self.gauss).ENERGY_WEIGHTS
+        self.switched = False
+
+    # -- kernels -------------------------------------------------------------------------
+    def in_range(self, q) -> bool:
+        """Is the polynomial kernel valid at q (or, for "gauss", the Gauss bound certified)?"""
+        return bool((self.poly or self.gauss).in_range(np.asarray(q, dtype=float)))
+
+    def kernel_at(self, q):
+        if self.poly is not None and (self.gauss is None or self.poly.in_range(q)):
+            return self.poly
+        self.switched = self.switched or self.poly is not None
+        return self.gauss
+
+    def error_bound(self, q) -> float:
+        """Kernel error bound on the tip position at q, in length units."""
+        return float(self.kernel_at(np.asarray(q, dtype=float)).ERROR_BOUND) * self.length
+
+    # -- the FlexureModel protocol ---------------------------------------------------------
+    def tip(self, q) -> TipKinematics:
+        q = np.asarray(q, dtype=float)
+        pose, J, H = self.kernel_at(q).evaluate(q)
+        scale = np.array([self.length, self.length, 1.0])
+        return TipKinematics(pose * scale, J * scale[:, None], H * scale[:, None, None])
+
+    def energy(self, q) -> float:
+        q = np.asarray(q, dtype=float)
+        return 0.5 * self.EI / self.length * float(self.weights @ (q * q))
+
+    def energy_gradient(self, q) -> np.ndarray:
+        return self.EI / self.length * self.weights * np.asarray(q, dtype=float)
+
+    def energy_hessian(self, q) -> np.ndarray:
+        return np.diag(self.EI / self.length * self.weights)
+
+    def shape(self, q, num: int = 64) -> np.ndarray:
+        """Centreline in the root frame: cumulative Gauss integration of cos/sin phi per panel."""
+        q = np.asarray(q, dtype=float)
+        edges = np.linspace(0.0, 1.0, num)
+        x, w = legendre.leggauss(8)
+        h = edges[1] - edges[0]
+        sig = edges[:-1, None] + (x + 1)[None, :] * h / 2
+        phi = angle_basis(self.n_dof, sig.ravel()) @ q
+        phi = phi.reshape(sig.shape)
+        dx = (np.cos(phi) @ w) * h / 2
+        dy = (np.sin(phi) @ w) * h / 2
+        pts = np.zeros((num, 2))
+        pts[1:, 0], pts[1:, 1] = np.cumsum(dx), np.cumsum(dy)
+        return pts * self.length

@@ -1,0 +1,217 @@
+"""The generated kernels against independent references, closed forms, the C twins, the goldens."""
+import ctypes
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import reference
+from flexgen import kernels
+from flexgen.codegen.generate import CHECKED_IN, generate_files
+from flexgen.codegen.render import write_files
+from flexgen.codegen.spec import KernelSpec
+
+NAMES = kernels.available()
+POLY = [n for n in NAMES if "_gauss" not in n]
+
+
+def test_checked_in_set_is_complete():
+    assert set(NAMES) >= {f"scm{n}" for n in range(1, 7)}
+    assert any(n.startswith("scm3_gauss") for n in NAMES)
+    assert any(n.startswith("scm5_gauss") for n in NAMES)
+    for name in NAMES:
+        if "_gauss" in name:
+            assert kernels.load_numpy(name).ERROR_BOUND <= 1e-10
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_pose_jacobian_hessian_within_bounds(name):
+    m = kernels.load_numpy(name)
+    rng = np.random.default_rng(1)
+    q = reference.near_edge(m.N, m.PHI_MAX, 300, seed=2)
+    inner = rng.normal(size=(300, m.N))
+    inner *= m.PHI_MAX * rng.uniform(0, 0.9, (300, 1)) / reference.max_angle(inner)[:, None]
+    q = np.concatenate([q, inner])
+    pose, J, H = m.evaluate(q)
+    rp, rJ, rH = reference.tip(q)
+    assert np.abs(pose[:, :2] - rp).max() <= m.ERROR_BOUND
+    assert np.array_equal(pose[:, 2], q[:, 0])
+    assert np.abs(J[:, :2] - rJ).max() <= m.JACOBIAN_ERROR_BOUND
+    assert np.abs(H[:, :2] - rH).max() <= m.HESSIAN_ERROR_BOUND
+    assert np.array_equal(J[:, 2], np.broadcast_to(np.eye(m.N)[0], J[:, 2].shape))
+    assert not H[:, 2].any()
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_derivatives_against_finite_differences(name):
+    m = kernels.load_numpy(name)
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(5, m.N)) * 0.4
+    h = 1e-5
+    pose, J, H = m.evaluate(q)
+    for i in range(m.N):
+        dq = np.zeros(m.N)
+        dq[i] = h
+        (pp, Jp, _), (pm, Jm, _) = m.evaluate(q + dq), m.evaluate(q - dq)
+        np.testing.assert_allclose(J[..., i], (pp - pm) / (2 * h), atol=1e-8)
+        np.testing.assert_allclose(H[..., i], (Jp - Jm) / (2 * h), atol=1e-8)
+
+
+def test_pose_against_scipy_quad():
+    from scipy.integrate import quad
+    m = kernels.load_numpy("scm3")
+    q = np.array([0.9, -0.7, 0.4])
+    pose, _, _ = m.evaluate(q)
+    phi = lambda s: (q @ reference.angle_basis(3, np.array([s])).T)[0]
+    x = quad(lambda s: np.cos(phi(s)), 0, 1, epsabs=1e-14, epsrel=1e-14)[0]
+    y = quad(lambda s: np.sin(phi(s)), 0, 1, epsabs=1e-14, epsrel=1e-14)[0]
+    assert abs(pose[0] - x) <= m.ERROR_BOUND and abs(pose[1] - y) <= m.ERROR_BOUND
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_closed_forms(name):
+    m = kernels.load_numpy(name)
+    pose, _, _ = m.evaluate(np.zeros(m.N))
+    np.testing.assert_allclose(pose, [1, 0, 0], atol=m.ERROR_BOUND)
+    for theta in (-1.5, -0.3, 0.01, 0.8, 1.5):
+        q = np.zeros(m.N)
+        q[0] = theta
+        pose, _, _ = m.evaluate(q)
+        arc = [np.sin(theta) / theta, (1 - np.cos(theta)) / theta, theta]
+        np.testing.assert_allclose(pose, arc, rtol=0, atol=m.ERROR_BOUND)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_bound_is_honest(name):
+    """Worst sampled error near the range edge: below the bound, and within 100x of it."""
+    m = kernels.load_numpy(name)
+    q = reference.near_edge(m.N, m.PHI_MAX, 20000, seed=4)
+    error = np.abs(m.evaluate(q)[0][:, :2] - reference.tip(q)[0]).max()
+    assert error <= m.ERROR_BOUND
+    assert error >= m.ERROR_BOUND / 100, f"bound {m.ERROR_BOUND:.3g} is loose: worst {error:.3g}"
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_in_range_is_sound_and_not_too_conservative(name):
+    m = kernels.load_numpy(name)
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(4000, m.N)) * rng.choice([0.3, 1, 3, 10], size=(4000, 1))
+    angle = reference.max_angle(q, samples=20001)
+    ok = m.in_range(q)
+    assert not np.any(ok & (angle > m.PHI_MAX))
+    inside = angle <= 0.98 * m.PHI_MAX
+    assert ok[inside].mean() > 0.95
+    assert not m.in_range(np.r_[1.01 * m.PHI_MAX, np.zeros(m.N - 1)])
+    assert m.in_range(np.r_[0.999 * m.PHI_MAX, np.zeros(m.N - 1)])
+
+
+def test_polynomial_kernel_is_the_expanded_polynomial():
+    """The nodal form equals the fully expanded closed-form polynomial in q (N=2, degree 6)."""
+    from flexgen.symbolic import trig
+    from flexgen.symbolic.basis import angle_basis, sigma
+    spec = KernelSpec(2, degree=6)
+    files = generate_files(spec, ("numpy",))
+    ns = {}
+    exec(compile(files["numpy/scm2.py"], "scm2", "exec"), ns)
+    q0, q1 = sp.symbols("q0 q1")
+    phi = q0 * angle_basis(0).as_expr() + q1 * angle_basis(1).as_expr()
+    interp = trig.chebyshev_interpolant(spec.range_rad, 6)
+    C = sum(sp.Rational(str(c)) * phi**k for k, c in enumerate(interp.cos) if c != 0)
+    x = sp.Poly(sp.expand(C), sigma).integrate()
+    x = sp.expand(x.as_expr().subs(sigma, 1))
+    f = sp.lambdify((q0, q1), x)
+    for q in ([0.3, -0.2], [1.2, 2.0], [-0.9, 1.1]):
+        assert abs(ns["evaluate"](np.array(q))[0][0] - float(f(*q))) < 1e-14
+
+
+@pytest.fixture(scope="module")
+def c_libraries(tmp_path_factory):
+    build = tmp_path_factory.mktemp("c")
+    return {name: kernels.compile_c(name, build) for name in NAMES}
+
+
+def _call(lib, name, q, suffix="", ctype=ctypes.c_double, dtype=np.float64):
+    n = q.size
+    q = np.ascontiguousarray(q, dtype=dtype)
+    out = [np.zeros(k, dtype=dtype) for k in (3, 3 * n, 3 * n * n)]
+    ptr = ctypes.POINTER(ctype)
+    getattr(lib, f"{name}_evaluate{suffix}")(*(a.ctypes.data_as(ptr) for a in (q, *out)))
+    return out[0], out[1].reshape(3, n), out[2].reshape(3, n, n)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_c_kernels_match_numpy(c_libraries, name):
+    lib, m = c_libraries[name], kernels.load_numpy(name)
+    rng = np.random.default_rng(6)
+    for q in reference.near_edge(m.N, m.PHI_MAX, 40, seed=7)[::3]:
+        expected = m.evaluate(q)
+        for got, want in zip(_call(lib, name, q), expected):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-13)
+        for got, want in zip(_call(lib, name, q, "_f", ctypes.c_float, np.float32), expected):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)
+    q = rng.normal(size=(200, m.N)) * 2
+    flags = [lib[f"{name}_in_range"](np.ascontiguousarray(x).ctypes.data_as(
+        ctypes.POINTER(ctypes.c_double))) for x in q]
+    assert flags == [int(v) for v in m.in_range(q)]
+
+
+def test_emitted_c_uses_no_heap_and_no_globals():
+    for path in (kernels.GENERATED / "c").glob("*.c"):
+        text = path.read_text()
+        assert "malloc" not in text and "static" not in text
+        top = [line for line in text.splitlines()
+               if line and not line[0].isspace() and line[0] not in "/*#{}"]
+        assert all("(" in line for line in top), f"{path.name}: non-function top-level {top}"
+
+
+def test_generated_is_byte_identical_to_a_fresh_regeneration(tmp_path):
+    files = {}
+    for spec in CHECKED_IN:
+        files |= generate_files(spec)
+    write_files(files, tmp_path)
+    fresh = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())
+    checked = sorted(p.relative_to(kernels.GENERATED)
+                     for p in kernels.GENERATED.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    assert fresh == checked
+    for rel in fresh:
+        assert (tmp_path / rel).read_bytes() == (kernels.GENERATED / rel).read_bytes(), rel
+        text = (tmp_path / rel).read_text()
+        assert "/work" not in text and str(tmp_path) not in text
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "flexgen", *args], capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("args", [
+    ["--modes", "0"], ["--modes", "9"], ["--modes", "3", "--range", "-10"],
+    ["--modes", "3", "--range", "180"], ["--modes", "3", "--lang", "rust"],
+    ["--modes", "three"], ["--modes", "3", "--kernel", "spline"],
+    ["--modes", "3", "--tol", "0"], ["--modes", "3", "--kernel", "gauss", "--degree", "4"],
+])
+def test_generate_rejects_bad_arguments(args, tmp_path):
+    result = _cli("generate", *args, "--out", str(tmp_path))
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert "Traceback" not in result.stderr
+    assert not any(tmp_path.iterdir())
+
+
+def test_generate_check_names_stale_files(tmp_path):
+    assert _cli("generate", "--modes", "2", "--out", str(tmp_path)).returncode == 0
+    assert _cli("generate", "--modes", "2", "--out", str(tmp_path), "--check").returncode == 0
+    (tmp_path / "c" / "scm2.c").write_text("/* edited */\n")
+    result = _cli("generate", "--modes", "2", "--out", str(tmp_path), "--check")
+    assert result.returncode == 1 and "c/scm2.c" in result.stderr
+    assert (tmp_path / "c" / "scm2.c").read_text() == "/* edited */\n"
+
+
+def test_generate_gauss_on_request(tmp_path):
+    result = _cli("generate", "--modes", "2", "--kernel", "gauss", "--nodes", "12",
+                  "--lang", "numpy", "--out", str(tmp_path))
+    assert result.returncode == 0
+    m = kernels.load_numpy("scm2_gauss12", tmp_path)
+    q = np.array([2.5, 1.0])
+    np.testing.assert_allclose(m.evaluate(q)[0][:2], reference.tip(q)[0], atol=m.ERROR_BOUND)
