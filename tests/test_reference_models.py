@@ -425,3 +425,55 @@ def test_prb_tip_path_force():
         defl = np.hypot(1 - x, d)
         on_path = m.tip([math.atan2(d, x - 0.15)]).pose[:2]
         assert np.linalg.norm(on_path - ex) < 0.005 * defl
+
+
+def _cross(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+def test_scene_chain_multipoint_tendon_against_cantilevers():
+    # flexure b grows directly from flexure a's tip frame; a tendon runs base.r0 -> l.g -> l.h
+    # -> base.r1 through two holes of the link on b (the g-h segment is internal). At the
+    # equilibrium, each flexure must be the cantilever under the resultant beyond its tip.
+    T = 2.0
+    r0, r1 = np.array([0.2, 0.3]), np.array([1.3, -0.4])
+    sc = make_scene([Flexure("a", "base", (0.0, 0.0, 0.0), 0.6, 1.0, MS),
+                     Flexure("b", "a", (0.0, 0.0, 0.0), 0.4, 0.7, MS)],
+                    links=[Link("l", "b", {"h": (0.05, 0.1), "g": (-0.05, 0.1)})],
+                    loads=[Load("a.tip", (0.0, -0.5), 0.1)],
+                    tendons=[Tendon(T, ("base.r0", "l.g", "l.h", "base.r1"))],
+                    base={"r0": tuple(r0), "r1": tuple(r1)},
+                    outputs=("l.h", "l.g", "a.tip", "b.tip"))
+    res = solve_exact(sc)
+    assert res.converged and res.stable
+    g, h = res.poses["l.g"][:2], res.poses["l.h"][:2]
+    ta, tb = res.poses["a.tip"], res.poses["b.tip"]
+    Fg = T * (r0 - g) / np.linalg.norm(r0 - g)
+    Fh = T * (r1 - h) / np.linalg.norm(r1 - h)
+    Fb = Fg + Fh
+    Mb = _cross(g - tb[:2], Fg) + _cross(h - tb[:2], Fh)
+    # b: cantilever in a's tip frame
+    R = rot(ta[2])
+    cb = cantilever(0.7, 0.4, force=tuple(R.T @ Fb), moment=Mb)
+    assert np.allclose(tb[:2], ta[:2] + R @ cb.pose[:2], atol=1e-9)
+    assert abs(tb[2] - (ta[2] + cb.pose[2])) < 1e-9
+    # a: cantilever from the base under everything beyond its tip
+    Fa = Fb + np.array([0.0, -0.5])
+    Ma = 0.1 + _cross(g - ta[:2], Fg) + _cross(h - ta[:2], Fh)
+    ca = cantilever(1.0, 0.6, force=tuple(Fa), moment=Ma)
+    assert np.allclose(ta, ca.pose, atol=1e-9)
+
+
+def test_limit_point_is_reported_not_hidden():
+    # this proportional load path has a fold (snap-through) near load factor 0.5457: both the
+    # cantilever solver and the scene solver must stop there, say so, and agree where
+    F, M = (-1.74574099, -4.67920763), 3.478735754260268
+    c = cantilever(1.0, 1.0, F, M)
+    assert not c.converged and any("limit point" in w for w in c.warnings)
+    sc = make_scene([Flexure("a", "base", (0.0, 0.0, 0.0), 0.5, 1.0, MS),
+                     Flexure("b", "a", (0.0, 0.0, 0.0), 0.5, 1.0, MS)],
+                    loads=[Load("b.tip", F, M)])
+    r = solve_exact(sc)
+    assert not r.converged and any("limit point" in w for w in r.warnings)
+    assert abs(r.load_factor - c.critical_load_factor) < 1e-5
+    assert 0.5 < c.critical_load_factor < 0.6

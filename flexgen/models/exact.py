@@ -199,7 +199,10 @@ def _continue(fx: float, fy: float, mM: float, max_step: float = 0.25):
         if not ok:
             dlam *= 0.5
             if dlam < 1e-9:
-                warnings.append(f"continuation stalled at load factor {lam:.9g} (limit point?)")
+                warnings.append(f"continuation stalled at load factor {lam:.9g} "
+                                "(limit point: the load would snap through)")
+                if lam_c is None:
+                    lam_c = lam
                 break
             continue
         if stable_prev and not stable:
@@ -465,7 +468,8 @@ class _SceneProblem:
         for T, ids in self.tendons:
             for a, b in zip(ids[:-1], ids[1:]):
                 d = pts[:, b] - pts[:, a]
-                u = d / np.linalg.norm(d, axis=-1, keepdims=True)
+                nrm = np.linalg.norm(d, axis=-1, keepdims=True)
+                u = d / np.where(nrm > 0.0, nrm, 1.0)
                 F[:, a] += lam * T * u
                 F[:, b] -= lam * T * u
         # required force through each flexure and moment at its tip
@@ -502,9 +506,11 @@ class _SceneProblem:
             t = 1.0
             while True:
                 Rn = self.evaluate(z + t * dz, lam)[0][0]
-                if np.max(np.abs(Rn)) < max(r0, 1e-11) or t < 1e-3:
+                if np.max(np.abs(Rn)) < max(r0, 1e-11):
                     break
                 t *= 0.5
+                if t < 0.06:     # no descent: let the continuation take a smaller load step
+                    raise RuntimeError("shooting Newton: no descent")
             z = z + t * dz
             if np.max(np.abs(t * dz)) < 1e-12 * (1 + np.max(np.abs(z))) and np.max(np.abs(Rn)) < tol:
                 return z, it
@@ -551,7 +557,7 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         else:
             guess = z.copy()
         try:
-            z_new, it = prob.newton(guess, lam_new)
+            z_new, it = prob.newton(guess, lam_new, max_iter=10)
             iters += it
             # step control: the corrector must stay close to the predictor (no branch jumping)
             ok = np.max(np.abs(z_new - guess)) < 0.1 * (1.0 + np.max(np.abs(z_new)))
@@ -564,8 +570,11 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                 ok = False       # confirm a sign change of det J with small steps (no jump)
         if not ok:
             dlam *= 0.5
-            if dlam < 1e-7:
-                warnings.append(f"continuation stalled at load factor {lam:.6g}")
+            if dlam < 1e-6:
+                warnings.append(f"continuation stalled at load factor {lam:.6g} "
+                                "(limit point: the load would snap through)")
+                if lam_c is None:
+                    lam_c = lam
                 break
             continue
         if s_new != sign:
