@@ -152,6 +152,9 @@ class Chain:
 
     def resolve_point(self, ref: str) -> tuple[str, tuple[float, float]]:
         """``"<body>.<point>"`` -> (body, point coordinates in the body's frame)."""
+        resolve = getattr(self.scene, "resolve_point", None)
+        if resolve is not None:         # the scene's own resolver (one-line SceneError messages)
+            return resolve(ref)
         body, point = _split_ref(ref)
         if body == BASE:
             pts = self.scene.base_points

@@ -340,3 +340,19 @@ def test_shapes_end_at_the_flexure_tips():
     for name in ("a", "b", "c"):
         assert shapes[name].shape == (50, 2)
         assert np.allclose(shapes[name][-1], chain.pose(f"{name}.tip", q)[:2], atol=1e-5)
+
+
+def test_potential_residual_and_stiffness_are_consistent():
+    """r = grad Pi and K = hess Pi (moments on the angle rows, tendon, several loads)."""
+    from flexgen.solve import System
+    sc = _compliance_scene()
+    chain = Chain(sc, models_for(sc, 3))
+    system = System(chain)
+    rng = np.random.default_rng(11)
+    q, lam = 0.4 * rng.standard_normal(chain.ndof), 0.7
+    st = system.state(q, lam)
+    E, h = np.eye(chain.ndof), 1e-6
+    rfd = np.array([(system.state(q + h * e, lam).Pi - system.state(q - h * e, lam).Pi) / (2 * h) for e in E])
+    Kfd = np.stack([(system.state(q + h * e, lam).r - system.state(q - h * e, lam).r) / (2 * h) for e in E], 1)
+    assert np.allclose(st.r, rfd, atol=1e-7)
+    assert np.allclose(st.K, Kfd, atol=1e-7)
