@@ -27,10 +27,14 @@ structure snaps to, with a warning.
 
 Convergence. The residual is relative to the scale of the generalized forces in the problem:
 
-    rel = |r|_inf / max(|grad U|_inf, lam |sum_p J_p^T F_p|_inf, lam |sum_t T_t grad l_t|_inf)
+    rel = |r|_inf / max(|grad U|_inf, lam * max_i S_i)
+    S_i = sum_p (|f_p| |d r_p/d q_i| + |m_p| |d th_p/d q_i|) + sum_t T_t sum_k |d(r_k+1 - r_k)/d q_i|
 
-evaluated at the current q; an equilibrium is accepted when rel <= tol (default 1e-12). This is
-invariant under a change of units. The unloaded state (all terms zero) counts as converged.
+evaluated at the current q: S_i is the largest generalized force the loads and tendons could exert
+on coordinate q_i whatever their direction (so a load that happens to do no work on q, such as an
+axial load on a straight flexure, still sets the scale). An equilibrium is accepted when
+rel <= tol (default 1e-12). This is invariant under a change of units. The unloaded state (all
+terms zero) counts as converged.
 
 If no equilibrium is found (Newton fails even at the smallest step, too many continuation steps, a
 model raising an error such as a kernel out of its range), ``solve`` returns a Result with
@@ -102,11 +106,13 @@ class System:
         gU = ch.energy_gradient(q)
         KU = ch.energy_hessian(q)
         W, QL, GL = 0.0, np.zeros(n), np.zeros((n, n))
+        reach = np.zeros(n)     # largest generalized force the loads could exert on each q_i
         for ref, F in self.loads:
             pk = ch.point(ref, q)
             W += float(F @ pk.pose)
             QL += F @ pk.J
             GL += np.einsum("a,aij->ij", F, pk.H)
+            reach += np.hypot(F[0], F[1]) * np.linalg.norm(pk.J[:2], axis=0) + abs(F[2]) * np.abs(pk.J[2])
         V, QT, GT = 0.0, np.zeros(n), np.zeros((n, n))
         for T, route in self.tendons:
             if T == 0.0:
@@ -115,12 +121,13 @@ class System:
             V += T * l
             QT += T * gl
             GT += T * hl
+            J = [ch.point(ref, q).J[:2] for ref in route]
+            reach += abs(T) * sum(np.linalg.norm(J[k + 1] - J[k], axis=0) for k in range(len(J) - 1))
         r = gU - lam * QL + lam * QT
         K = KU - lam * GL + lam * GT
         K = 0.5 * (K + K.T)
         scale = max(float(np.max(np.abs(gU), initial=0.0)),
-                    lam * float(np.max(np.abs(QL), initial=0.0)),
-                    lam * float(np.max(np.abs(QT), initial=0.0)))
+                    abs(lam) * float(np.max(reach, initial=0.0)))
         kg = float(np.linalg.norm(lam * (GT - GL)))
         return State(q.copy(), float(lam), U - lam * W + lam * V, U, r, K, QL - QT, scale, kg)
 

@@ -356,3 +356,29 @@ def test_potential_residual_and_stiffness_are_consistent():
     Kfd = np.stack([(system.state(q + h * e, lam).r - system.state(q - h * e, lam).r) / (2 * h) for e in E], 1)
     assert np.allclose(st.r, rfd, atol=1e-7)
     assert np.allclose(st.K, Kfd, atol=1e-7)
+
+
+@pytest.mark.parametrize("angle", [0.3, 2.0])
+def test_rotated_elastica_buckles_like_the_unrotated_one(angle):
+    """The root frame turned by ``angle`` and the load along the turned axis: the only
+    imperfection is round-off, which must neither stall the solve nor hide the bifurcation."""
+    P = 3.4375929
+    c, s = math.cos(angle), math.sin(angle)
+    sc = scene_of([flex("f", "base", (0.0, 0.0, angle), 1.0, 1.0, 5)], loads=[Load("f.tip", (-P * c, -P * s))])
+    res = solve(sc, {"f": LegendreModel(1.0, 1.0, 5)})
+    assert res.converged and res.stable, res.reason
+    x, y, _ = res.points["f.tip"].pose
+    assert c * x + s * y == pytest.approx(0.456947, abs=1e-4)
+    assert abs(-s * x + c * y) == pytest.approx(0.762760, abs=1e-4)
+    assert res.critical_load_factors == [pytest.approx(math.pi ** 2 / 4 / P, rel=1e-4)]
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_imperfect_elastica_follows_its_imperfection_without_a_bifurcation(sign):
+    P = 3.4375929
+    sc = scene_of([flex("f", "base", (0, 0, 0), 1.0, 1.0, 5)], loads=[Load("f.tip", (-P, sign * 1e-3))])
+    res = solve(sc, {"f": LegendreModel(1.0, 1.0, 5)})
+    assert res.converged and res.stable
+    x, y, _ = res.points["f.tip"].pose
+    assert sign * y == pytest.approx(0.762760, abs=1e-3) and x == pytest.approx(0.456947, abs=1e-3)
+    assert res.critical_load_factors == [] and res.warnings == []
