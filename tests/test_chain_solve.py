@@ -318,7 +318,12 @@ def test_no_equilibrium_within_limits_is_reported_not_raised():
     assert res.reason
     out = json.loads(res.to_json())
     assert out["converged"] is False and out["reason"] == res.reason
-    assert "not converged" in res.table().lower() or "NOT converged" in res.table()
+    assert "not converged" in res.table().lower()
+    # Newton allowed no iteration at all: no equilibrium past the unloaded state
+    sc, models = _single(P=(0.0, -2.0), modes=3)
+    res = solve(sc, models, max_iterations=0)
+    assert res.converged is False and "no equilibrium" in res.reason
+    assert res.q == {} and res.points == {}
 
 
 def test_json_contract_fields_and_ellipse_convention():
@@ -382,3 +387,15 @@ def test_imperfect_elastica_follows_its_imperfection_without_a_bifurcation(sign)
     x, y, _ = res.points["f.tip"].pose
     assert sign * y == pytest.approx(0.762760, abs=1e-3) and x == pytest.approx(0.456947, abs=1e-3)
     assert res.critical_load_factors == [] and res.warnings == []
+
+
+@pytest.mark.parametrize("P, x, y, angle_deg", [(2.55406, 0.93243, 0.32390, 30.0),
+                                                (2.84175, 0.74102, 0.59321, 60.0),
+                                                (4.65056, 0.12316, 0.80317, 120.0)])
+def test_post_buckled_cantilever_against_the_elastica_table(P, x, y, angle_deg):
+    sc = scene_of([flex("f", "base", (0, 0, 0), 1.0, 1.0, 7)], loads=[Load("f.tip", (-P, 0.0))])
+    res = solve(sc, {"f": LegendreModel(1.0, 1.0, 7)})
+    assert res.converged and res.stable
+    px, py, th = res.points["f.tip"].pose
+    assert (px, py) == (pytest.approx(x, abs=2e-5), pytest.approx(y, abs=2e-5))
+    assert math.degrees(th) == pytest.approx(angle_deg, abs=1e-2)
