@@ -13,17 +13,21 @@ adaptive steps (tangent predictor dq/dlam = K^-1 Q_ext while K is positive defin
 with a backtracking line search on |r|; the step grows after quick convergence and halves after a
 failure), so the answer is the branch a slowly applied load reaches.
 
-Stability and bifurcations. After every step the smallest eigenvalue of K is checked. When it turns
-negative along the path, the crossing is located by regula falsi (Illinois) on that eigenvalue,
-re-solving the equilibrium at each trial load factor from the last stable state. If the path
-continues through the crossing (a bifurcation: buckling), the critical load factor is recorded with
-a warning and the solve leaves the unstable branch: from the unstable state it descends the
-potential (Newton with the eigenvalues of K made positive, Armijo line search on Pi) starting at
-q +- eps v, v the eigenvector of the lost mode, and keeps the stable side with the lower potential;
-when both sides have the same potential (a symmetric pitchfork) it keeps the side that moves the
-output points to larger mean world y (then: larger mean body angle, i.e. counter-clockwise). If the
-path ends (a limit point: no equilibrium nearby past it) the same descent finds the equilibrium the
-structure snaps to, with a warning.
+Stability and bifurcations. After every step K is checked (Cholesky). When a step from a stable
+state lands on an unstable one, the lost mode v (eigenvector of the smallest eigenvalue) tells the
+two cases apart: at a bifurcation the load does no work along v (|v . Q| <= 1e-6 (|Q| + |K_geo|),
+e.g. by symmetry); otherwise the step overshot a limit point onto the unstable branch and is
+retried shorter. At a bifurcation the crossing is located by regula falsi (Illinois) on the smallest
+eigenvalue, re-solving the equilibrium along the path at each trial load factor; the critical load
+factor is recorded with a warning and the solve leaves the unstable branch: from the unstable state
+it descends the potential (Newton with the eigenvalues of K replaced by their magnitudes, Armijo
+line search on Pi, step expansion along negative curvature) starting at q +- eps v, and keeps the
+stable side with the lower potential; when both sides have the same potential (a symmetric
+pitchfork) it keeps the side that moves the output points to larger mean world y (then: larger mean
+body angle, i.e. counter-clockwise). If the path ends (a limit point: Newton finds no equilibrium
+near the path even at the smallest step) the same descent finds the stable equilibrium the
+structure snaps to, with a warning and the load factor recorded. A step along the path may change
+no coordinate by more than ``max_dq``; a larger change counts as a jump and the step is shortened.
 
 Convergence. The residual is relative to the scale of the generalized forces in the problem:
 
@@ -154,12 +158,13 @@ class _Solver:
         self.max_iterations = max_iterations
         self.iterations = 0
         self.last_error: str | None = None
+        self.model_error: str | None = None   # the last exception a model or the chain raised
 
     def evaluate(self, q, lam) -> State | None:
         try:
             st = self.sys.state(q, lam)
         except _EVAL_ERRORS as exc:
-            self.last_error = str(exc)
+            self.last_error = self.model_error = str(exc)
             return None
         if not (np.isfinite(st.Pi) and np.all(np.isfinite(st.r)) and np.all(np.isfinite(st.K))):
             self.last_error = "a model returned a non-finite value"
@@ -303,6 +308,8 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     critical: list[float] = []
 
     def fail(reason: str, lam: float) -> Result:
+        if sol.model_error and sol.model_error not in reason:
+            reason = f"{reason} (last model error: {sol.model_error})"
         return Result(scene=scene.name, converged=False, stable=False, iterations=sol.iterations,
                       model=info, q={}, points={}, warnings=warnings, reason=reason,
                       critical_load_factors=critical, load_factor=lam)
@@ -348,6 +355,7 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
         elif used <= 6:
             dlam = min(1.2 * dlam, max_step)
         st, lam = new, lam_n
+        sol.model_error = None
 
     return _result(scene, chain, system, st, outputs, info, sol.iterations, warnings, critical)
 

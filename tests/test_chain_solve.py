@@ -399,3 +399,15 @@ def test_post_buckled_cantilever_against_the_elastica_table(P, x, y, angle_deg):
     px, py, th = res.points["f.tip"].pose
     assert (px, py) == (pytest.approx(x, abs=2e-5), pytest.approx(y, abs=2e-5))
     assert math.degrees(th) == pytest.approx(angle_deg, abs=1e-2)
+
+
+def test_a_model_error_mid_solve_is_reported_not_raised():
+    class Ranged(LegendreModel):
+        def tip(self, q):
+            if abs(np.asarray(q)[0]) > 0.8:
+                raise ValueError("flexure bent past the kernel range |phi| <= 0.8 rad")
+            return super().tip(q)
+
+    sc, _ = _single(M=1.5, modes=3)
+    res = solve(sc, {"f": Ranged(1.0, 1.0, 3)})
+    assert res.converged is False and "kernel range" in res.reason
