@@ -18,7 +18,8 @@ Error bounds (units of L; theta is exact):
   the derivative bounds times int|B_i| <= ||B_i||_2 and int|B_i B_j| <= ||B_i B_j||_2.
 * gauss: the rule is exact for T(phi(sigma)) with T any polynomial of degree D' <= (2G-1-deg h)/N,
   h the basis weight (1, B_i or B_i B_j), so the error is at most
-  (sum_g w_g |h(sigma_g)| + int |h|) * (Chebyshev truncation error of degree D' on [-a, a]).
+  (sum_g w_g |h(sigma_g)| + int |h|) * (Chebyshev truncation error of degree D' on [-a, a]);
+  with one mode phi = q0 sigma sweeps only [0, q0], and half the range is enough.
 Both add a rounding allowance for double evaluation.
 """
 from __future__ import annotations
@@ -164,7 +165,13 @@ class FlexureKernel:
             d = (2 * G - 1 - h_degree) // N
             if d < 0:
                 return math.inf
-            eps = max(trig.error_bound(f, a, d, kind="truncation") for f in trig.FUNCTIONS)
+            if N == 1:
+                # phi = q0 sigma only sweeps [0, q0]: approximate on that half of the range,
+                # cos/sin(a/2 + a/2 t), whose Chebyshev coefficients are bounded by 2|J_k(a/2)|
+                eps = sum(trig.error_bound(f, a / 2, d, kind="truncation")
+                          for f in trig.FUNCTIONS)
+            else:
+                eps = max(trig.error_bound(f, a, d, kind="truncation") for f in trig.FUNCTIONS)
             rule = float(sum(wg * abs(_poly_at(h, sg)) for wg, sg in zip(w, sig)))
             return eps * (rule + _l2_norm(h))
 
