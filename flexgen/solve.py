@@ -310,6 +310,7 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     def fail(reason: str, lam: float) -> Result:
         if sol.model_error and sol.model_error not in reason:
             reason = f"{reason} (last model error: {sol.model_error})"
+        warnings.extend(_kernel_warnings(models, chain, None))
         return Result(scene=scene.name, converged=False, stable=False, iterations=sol.iterations,
                       model=info, q={}, points={}, warnings=warnings, reason=reason,
                       critical_load_factors=critical, load_factor=lam)
@@ -357,7 +358,21 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
         st, lam = new, lam_n
         sol.model_error = None
 
+    warnings.extend(_kernel_warnings(models, chain, st.q))
     return _result(scene, chain, system, st, outputs, info, sol.iterations, warnings, critical)
+
+
+def _kernel_warnings(models, chain: Chain, q) -> list[str]:
+    """One warning per flexure whose model switched kernels during the solve (scm "auto": past
+    the polynomial kernel's range to the Gauss kernel); q is the equilibrium (None: none found)."""
+    parts = chain.split(q) if q is not None else {}
+    out = []
+    for name, m in models.items():
+        warn = getattr(m, "switch_warning", None)
+        msg = warn(parts.get(name)) if warn is not None else None
+        if msg:
+            out.append(msg)
+    return out
 
 
 def _path_step(sol: _Solver, st: State, lam_n: float, max_dq: float) -> State | None:

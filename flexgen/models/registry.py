@@ -3,8 +3,8 @@
 The model modules are imported lazily, so a scene that uses only one kind of model needs only that
 module (and the runtime never imports SymPy).
 
-    scm -> flexgen.models.scm.SCMModel(length, EI, modes, kernel)
-    cc  -> flexgen.models.scm.SCMModel(length, EI, 1, kernel)     (constant curvature)
+    scm -> flexgen.models.scm.SCMModel(length, EI, modes, kernel, name)
+    cc  -> flexgen.models.scm.SCMModel(length, EI, 1, kernel, name)     (constant curvature)
     prb -> flexgen.models.prb.PRBModel(length, EI)
     fem -> flexgen.models.fem.FEMModel(length, EI, elements)
 """
@@ -42,7 +42,7 @@ def build_model(flexure: Flexure) -> FlexureModel:
     if kind in ("scm", "cc"):
         SCMModel = _load("flexgen.models.scm", "SCMModel", flexure)
         modes = 1 if kind == "cc" else int(spec.modes)
-        return SCMModel(length, EI, modes, spec.kernel)
+        return SCMModel(length, EI, modes, spec.kernel, name=flexure.name)
     if kind == "prb":
         PRBModel = _load("flexgen.models.prb", "PRBModel", flexure)
         return PRBModel(length, EI)

@@ -4,9 +4,13 @@ q are the Legendre curvature coefficients (kappa L = sum q_n P_n(2s/L - 1)), dim
 q[0] is the tip angle. kernel = "poly" uses the closed-form polynomial kernel scm{N} (valid while
 |phi| <= its PHI_MAX along the flexure); "gauss" the Gauss kernel scm{N}_gauss{G} (any angle,
 certified on its range); "auto" the polynomial while in range and the Gauss kernel past it
-(``switched`` records that it happened, so the solver can warn). ``cc`` is this model with one mode.
+(``switched`` records that it happened, so the solver can warn). With "poly" alone a pose past
+the range raises ValueError naming the flexure (``name``) and the range, so the solver reports no
+equilibrium instead of a wrong one. ``cc`` is this model with one mode.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.polynomial import legendre
@@ -30,16 +34,18 @@ def angle_basis(modes: int, sigma: np.ndarray) -> np.ndarray:
 class SCMModel:
     kind = "scm"
 
-    def __init__(self, length: float, EI: float, modes: int = 3, kernel: str = "auto"):
+    def __init__(self, length: float, EI: float, modes: int = 3, kernel: str = "auto",
+                 name: str = "?"):
         if kernel not in KERNEL_CHOICES:
             raise ValueError(f"kernel: must be one of {', '.join(KERNEL_CHOICES)}, got {kernel!r}")
         self.length, self.EI, self.n_dof, self.kernel = float(length), float(EI), modes, kernel
         self.label = "cc" if modes == 1 else f"scm{modes}"
         self.poly = kernels.load_numpy(f"scm{modes}") if kernel != "gauss" else None
-        self.gauss = (kernels.load_numpy(kernels.gauss_kernel_name(modes))
-                      if kernel != "poly" else None)
+        self.gauss_name = kernels.gauss_kernel_name(modes) if kernel != "poly" else None
+        self.gauss = kernels.load_numpy(self.gauss_name) if self.gauss_name else None
         self.weights = (self.poly or self.gauss).ENERGY_WEIGHTS
         self.switched = False
+        self.name = name
 
     # -- kernels -------------------------------------------------------------------------
     def in_range(self, q) -> bool:
@@ -47,10 +53,32 @@ class SCMModel:
         return bool((self.poly or self.gauss).in_range(np.asarray(q, dtype=float)))
 
     def kernel_at(self, q):
-        if self.poly is not None and (self.gauss is None or self.poly.in_range(q)):
+        if self.poly is not None and self.gauss is None:
+            if not self.poly.in_range(q):
+                raise ValueError(
+                    f"flexure {self.name!r}: bent past the range of the polynomial kernel "
+                    f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the "
+                    f"flexure; kernel 'poly' was asked for, 'auto' switches to the Gauss kernel)")
+            return self.poly
+        if self.poly is not None and self.poly.in_range(q):
             return self.poly
         self.switched = self.switched or self.poly is not None
         return self.gauss
+
+    def switch_warning(self, q=None) -> str | None:
+        """The warning for a solve in which this flexure left the polynomial kernel's range
+        (None if it never did); ``q`` is the equilibrium, if one was found."""
+        if not (self.switched and self.poly is not None):
+            return None
+        if q is None:
+            where = "during the solve"
+        elif self.poly.in_range(np.asarray(q, dtype=float)):
+            where = "during the solve (the equilibrium is back in range)"
+        else:
+            where = "at equilibrium"
+        return (f"flexure {self.name!r}: bent past the range of the polynomial kernel "
+                f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg) "
+                f"{where}; switched to the Gauss kernel {self.gauss_name}")
 
     def error_bound(self, q) -> float:
         """Kernel error bound on the tip position at q, in length units."""
