@@ -1,1 +1,32 @@
-"""flexgen: the smooth curvature model of planar flexures, as generated NumPy and C99 kernels."""
+"""flexgen: the smooth curvature model of planar flexures, as generated NumPy and C99 kernels.
+
+Public API::
+
+    flexgen.load_scene(path) -> Scene
+    flexgen.solve(scene_or_path, model=None, modes=None, elements=None, **options) -> Result
+    flexgen.generate(modes, kernel="poly", ...) -> {relative path: text}   (needs SymPy)
+
+See docs/solve.md and docs/scene.md.
+"""
+from __future__ import annotations
+
+# Load the submodule ``flexgen.solve`` first, then bind the name ``solve`` to the API function:
+# importing a submodule sets the package attribute only when it is first loaded.
+from . import solve as _solve_module  # noqa: F401
+from .api import solve
+from .scene import SceneError, load_scene, scene_from_dict
+
+
+def generate(modes: int, kernel: str = "poly", range_deg: float | None = None,
+             degree: int | None = None, nodes: int | None = None, tol: float = 1e-10,
+             langs=("numpy", "c")) -> dict[str, str]:
+    """Generate one flexure kernel: {relative path: source text} (nothing is written).
+
+    Same arguments as ``flexgen generate`` (``kernel`` "poly" or "gauss"; ``langs`` from
+    "numpy", "c"). Imports SymPy, so only when called."""
+    from .codegen.generate import generate_files
+    from .codegen.spec import KernelSpec
+    return generate_files(KernelSpec(modes, kernel, range_deg, degree, nodes, tol), tuple(langs))
+
+
+__all__ = ["load_scene", "scene_from_dict", "solve", "generate", "SceneError"]

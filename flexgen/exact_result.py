@@ -1,0 +1,64 @@
+"""The exact elastica solver's answer as a Result, so ``kind = "exact"`` answers like any model.
+
+``models.exact.solve_exact`` solves the whole scene by shooting (it is not a per-flexure chain
+model), so "exact" applies to every flexure of a scene at once. The Result it becomes has:
+
+- ``model``: ``{flexure: {"kind": "exact"}}``;
+- ``q``: each flexure's root loads ``[Fx, Fy, M0]`` (the force it transmits, world frame, and its
+  root moment; physical units), the exact solver's unknowns;
+- ``points``: pose and 2x2 compliance of the output points (``compliance3`` has the 2x2 block and
+  NaN in the angle row and column: the exact solver gives position compliance only);
+- ``critical_load_factors``: the bifurcation or limit point it crossed, if any.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .result import PointResult, Result, ellipse
+from .scene import Scene
+
+
+def to_result(scene: Scene, sol) -> Result:
+    """Convert a ``models.exact.SceneSolution`` of ``scene`` into a Result."""
+    info = {f.name: {"kind": "exact"} for f in scene.flexures}
+    warnings = list(sol.warnings)
+    critical = [] if sol.critical_load_factor is None else [float(sol.critical_load_factor)]
+    if not sol.converged:
+        reason = (f"exact solver: no equilibrium found beyond load factor {sol.load_factor:.6g}"
+                  + (f" ({warnings[0]})" if warnings else ""))
+        return Result(scene=scene.name, converged=False, stable=False,
+                      iterations=int(sol.iterations), model=info, q={}, points={},
+                      warnings=warnings, reason=reason, critical_load_factors=critical,
+                      load_factor=float(sol.load_factor))
+    points = {}
+    for ref, pose in sol.poses.items():
+        C2 = np.asarray(sol.compliance[ref], dtype=float)
+        C2 = 0.5 * (C2 + C2.T)
+        C3 = np.full((3, 3), math.nan)
+        C3[:2, :2] = C2
+        points[ref] = PointResult(pose=[float(x) for x in pose], compliance=C2.tolist(),
+                                  ellipse=ellipse(C2), compliance3=C3.tolist())
+    if not sol.stable:
+        warnings.append("the equilibrium is unstable (exact solver: the shooting Jacobian's "
+                        "determinant changed sign along the load path)")
+    q = {name: [float(x) for x in v] for name, v in sol.root_loads.items()}
+    return Result(scene=scene.name, converged=True, stable=bool(sol.stable),
+                  iterations=int(sol.iterations), model=info, q=q, points=points,
+                  warnings=warnings, reason=None, critical_load_factors=critical,
+                  load_factor=float(sol.load_factor))
+
+
+def solve(scene: Scene):
+    """Solve ``scene`` with the exact elastica solver: ``(Result, SceneSolution or None)``.
+    A solver failure (integration or shooting breaking down) is a Result with converged False."""
+    from .models.exact import solve_exact
+    try:
+        sol = solve_exact(scene)
+    except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        info = {f.name: {"kind": "exact"} for f in scene.flexures}
+        return Result(scene=scene.name, converged=False, stable=False, iterations=0, model=info,
+                      q={}, points={}, reason=f"exact solver failed: {exc}",
+                      load_factor=0.0), None
+    return to_result(scene, sol), sol
