@@ -1,0 +1,87 @@
+"""`flexgen solve SCENE`: equilibrium, stability and compliance ellipses of a scene.
+
+Exit codes: 0 an equilibrium was found; 1 none was found (one line on stderr with the reason;
+with --json the object with "converged": false and "reason" still goes to stdout); 2 bad input
+(raised as SceneError or UsageError, reported by flexgen/cli.py).
+
+``add_model_options`` and ``solve_args`` are shared with `flexgen plot`.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from flexgen.commands.common import UsageError
+
+KINDS = ("scm", "cc", "prb", "fem", "exact")
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
+    return value
+
+
+def add_model_options(p) -> None:
+    """SCENE, --model, --modes, --elements: the arguments `solve` and `plot` share."""
+    p.add_argument("scene", metavar="SCENE", help="scene file (TOML; see docs/scene.md)")
+    p.add_argument("--model", choices=KINDS, metavar="KIND",
+                   help="model of every flexure, overriding the scene's [model] and per-flexure "
+                        "kinds: scm (smooth curvature, Legendre modes), cc (constant curvature, "
+                        "= scm with 1 mode), prb (pseudo-rigid-body 1R), fem (chain of rigid "
+                        "elements and torsion springs), exact (elastica by shooting; slow)")
+    p.add_argument("--modes", type=_count, metavar="N",
+                   help="scm: Legendre curvature modes of every flexure (overrides the scene; "
+                        "1..8 with the checked-in kernels)")
+    p.add_argument("--elements", type=_count, metavar="N",
+                   help="fem: rigid elements per flexure (overrides the scene)")
+    # --tol T (mode selection by tolerance) is added here by flexgen/select.py's integration;
+    # solve_args passes every option in OPTION_NAMES on to the API.
+
+
+OPTION_NAMES: list[str] = []     # extra argparse dests forwarded to flexgen.api.solve_scene
+
+
+def solve_args(args):
+    """Load the scene, apply the command-line overrides and solve:
+    ``(scene, Result, exact SceneSolution or None)``. Bad input raises SceneError/UsageError."""
+    from flexgen.api import as_scene, override, solve_scene
+    from flexgen.kernels import KernelNotFound
+    from flexgen.models.registry import ModelError
+
+    scene = override(as_scene(args.scene), args.model, args.modes, args.elements)
+    options = {name: getattr(args, name) for name in OPTION_NAMES
+               if getattr(args, name, None) is not None}
+    try:
+        result, exact = solve_scene(scene, **options)
+    except (ModelError, KernelNotFound) as exc:     # e.g. --modes 12: no such kernel
+        raise UsageError(" ".join(str(exc).split())) from None
+    return scene, result, exact
+
+
+def register(sub) -> None:
+    p = sub.add_parser("solve", help="solve a scene: loaded shape, stability, compliance ellipses",
+                       description=(
+        "Solve a scene (flexures, rigid links, dead loads, tendons) by load continuation from the "
+        "unloaded state, and report each output point's pose, 2x2 compliance and compliance "
+        "ellipse. Without --json: a table. Exit codes: 0 equilibrium found, 1 no equilibrium "
+        "(reason on stderr), 2 bad input (one line on stderr naming the key)."))
+    add_model_options(p)
+    p.add_argument("--json", action="store_true",
+                   help="print the result as one JSON object (the fields of the public contract, "
+                        "plus \"reason\" when not converged)")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    _, result, _ = solve_args(args)
+    print(result.to_json(indent=2) if args.json else result.table())
+    if not result.converged:
+        reason = " ".join(str(result.reason or "not converged").split())
+        print(f"flexgen: no equilibrium: {reason}", file=sys.stderr)
+        return 1
+    return 0
