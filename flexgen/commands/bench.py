@@ -1,0 +1,34 @@
+"""`flexgen bench`: accuracy against speed of every model on a fixed suite (docs/accuracy-vs-speed)."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from flexgen.commands.common import REPO
+
+
+def register(sub) -> None:
+    p = sub.add_parser("bench", help="accuracy against speed of every model on a fixed suite",
+                       description=(
+        "Solve the examples and a seeded set of random chains and trees with every model (cc, "
+        "prb, scm2..6 with the poly and the gauss kernel, fem 4..64, exact); measure pose and "
+        "compliance errors against exact, time per solve, ns per C kernel call; write "
+        "accuracy-vs-speed.png (log-log, Pareto front) and accuracy-vs-speed.md into --out."))
+    p.add_argument("--quick", action="store_true",
+                   help="a few scenes and models (for the tests; well under a minute)")
+    p.add_argument("--out", type=Path, default=REPO / "docs", help="output folder (default docs/)")
+    p.add_argument("--random", type=int, default=None, metavar="N",
+                   help="number of random scenes (default 12, quick 1)")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from flexgen.bench import run_bench
+    data = run_bench(quick=args.quick, out=args.out, n_random=args.random)
+    tg = data.targets
+    print(f"wrote {args.out / 'accuracy-vs-speed.md'} and {args.out / 'accuracy-vs-speed.png'} "
+          f"({data.elapsed:.0f} s)")
+    print(f"finger scm3: {tg['finger_scm3_s'] * 1e3:.2f} ms per solve; exact/scm3 "
+          f"{tg['exact_ratio']:.0f}x; fem/scm at equal accuracy (smooth) "
+          f"{tg.get('equal_smooth_ratio', float('nan')):.1f}x", file=sys.stderr)
+    return 0
