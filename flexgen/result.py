@@ -62,6 +62,11 @@ class Result:
     load_factor: float = 1.0          # load factor of the reported state (1 when converged)
     energy: float | None = None       # elastic energy at equilibrium
     residual: float | None = None     # relative residual at equilibrium (see solve.py)
+    # set only when a tolerance was requested (flexgen.select): the requested tolerance and the
+    # a-posteriori error estimate of the whole answer; model[flexure] then also carries
+    # "kernel" and "error_estimate"
+    tolerance: float | None = None
+    error_estimate: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Every field, as plain Python data."""
@@ -81,6 +86,9 @@ class Result:
         }
         if not self.converged:
             out["reason"] = self.reason or "not converged"
+        if self.tolerance is not None:
+            out["error_estimate"] = (math.inf if self.error_estimate is None
+                                     else float(self.error_estimate))
         return out
 
     def to_json(self, indent: int | None = None) -> str:
@@ -108,6 +116,9 @@ class Result:
                 e = p.ellipse
                 lines.append(f"  {ref:<{w}}  {p.pose[0]:>12.6g} {p.pose[1]:>12.6g} {p.pose[2]:>10.5f}  "
                              f"{e['major']:>11.5g} {e['minor']:>11.5g} {e['angle']:>10.5f}")
+        if self.tolerance is not None:
+            est = math.inf if self.error_estimate is None else self.error_estimate
+            lines.append(f"  error estimate {est:.2g} (tolerance {self.tolerance:.2g})")
         for lam in self.critical_load_factors:
             lines.append(f"  critical load factor: {lam:.8g}")
         for msg in self.warnings:

@@ -283,7 +283,8 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
           model_factory: Callable[[Flexure], FlexureModel] | None = None,
           tol: float = 1e-12, max_iterations: int = 50, max_steps: int = 500,
           initial_step: float = 0.1, max_step: float = 0.25, min_step: float = 1e-5,
-          max_dq: float = 0.5) -> Result:
+          max_dq: float = 0.5, tolerance: float | None = None,
+          q0: Mapping[str, "np.ndarray | list[float]"] | None = None) -> Result:
     """Solve ``scene`` under its loads and tendons by load continuation from the unloaded state.
 
     ``models`` gives the FlexureModel of some or all flexures; the others are built by
@@ -293,8 +294,25 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     ``initial_step``, ``max_step``, ``min_step`` the load-factor steps; ``max_dq`` the largest
     change of any generalized coordinate in one step along the path (larger changes count as a
     jump to another branch and make the step shorter).
+
+    ``tolerance`` (or ``[model] tolerance`` in the scene, when no ``models``/``model_factory`` are
+    given) chooses the fewest modes per flexure that meet it: see ``flexgen.select``.
+    ``q0`` ({flexure: coordinates}, e.g. the ``q`` of a richer solve; Legendre coefficients are
+    padded with zeros or truncated to each model's size) is a warm start: Newton at the full load
+    from q0 first; if that converges to a stable equilibrium within ``max_dq`` of q0 it is the
+    answer, otherwise the solve falls back to the continuation from the unloaded state.
     """
     scene = _load_scene(scene)
+    if tolerance is None and models is None and model_factory is None:
+        from .select import scene_tolerance
+        tolerance = scene_tolerance(scene)
+    if tolerance is not None:
+        if models is not None or model_factory is not None:
+            raise ValueError("solve: tolerance chooses the models; do not also pass models")
+        from .select import solve_to_tolerance
+        return solve_to_tolerance(scene, tolerance, tol=tol, max_iterations=max_iterations,
+                                  max_steps=max_steps, initial_step=initial_step,
+                                  max_step=max_step, min_step=min_step, max_dq=max_dq)
     from .models.registry import build_models
     models = build_models(scene, models, model_factory)
     chain = Chain(scene, models)
@@ -315,6 +333,13 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
                       model=info, q={}, points={}, warnings=warnings, reason=reason,
                       critical_load_factors=critical, load_factor=lam)
 
+    if q0 is not None:
+        warm = _warm_start(sol, chain, q0, max_dq)
+        if warm is not None:
+            warnings.extend(_kernel_warnings(models, chain, warm.q))
+            return _result(scene, chain, system, warm, outputs, info, sol.iterations, warnings,
+                           critical)
+        sol.model_error = None
     st = sol.newton(chain.zeros(), 0.0)
     if st is None:
         return fail(f"no equilibrium of the unloaded scene: {sol.last_error}", 0.0)
@@ -360,6 +385,21 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
 
     warnings.extend(_kernel_warnings(models, chain, st.q))
     return _result(scene, chain, system, st, outputs, info, sol.iterations, warnings, critical)
+
+
+def _warm_start(sol: _Solver, chain: Chain, q0, max_dq: float) -> State | None:
+    """Newton at the full load from q0 (per flexure, padded with zeros or truncated); the state
+    if it converges to a stable equilibrium within max_dq of q0, else None."""
+    start = chain.zeros()
+    for name, sl in chain.slices.items():
+        v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]
+        start[sl.start:sl.start + v.size] = v
+    st = sol.newton(start, 1.0)
+    if st is None or not _cholesky_ok(st.K):
+        return None
+    if float(np.max(np.abs(st.q - start), initial=0.0)) > max_dq:
+        return None
+    return st
 
 
 def _kernel_warnings(models, chain: Chain, q) -> list[str]:

@@ -1,0 +1,667 @@
+"""The fewest modes: choose, per flexure, the smooth curvature model that meets a tolerance.
+
+``solve_to_tolerance(scene, T) -> Result`` (what ``flexgen solve --tol T``, ``[model] tolerance``
+and ``flexgen select`` use) picks, for every flexure, the fewest Legendre modes N (1..8) and the
+kernel (the polynomial kernel while the flexure stays in its range, the Gauss kernel past it; Gauss
+kernels exist for N <= 6) whose a-posteriori error estimate on the reported output points is <= T,
+and reports the estimate. ``select_models`` returns the whole ``Selection`` (choices, estimates,
+solves used); ``estimate_table`` + ``choose`` split the work so a sweep over several T solves once.
+
+Error measure (``error_components``), per output point p, against a reference answer:
+
+    pose:        |r_p - r_p,ref| / L_p   and   |theta_p - theta_p,ref|       (L_p: the summed
+                 length of the flexures between the base and p, the scene's length scale there)
+    compliance:  ||C_p - C_p,ref||_2 / ||C_p,ref||_2                          (2x2, spectral norm)
+
+the error of an answer is the largest of these over all output points.
+
+Estimator (see docs/selection.md). Let R be the *rich* model: every flexure at M modes (8 with the
+polynomial kernel when the flexure stays within its range, else 6 with the Gauss kernel). For a
+flexure i and N < M, solve with N modes on i and every other flexure rich (warm-started from R's
+equilibrium), and let d_i(N) = |answer(N) - answer(N + 2)| componentwise (comparing N with N + 2
+skips the even/odd plateaus of the Legendre series). The truncation error of N is estimated by the
+telescoping tail
+
+    e_i(N) = d_i(N) + e_i(N + 2),     e_i(M - 1), e_i(M) = rho * d_i(M - 3), rho * d_i(M - 2)
+
+where rho <= 1 is the observed contraction per two modes (the larger of d(M-2)/d(M-4) and
+d(M-3)/d(M-5)). Each flexure also carries its kernel's certified bounds (pose: ERROR_BOUND L_i /
+L_p; compliance: 2 JACOBIAN_ERROR_BOUND). The estimate of a choice (N_1, ...) is the componentwise
+sum over flexures, and after solving the chosen models it is raised, if needed, to
+|answer(chosen) - answer(R)| + the rich model's own estimate (this catches interaction between
+flexures). The choice minimises the total number of modes subject to estimate <= T.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import re
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from . import kernels
+from .result import Result
+from .scene import Scene, SceneError
+
+MAX_MODES = 8                 # the polynomial kernels shipped: scm1 .. scm8
+RHO_FLOOR = 1e-13             # added to the differences when the contraction rate is measured
+
+
+class SelectionError(SceneError):
+    """Bad input to the selection (tolerance <= 0, a flexure that is not "scm"): one line."""
+
+
+def max_gauss_modes() -> int:
+    """The most modes a shipped Gauss kernel has (6 in the checked-in set)."""
+    found = [int(m[1]) for n in kernels.available()
+             if (m := re.match(r"^scm(\d+)_gauss\d+$", n))]
+    return max(found, default=0)
+
+
+def scene_tolerance(scene: Scene) -> float | None:
+    """The tolerance a scene asks for (``[model] tolerance`` or a flexure's), None if none; with
+    several, the smallest."""
+    tols = [f.model.tolerance for f in scene.flexures if f.model.tolerance is not None]
+    if scene.model.tolerance is not None:
+        tols.append(scene.model.tolerance)
+    return min(tols) if tols else None
+
+
+def check_tolerance(tol: Any) -> float:
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not math.isfinite(tol) or tol <= 0:
+        raise SelectionError(f"tolerance: must be a positive finite number, got {tol!r}")
+    return float(tol)
+
+
+# -- the error measure -------------------------------------------------------------------------
+
+Outputs = dict        # ref -> (pose (3,), compliance (2, 2))
+
+
+def outputs_of(result: Result) -> Outputs | None:
+    """The output points of a converged Result as {ref: (pose, 2x2 compliance)}."""
+    if not result.converged:
+        return None
+    return {ref: (np.asarray(p.pose, float), np.asarray(p.compliance, float))
+            for ref, p in result.points.items()}
+
+
+def outputs_of_exact(sol) -> Outputs | None:
+    """The output points of a ``models.exact.SceneSolution``."""
+    if not sol.converged:
+        return None
+    return {ref: (np.asarray(sol.poses[ref], float), np.asarray(sol.compliance[ref], float))
+            for ref in sol.poses}
+
+
+def length_scales(scene: Scene, refs: Iterable[str]) -> dict[str, float]:
+    """L_p for every point: the summed length of the flexures between the base and p (the
+    longest flexure's length for a point on the base)."""
+    longest = max(f.length for f in scene.flexures)
+    out = {}
+    for ref in refs:
+        body, _ = scene.resolve_point(ref)
+        path = scene.flexure_path(body if scene.body_kind(body) != "link"
+                                  else scene.body_parent(body))
+        out[ref] = sum(scene.flexure(n).length for n in path) or longest
+    return out
+
+
+def error_components(got: Outputs, ref: Outputs, scales: Mapping[str, float]) -> np.ndarray:
+    """[position/L_p, angle, compliance] error of every output point (in ``ref``'s order)."""
+    out = []
+    for name, (pose_r, C_r) in ref.items():
+        pose, C = got[name]
+        dpos = float(np.hypot(*(pose[:2] - pose_r[:2]))) / scales[name]
+        dth = abs(math.remainder(float(pose[2] - pose_r[2]), 2 * math.pi))
+        nr = float(np.linalg.norm(C_r, 2))
+        dC = float(np.linalg.norm(C - C_r, 2))
+        dC = dC / nr if nr > 0 else dC
+        out.extend([dpos, dth, dC])
+    return np.array(out)
+
+
+def error(got: Outputs | None, ref: Outputs, scales: Mapping[str, float]) -> float:
+    """The error of an answer against a reference (inf if there is no answer)."""
+    if got is None:
+        return math.inf
+    comps = error_components(got, ref, scales)
+    return float(np.max(comps)) if comps.size else 0.0
+
+
+# -- solving one choice of modes ---------------------------------------------------------------
+
+@dataclass
+class Solved:
+    modes: tuple[int, ...]
+    result: Result
+    outputs: Outputs | None           # None: no stable equilibrium
+    kernels: tuple[str, ...]          # kernel used at equilibrium per flexure ("poly"/"gauss")
+    seconds: float
+
+
+class _Problem:
+    """A scene, its flexures' allowed modes, and a cache of solved mode choices."""
+
+    def __init__(self, scene: Scene, solve_kwargs: Mapping[str, Any]):
+        for i, f in enumerate(scene.flexures):
+            if f.model.kind != "scm":
+                raise SelectionError(
+                    f"flexure[{i}].kind: a tolerance chooses smooth curvature modes, so every "
+                    f"flexure must be kind 'scm', got {f.model.kind!r} for {f.name!r}")
+        self.scene = scene
+        self.names = tuple(f.name for f in scene.flexures)
+        self.flex = scene.flexures
+        self.gauss_max = max_gauss_modes()
+        self.kw = {k: v for k, v in solve_kwargs.items() if k not in ("tolerance", "q0")}
+        self.cache: dict[tuple[int, ...], Solved] = {}
+        self.solves = 0
+
+    def kernel_choice(self, i: int, N: int) -> str | None:
+        """The SCMModel kernel argument for flexure i at N modes (None: no such kernel)."""
+        want = self.flex[i].model.kernel
+        if want == "gauss":
+            return "gauss" if N <= self.gauss_max else None
+        if want == "poly" or N > self.gauss_max:
+            return "poly" if N <= MAX_MODES else None
+        return "auto"
+
+    def models(self, modes: Sequence[int]):
+        from .models.scm import SCMModel
+        return {f.name: SCMModel(f.length, f.EI, N, self.kernel_choice(i, N), name=f.name)
+                for i, (f, N) in enumerate(zip(self.flex, modes))}
+
+    def solve(self, modes: Sequence[int], q0=None) -> Solved:
+        from .solve import solve
+        modes = tuple(int(n) for n in modes)
+        if modes in self.cache:
+            return self.cache[modes]
+        models = self.models(modes)
+        t0 = time.perf_counter()
+        res = solve(self.scene, models, q0=q0, **self.kw)
+        dt = time.perf_counter() - t0
+        self.solves += 1
+        outs = outputs_of(res) if res.stable else None
+        if outs is not None and not all(np.all(np.isfinite(C)) and np.all(np.isfinite(p))
+                                        for p, C in outs.values()):
+            outs = None
+        used = []
+        for name in self.names:
+            m = models[name]
+            q = np.asarray(res.q.get(name, np.zeros(m.n_dof)), float)
+            used.append("poly" if m.poly is not None and m.poly.in_range(q) else "gauss")
+        solved = Solved(modes, res, outs, tuple(used), dt)
+        self.cache[modes] = solved
+        return solved
+
+
+def _kernel_module(N: int, kernel: str):
+    name = f"scm{N}" if kernel == "poly" else kernels.gauss_kernel_name(N)
+    return kernels.load_numpy(name)
+
+
+def kernel_term(scene: Scene, i: int, N: int, kernel: str, refs: Sequence[str],
+                scales: Mapping[str, float]) -> np.ndarray:
+    """Flexure i's certified kernel bounds as error components: position ERROR_BOUND L_i / L_p
+    at the points beyond it, compliance 2 JACOBIAN_ERROR_BOUND (J and J^T in C = J K^-1 J^T)."""
+    mod = _kernel_module(N, kernel)
+    f = scene.flexures[i]
+    out = []
+    for ref in refs:
+        body, _ = scene.resolve_point(ref)
+        owner = body if scene.body_kind(body) != "link" else scene.body_parent(body)
+        beyond = body != "base" and f.name in scene.flexure_path(owner)
+        out.extend([float(mod.ERROR_BOUND) * f.length / scales[ref] if beyond else 0.0, 0.0,
+                    2.0 * float(mod.JACOBIAN_ERROR_BOUND)])
+    return np.array(out)
+
+
+# -- the estimate table ------------------------------------------------------------------------
+
+@dataclass
+class FlexureTable:
+    name: str
+    rich: int                                   # M: modes of the rich model
+    est: dict[int, np.ndarray] = field(default_factory=dict)      # N -> truncation estimate
+    kernel: dict[int, str] = field(default_factory=dict)          # N -> kernel at equilibrium
+    total: dict[int, np.ndarray] = field(default_factory=dict)    # N -> est + kernel bounds
+    extrapolated: set = field(default_factory=set)                # N estimated by rho
+
+
+@dataclass
+class Table:
+    problem: _Problem
+    rich: Solved
+    refs: tuple[str, ...]
+    scales: dict[str, float]
+    flexures: list[FlexureTable]
+    reason: str | None = None                   # set when no rich answer could be found
+
+
+def _rich_modes(pb: _Problem) -> tuple[tuple[int, ...], Solved | None, str | None]:
+    """M per flexure (8 where the polynomial kernel stays in range, else the Gauss maximum) and
+    the rich answer."""
+    from .models.scm import SCMModel
+    base = tuple(min(pb.gauss_max, MAX_MODES) if pb.kernel_choice(i, pb.gauss_max) else MAX_MODES
+                 for i in range(len(pb.names)))
+    if any(pb.kernel_choice(i, n) is None for i, n in enumerate(base)):
+        return base, None, "no kernel available"
+    pre = pb.solve(base)
+    if pre.outputs is None:
+        return base, pre, pre.result.reason or "no stable equilibrium"
+    rich = list(base)
+    for i, f in enumerate(pb.flex):
+        if pb.kernel_choice(i, MAX_MODES) == "poly" and MAX_MODES > base[i]:
+            q = np.zeros(MAX_MODES)
+            qi = pre.result.q[f.name]
+            q[:len(qi)] = qi
+            if SCMModel(f.length, f.EI, MAX_MODES, "poly").in_range(q):
+                rich[i] = MAX_MODES
+    for _ in range(len(rich) + 1):
+        if tuple(rich) == base:
+            return base, pre, None
+        sol = pb.solve(rich, q0=pre.result.q)
+        bad = [i for i, n in enumerate(rich) if n != base[i] and sol.kernels[i] != "poly"]
+        if sol.outputs is not None and not bad:
+            return tuple(rich), sol, None
+        for i in (bad or [i for i, n in enumerate(rich) if n != base[i]]):
+            rich[i] = base[i]
+    return base, pre, None
+
+
+def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -> Table:
+    """The estimates e_i(N) of every flexure (see the module docstring). With ``stop_at`` = T a
+    flexure's sweep stops once two consecutive N have estimates > T (lower N only grow)."""
+    pb = _Problem(scene, solve_kwargs)
+    M, rich, reason = _rich_modes(pb)
+    refs = tuple(rich.outputs) if rich is not None and rich.outputs else ()
+    scales = length_scales(scene, refs)
+    table = Table(pb, rich, refs, scales, [], reason)
+    if reason is not None:
+        return table
+    ncomp = 3 * len(refs)
+    inf = np.full(ncomp, math.inf)
+    for i, name in enumerate(pb.names):
+        Mi = M[i]
+        ft = FlexureTable(name, Mi)
+        sols: dict[int, Outputs | None] = {Mi: rich.outputs}
+        ft.kernel[Mi] = rich.kernels[i]
+        d: dict[int, np.ndarray] = {}
+        rho = None
+        stopped = False
+
+        def diff(N):
+            a, b = sols.get(N), sols.get(N + 2)
+            return inf if a is None or b is None else error_components(a, b, scales)
+
+        for N in range(Mi - 1, 0, -1):
+            if stopped:
+                sols[N] = None
+                continue
+            modes = list(M)
+            modes[i] = N
+            s = pb.solve(modes, q0=rich.result.q)
+            sols[N] = s.outputs
+            ft.kernel[N] = s.kernels[i]
+            if N + 2 <= Mi:
+                d[N] = diff(N)
+            if rho is None and (N == max(Mi - 5, 1) or s.outputs is None):
+                rho = _contraction(d, Mi)
+                for K in (Mi, Mi - 1):
+                    if K >= 1:
+                        base = d.get(K - 2)
+                        ft.est[K] = rho * base if base is not None else inf.copy()
+                        ft.extrapolated.add(K)
+                for K in range(Mi - 2, N - 1, -1):
+                    ft.est[K] = d.get(K, inf) + ft.est.get(K + 2, inf)
+            elif rho is not None:
+                ft.est[N] = d.get(N, inf) + ft.est.get(N + 2, inf)
+            if s.outputs is None:
+                stopped = True
+            elif (stop_at is not None and rho is not None and N + 1 < Mi
+                  and np.max(ft.est.get(N, inf)) > stop_at
+                  and np.max(ft.est.get(N + 1, inf)) > stop_at):
+                stopped = True
+        if rho is None:         # a flexure with M = 1 (cannot happen with the shipped kernels)
+            rho = 1.0
+            ft.est[Mi] = np.zeros(ncomp)
+        for N in range(1, Mi + 1):
+            e = ft.est.get(N)
+            if e is None or sols.get(N) is None or not np.all(np.isfinite(e)):
+                ft.est[N] = inf.copy()
+                continue
+            ft.total[N] = e + kernel_term(scene, i, N, ft.kernel[N], refs, scales)
+        for N in range(1, Mi + 1):
+            ft.total.setdefault(N, inf.copy())
+        table.flexures.append(ft)
+    return table
+
+
+def _contraction(d: Mapping[int, np.ndarray], M: int) -> np.ndarray | float:
+    """rho per component: the larger of the last two observed two-mode contraction ratios,
+    at most 1 (1 when fewer than one ratio is known)."""
+    ratios = []
+    for top in (M - 2, M - 3):
+        a, b = d.get(top), d.get(top - 2)
+        if a is not None and b is not None and np.all(np.isfinite(a)) and np.all(np.isfinite(b)):
+            ratios.append((a + RHO_FLOOR) / (b + RHO_FLOOR))
+    if not ratios:
+        return 1.0
+    return np.minimum(np.max(ratios, axis=0), 1.0)
+
+
+# -- choosing ----------------------------------------------------------------------------------
+
+@dataclass
+class FlexureChoice:
+    name: str
+    modes: int
+    kernel: str                      # "poly" or "gauss": the kernel used at the equilibrium
+    error_estimate: float            # this flexure's share: truncation estimate + kernel bound
+    rich: int                        # modes of the rich model the estimate was measured against
+
+
+@dataclass
+class Selection:
+    tolerance: float
+    choices: dict[str, FlexureChoice]
+    error_estimate: float
+    reached: bool
+    result: Result
+    solves: int                      # chain solves the selection used
+    seconds: float                   # wall time of the selection
+    message: str | None = None       # why T is out of reach / no answer
+
+    @property
+    def modes(self) -> dict[str, int]:
+        return {n: c.modes for n, c in self.choices.items()}
+
+
+def choose(table: Table, tol: float) -> tuple[tuple[int, ...], np.ndarray, bool]:
+    """The mode choice with the fewest total modes whose summed estimate is <= tol (ties: the
+    smaller estimate); if none, the one with the smallest estimate. -> (modes, estimate, met)."""
+    fts = table.flexures
+    opts = [[N for N in sorted(ft.total) if np.all(np.isfinite(ft.total[N]))] or [ft.rich]
+            for ft in fts]
+    best_ok, best_any = None, None
+    count = math.prod(len(o) for o in opts)
+    if count <= 50000:
+        combos: Iterable = itertools.product(*opts)
+    else:                                    # many flexures: each flexure alone, then combined
+        combos = [tuple(_greedy(ft, o, tol / len(fts)) for ft, o in zip(fts, opts))]
+        combos += [tuple(o[-1] for o in opts)]
+    for combo in combos:
+        tot = sum(ft.total[N] for ft, N in zip(fts, combo))
+        e = float(np.max(tot)) if np.size(tot) else 0.0
+        key_any = (e, sum(combo))
+        if best_any is None or key_any < best_any[0]:
+            best_any = (key_any, combo, tot)
+        if e <= tol:
+            key = (sum(combo), e)
+            if best_ok is None or key < best_ok[0]:
+                best_ok = (key, combo, tot)
+    if best_ok is not None:
+        return best_ok[1], best_ok[2], True
+    return best_any[1], best_any[2], False
+
+
+def _greedy(ft: FlexureTable, opts: list[int], share: float) -> int:
+    for N in opts:
+        if float(np.max(ft.total[N])) <= share:
+            return N
+    return opts[-1]
+
+
+def _finish(table: Table, tol: float, t0: float) -> Selection:
+    pb, scene = table.problem, table.problem.scene
+    if table.reason is not None:
+        res = table.rich.result
+        msg = f"no answer to estimate the error of: {table.reason}"
+        res.tolerance, res.error_estimate = tol, None
+        if res.converged:
+            res.warnings.append(msg)
+        return Selection(tol, {}, math.inf, False, res, pb.solves, time.perf_counter() - t0, msg)
+    modes, tot, met = choose(table, tol)
+    fts = {ft.name: ft for ft in table.flexures}
+    rich_tot = sum(ft.total[ft.rich] for ft in table.flexures)
+    chosen = None
+    for _ in range(sum(ft.rich for ft in table.flexures) + 1):
+        chosen = pb.solve(modes, q0=table.rich.result.q)
+        if chosen.outputs is None:
+            check = np.full_like(tot, math.inf)
+        else:
+            check = error_components(chosen.outputs, table.rich.outputs, table.scales) + rich_tot
+        tot = np.maximum(sum(fts[n].total[N] for n, N in zip(pb.names, modes)), check)
+        if float(np.max(tot)) <= tol or not met:
+            break
+        # interaction pushed the estimate over T: give a mode to the flexure with most error
+        grow = [(float(np.max(fts[n].total[N])), k) for k, (n, N) in enumerate(zip(pb.names, modes))
+                if N < fts[n].rich]
+        if not grow:
+            break
+        _, k = max(grow)
+        modes = tuple(N + (j == k) for j, N in enumerate(modes))
+    est = float(np.max(tot)) if np.size(tot) else 0.0
+    reached = est <= tol
+    res = chosen.result
+    choices = {}
+    for k, (name, N) in enumerate(zip(pb.names, modes)):
+        share = float(np.max(fts[name].total[N])) if np.size(tot) else 0.0
+        choices[name] = FlexureChoice(name, N, chosen.kernels[k], share, fts[name].rich)
+        info = dict(res.model.get(name, {"kind": "scm"}))
+        info.update(modes=N, kernel=chosen.kernels[k], error_estimate=share)
+        res.model[name] = info
+    res.tolerance, res.error_estimate = tol, est
+    msg = None
+    if not reached:
+        M = ", ".join(f"{ft.name} {ft.rich}" for ft in table.flexures)
+        msg = (f"tolerance {tol:.3g} is out of reach: the best estimate is {est:.3g} with the "
+               f"richest models available ({M} modes; polynomial kernels up to {MAX_MODES} modes "
+               f"within their range, Gauss kernels up to {pb.gauss_max} past it)")
+        res.warnings.append(msg)
+    return Selection(tol, choices, est, reached, res, pb.solves, time.perf_counter() - t0, msg)
+
+
+def select_models(scene, tol: float, **solve_kwargs) -> Selection:
+    """Choose the fewest modes per flexure that meet ``tol`` (see the module docstring).
+
+    ``scene``: a Scene (or a path/dict, as ``flexgen.solve.solve`` takes); ``solve_kwargs`` go to
+    every chain solve. Raises SelectionError for tol <= 0 or a flexure that is not "scm"."""
+    from .solve import _load_scene
+    tol = check_tolerance(tol)
+    scene = _load_scene(scene)
+    t0 = time.perf_counter()
+    table = estimate_table(scene, stop_at=tol, **solve_kwargs)
+    return _finish(table, tol, t0)
+
+
+def select_from_table(table: Table, tol: float) -> Selection:
+    """``select_models`` for one more tolerance on an already computed (full) table."""
+    return _finish(table, check_tolerance(tol), time.perf_counter())
+
+
+def solve_to_tolerance(scene, tol: float, **solve_kwargs) -> Result:
+    """Solve ``scene`` with the fewest modes per flexure that meet ``tol``: a Result whose
+    ``model[flexure]`` has ``modes``, ``kernel`` and ``error_estimate`` and whose
+    ``error_estimate`` covers the whole answer (``to_json`` then includes them). If ``tol`` is
+    out of reach the Result has the best estimate and a warning saying so."""
+    return select_models(scene, tol, **solve_kwargs).result
+
+
+# -- cost --------------------------------------------------------------------------------------
+
+_COST = re.compile(r"Cost:\s*(\d+)\s*ops")
+
+
+def kernel_ops(modes: int, kernel: str) -> int | None:
+    """Operation count per call of the C kernel (from the generated source's header), if known."""
+    name = f"scm{modes}" if kernel == "poly" else kernels.gauss_kernel_name(modes)
+    path = kernels.GENERATED / "c" / f"{name}.c"
+    try:
+        m = _COST.search(path.read_text()[:4000])
+    except OSError:
+        return None
+    return int(m[1]) if m else None
+
+
+def time_per_solve(scene: Scene, modes: Mapping[str, int], repeat: int = 5,
+                   **solve_kwargs) -> float:
+    """Seconds per solve (equilibrium + compliance, continuation from the unloaded state) with
+    the given modes, the best of ``repeat``."""
+    from .solve import solve
+    pb = _Problem(scene, solve_kwargs)
+    best = math.inf
+    for _ in range(max(1, repeat)):
+        models = pb.models([modes[n] for n in pb.names])
+        t0 = time.perf_counter()
+        solve(scene, models, **pb.kw)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+# -- the honesty suite -------------------------------------------------------------------------
+
+def honesty_suite(seed: int = 0, cantilevers: int = 8, chains: int = 3, tendons: int = 2,
+                  max_bend: float = math.radians(90.0)) -> list[tuple[str, Scene]]:
+    """A seeded set of scenes: cantilevers (tip force and/or moment, several magnitudes and
+    directions, random length and EI), two-flexure chains joined by a link, and chains with a
+    tendon; bends up to about ``max_bend`` (loads are drawn so that the estimated bend stays
+    below it; the bench may reuse this generator). -> [(label, Scene)]."""
+    from .scene import scene_from_dict
+    rng = np.random.default_rng(seed)
+    out: list[tuple[str, Scene]] = []
+    for k in range(cantilevers):
+        L = float(10 ** rng.uniform(-2, 0))
+        EI = float(10 ** rng.uniform(-3, 0))
+        kind = ("force", "moment", "both")[k % 3]
+        bend = float(rng.uniform(0.1, 1.0)) * max_bend
+        force, moment = [0.0, 0.0], 0.0
+        if kind in ("force", "both"):
+            # directions away from the axial compressive one (no bifurcation in the suite)
+            ang = float(rng.uniform(-0.8, 0.8) * math.pi)
+            alpha = _alpha_for_bend(bend * (0.6 if kind == "both" else 1.0), ang)
+            force = [alpha * EI / L ** 2 * math.cos(ang), alpha * EI / L ** 2 * math.sin(ang)]
+        if kind in ("moment", "both"):
+            moment = (bend * (0.4 if kind == "both" else 1.0)) * EI / L * float(rng.choice([-1, 1]))
+        d = {"name": f"cantilever {k} ({kind})", "model": {"kind": "scm"},
+             "flexure": [{"name": "beam", "length": L, "EI": EI}],
+             "load": [{"point": "beam.tip", "force": force, "moment": moment}],
+             "output": {"points": ["beam.tip"]}}
+        out.append((d["name"], scene_from_dict(d)))
+    for k in range(chains + tendons):
+        L1, L2 = float(rng.uniform(0.5, 1.5)), float(rng.uniform(0.4, 1.2))
+        EI1, EI2 = float(rng.uniform(0.5, 2.0)), float(rng.uniform(0.3, 1.5))
+        gap = float(rng.uniform(0.2, 1.0))
+        bend = float(rng.uniform(0.15, 0.5)) * max_bend
+        d: dict[str, Any] = {
+            "model": {"kind": "scm"},
+            "base": {"points": {"r0": [-0.2, 0.1]}},
+            "flexure": [{"name": "proximal", "length": L1, "EI": EI1, "parent": "base"},
+                        {"name": "distal", "length": L2, "EI": EI2, "parent": "middle",
+                         "at": [gap, 0.0, float(rng.uniform(-0.3, 0.3))]}],
+            "link": [{"name": "middle", "parent": "proximal",
+                      "points": {"pad": [0.5 * gap, -0.1], "hole": [0.05, 0.1]}},
+                     {"name": "tip", "parent": "distal",
+                      "points": {"pad": [0.3, -0.05], "anchor": [0.05, 0.1]}}],
+            "output": {"points": ["middle.pad", "tip.pad"]},
+        }
+        Ltot = L1 + gap + L2
+        if k < chains:
+            ang = float(rng.uniform(-0.8, 0.8) * math.pi)
+            P = _alpha_for_bend(bend, ang) * min(EI1, EI2) / Ltot ** 2
+            d["name"] = f"chain {k}"
+            d["load"] = [{"point": "tip.pad", "force": [P * math.cos(ang), P * math.sin(ang)],
+                          "moment": float(rng.uniform(-0.3, 0.3)) * bend * EI2 / L2}]
+        else:
+            d["name"] = f"tendon {k - chains}"
+            T = bend * min(EI1, EI2) / 0.1 / 2.0 * float(rng.uniform(0.5, 1.0))
+            d["tendon"] = [{"tension": T, "route": ["base.r0", "middle.hole", "tip.anchor"]}]
+            d["load"] = [{"point": "tip.pad", "force": [0.0, -0.2 * T * 0.1 / Ltot]}]
+        out.append((d["name"], scene_from_dict(d)))
+    return out
+
+
+def _alpha_for_bend(bend: float, direction: float) -> float:
+    """A load factor alpha = P L^2/EI that bends a cantilever's tip by about ``bend`` rad under a
+    dead load at ``direction`` from its axis (linear estimate alpha |sin| / 2, made larger where
+    the load pulls, so the bend stays near ``bend``)."""
+    s = abs(math.sin(direction))
+    return min(2.0 * bend / max(s, 0.25), 8.0)
+
+
+@dataclass
+class HonestyCase:
+    label: str
+    tol: float
+    modes: tuple[int, ...]
+    estimate: float
+    true_error: float
+    reached: bool
+    cheapest: bool | None           # None: not checked (T not reached, or all flexures at 1 mode)
+
+
+def honesty_cases(scenes: Sequence[tuple[str, Scene]],
+                  tols: Sequence[float] = (1e-2, 1e-4, 1e-6, 1e-8),
+                  progress=None) -> list[HonestyCase]:
+    """Run the selection on every scene for every tolerance and measure it against the exact
+    elastica: the true error of the chosen models, and whether one mode fewer on any flexure
+    would also have met T (then the choice was not the cheapest)."""
+    from .models.exact import solve_exact
+    cases = []
+    for label, scene in scenes:
+        ex = outputs_of_exact(solve_exact(scene))
+        if ex is None:
+            continue
+        table = estimate_table(scene)
+        pb = table.problem
+        scales = length_scales(scene, ex)
+        for tol in tols:
+            sel = select_from_table(table, tol)
+            modes = tuple(sel.modes[n] for n in pb.names)
+            true = error(outputs_of(sel.result), ex, scales)
+            cheapest = None
+            if sel.reached and any(n > 1 for n in modes):
+                cheapest = True
+                for k, n in enumerate(modes):
+                    if n <= 1:
+                        continue
+                    fewer = tuple(m - (j == k) for j, m in enumerate(modes))
+                    if any(pb.kernel_choice(j, m) is None for j, m in enumerate(fewer)):
+                        continue
+                    s = pb.solve(fewer, q0=table.rich.result.q)
+                    if error(s.outputs, ex, scales) <= tol:
+                        cheapest = False
+            cases.append(HonestyCase(label, tol, modes, sel.error_estimate, true, sel.reached,
+                                     cheapest))
+            if progress:
+                progress(cases[-1])
+    return cases
+
+
+def honesty_rates(cases: Sequence[HonestyCase]) -> dict[float, dict[str, float]]:
+    """Per tolerance: cases, covered (true <= estimate), worst true/estimate, reached, cheapest."""
+    out = {}
+    for tol in sorted({c.tol for c in cases}, reverse=True):
+        cs = [c for c in cases if c.tol == tol]
+        ratios = [c.true_error / c.estimate if c.estimate > 0 else
+                  (0.0 if c.true_error == 0 else math.inf) for c in cs]
+        checked = [c for c in cs if c.cheapest is not None]
+        out[tol] = {
+            "cases": len(cs),
+            "covered": sum(r <= 1.0 for r in ratios) / len(cs),
+            "worst_ratio": max(ratios),
+            "reached": sum(c.reached for c in cs) / len(cs),
+            "cheapest": (sum(c.cheapest for c in checked) / len(checked)) if checked else 1.0,
+            "checked": len(checked),
+            "mean_modes": float(np.mean([sum(c.modes) for c in cs])),
+        }
+    return out
+
+
+__all__ = ["solve_to_tolerance", "select_models", "select_from_table", "estimate_table", "choose",
+           "Selection", "FlexureChoice", "SelectionError", "scene_tolerance", "error",
+           "error_components", "outputs_of", "outputs_of_exact", "length_scales",
+           "honesty_suite", "honesty_cases", "honesty_rates", "time_per_solve", "kernel_ops"]
