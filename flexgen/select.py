@@ -465,13 +465,14 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
     return Selection(tol, choices, est, reached, res, pb.solves, time.perf_counter() - t0, msg)
 
 
-def select_models(scene, tol: float, **solve_kwargs) -> Selection:
-    """Choose the fewest modes per flexure that meet ``tol`` (see the module docstring).
+def select_models(scene, tolerance: float, /, **solve_kwargs) -> Selection:
+    """Choose the fewest modes per flexure that meet ``tolerance`` (see the module docstring).
 
     ``scene``: a Scene (or a path/dict, as ``flexgen.solve.solve`` takes); ``solve_kwargs`` go to
-    every chain solve. Raises SelectionError for tol <= 0 or a flexure that is not "scm"."""
+    every chain solve (``tol`` there is the residual tolerance of the equilibrium, not this one).
+    Raises SelectionError for tolerance <= 0 or a flexure that is not "scm"."""
     from .solve import _load_scene
-    tol = check_tolerance(tol)
+    tol = check_tolerance(tolerance)
     scene = _load_scene(scene)
     t0 = time.perf_counter()
     table = estimate_table(scene, stop_at=tol, **solve_kwargs)
@@ -483,12 +484,13 @@ def select_from_table(table: Table, tol: float) -> Selection:
     return _finish(table, check_tolerance(tol), time.perf_counter())
 
 
-def solve_to_tolerance(scene, tol: float, **solve_kwargs) -> Result:
-    """Solve ``scene`` with the fewest modes per flexure that meet ``tol``: a Result whose
+def solve_to_tolerance(scene, tolerance: float, /, **solve_kwargs) -> Result:
+    """Solve ``scene`` with the fewest modes per flexure that meet ``tolerance``: a Result whose
     ``model[flexure]`` has ``modes``, ``kernel`` and ``error_estimate`` and whose
     ``error_estimate`` covers the whole answer (``to_json`` then includes them). If ``tol`` is
-    out of reach the Result has the best estimate and a warning saying so."""
-    return select_models(scene, tol, **solve_kwargs).result
+    out of reach the Result has the best estimate and a warning saying so. ``solve_kwargs`` go
+    to every chain solve (``flexgen.solve.solve``: ``tol``, ``max_steps``, ...)."""
+    return select_models(scene, tolerance, **solve_kwargs).result
 
 
 # -- cost --------------------------------------------------------------------------------------

@@ -1,0 +1,94 @@
+"""`flexgen select SCENE --tol T`: the fewest modes per flexure that meet T, with their cost.
+
+Prints, per flexure, the chosen modes, the kernel at equilibrium and its share of the error
+estimate, then the estimate of the whole answer and the cost of the chosen models (time per solve,
+equilibrium + compliance, measured here; op count per call of the C kernels). Exit codes: 0 when
+T is met, 1 when it is out of reach (or the scene has no equilibrium), 2 for bad input (including
+T <= 0), with a one-line message.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from flexgen.commands.common import UsageError
+
+
+def _tol(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    return value
+
+
+def register(sub) -> None:
+    p = sub.add_parser("select", help="choose the fewest modes per flexure that meet a tolerance",
+                       description=(
+        "Choose, per flexure, the fewest smooth curvature modes (1..8) and the kernel whose "
+        "a-posteriori error estimate on the output points' poses (relative to length) and "
+        "compliances (relative, spectral norm) is <= TOL, and print the choice with its "
+        "estimate and cost. Exit 1 if TOL is out of reach (the best estimate is printed)."))
+    p.add_argument("scene", type=Path, help="scene file (TOML)")
+    p.add_argument("--tol", type=_tol, required=True, metavar="T",
+                   help="tolerance on the relative error of poses and compliances (> 0)")
+    p.add_argument("--json", action="store_true",
+                   help="print the solved Result as JSON (with modes and error estimates)")
+    p.add_argument("--repeat", type=int, default=5, metavar="N",
+                   help="solves timed for the cost (best of N, default 5; 0 skips timing)")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from flexgen import select
+    from flexgen.scene import load_scene
+
+    tol = args.tol
+    if not (math.isfinite(tol) and tol > 0):
+        raise UsageError(f"--tol: must be a positive finite number, got {tol!r}")
+    if args.repeat < 0:
+        raise UsageError(f"--repeat: must be >= 0, got {args.repeat}")
+    scene = load_scene(args.scene)
+    sel = select.select_models(scene, tol)
+    res = sel.result
+    if args.json:
+        print(res.to_json(indent=2))
+    else:
+        print(report(scene, sel, args.repeat))
+    if not res.converged:
+        print(f"flexgen: {args.scene}: no equilibrium: {res.reason}", file=sys.stderr)
+        return 1
+    if not sel.reached:
+        print(f"flexgen: {sel.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def report(scene, sel, repeat: int = 5) -> str:
+    """The human-readable choice: one line per flexure, the total estimate and the cost."""
+    from flexgen import select
+    lines = [f"scene: {scene.name}    tolerance {sel.tolerance:.3g}"]
+    if not sel.choices:
+        lines.append(f"  {sel.message}")
+        return "\n".join(lines)
+    w = max(8, *(len(n) for n in sel.choices))
+    lines.append(f"  {'flexure':<{w}}  {'modes':>5}  {'kernel':<6}  {'estimate':>9}  "
+                 f"{'C ops/call':>10}  (rich model)")
+    for name, c in sel.choices.items():
+        ops = select.kernel_ops(c.modes, c.kernel)
+        lines.append(f"  {name:<{w}}  {c.modes:>5}  {c.kernel:<6}  {c.error_estimate:>9.2e}  "
+                     f"{ops if ops is not None else '?':>10}  (scm{c.rich})")
+    verdict = "meets" if sel.reached else "DOES NOT meet"
+    lines.append(f"  error estimate of the whole answer: {sel.error_estimate:.2e} ({verdict} "
+                 f"{sel.tolerance:.3g})")
+    if repeat > 0 and sel.result.converged:
+        t = select.time_per_solve(scene, sel.modes, repeat=repeat)
+        lines.append(f"  cost: {t * 1e3:.2f} ms per solve (equilibrium + compliance, chosen "
+                     f"models, best of {repeat})")
+    lines.append(f"  selection: {sel.solves} solves in {sel.seconds * 1e3:.0f} ms")
+    if sel.message:
+        lines.append(f"  note: {sel.message}")
+    return "\n".join(lines)
