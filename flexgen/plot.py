@@ -157,11 +157,11 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
             a, b = xy + 0.05 * size * np.array([1, -sgn]), xy + 0.05 * size * np.array([1, sgn])
             ax.annotate("", xy=b, xytext=a, arrowprops=dict(
                 arrowstyle="-|>", color="C2", lw=1.5, connectionstyle=f"arc3,rad={sgn * 0.9}"))
-            ax.annotate(f"M = {ld.moment:.4g}", xy, xytext=(8, 8), textcoords="offset points",
+            ax.annotate(f"M = {ld.moment:.4g}", xy, xytext=(10, 16), textcoords="offset points",
                         color="C2", fontsize=8)
     if scene.loads:
-        handles.append(Line2D([], [], color="C2", lw=1.8, marker=">",
-                              label=f"loads (largest force {fmax:.3g})"))
+        handles.append(Line2D([], [], color="C2", lw=1.8, marker=">", label="dead loads" + (
+            f" (largest force {fmax:.3g})" if fmax > 0 else "")))
 
     majors = [p.ellipse["major"] for p in result.points.values()
               if math.isfinite(p.ellipse["major"]) and p.ellipse["major"] > 0]

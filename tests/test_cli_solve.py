@@ -1,0 +1,282 @@
+"""`flexgen solve` and `flexgen plot` from the command line: the JSON contract, the table, the
+overrides, plots, every class of bad input (exit 2, one line naming the key), no equilibrium
+(exit 1), and the scm kernel switch (auto: a warning; poly: no equilibrium)."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import flexgen
+from flexgen.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+EX = ROOT / "examples"
+CONTRACT = {"scene", "converged", "stable", "iterations", "model", "q", "points", "warnings"}
+
+
+def cli(*argv):
+    """Run `python -m flexgen` in a subprocess: (exit code, stdout, stderr)."""
+    p = subprocess.run([sys.executable, "-m", "flexgen", *map(str, argv)], capture_output=True,
+                       text=True, cwd=ROOT, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+def run(capsys, *argv):
+    """The same in-process (fast): an uncaught exception fails the test like a traceback would."""
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+@pytest.fixture(scope="module")
+def finger_json():
+    code, out, err = cli("solve", EX / "two_link_finger.toml", "--json")
+    assert code == 0, err
+    return json.loads(out)
+
+
+def test_json_has_exactly_the_contract_fields_and_types(finger_json):
+    d = finger_json
+    assert set(d) == CONTRACT
+    assert d["scene"] == "two-link finger" and d["converged"] is True and d["stable"] is True
+    assert isinstance(d["iterations"], int) and d["iterations"] > 0
+    assert d["model"] == {"proximal": {"kind": "scm", "modes": 3},
+                          "distal": {"kind": "scm", "modes": 3}}
+    assert set(d["q"]) == {"proximal", "distal"}
+    assert all(len(v) == 3 and all(map(is_number, v)) for v in d["q"].values())
+    assert set(d["points"]) == {"middle.pad", "fingertip.pad"}
+    for p in d["points"].values():
+        assert set(p) == {"pose", "compliance", "ellipse"}
+        assert len(p["pose"]) == 3 and all(map(is_number, p["pose"]))
+        C = p["compliance"]
+        assert len(C) == 2 and all(len(r) == 2 and all(map(is_number, r)) for r in C)
+        assert C[0][1] == pytest.approx(C[1][0], rel=1e-9)
+        e = p["ellipse"]
+        assert set(e) == {"major", "minor", "angle"} and all(map(is_number, e.values()))
+        assert e["major"] >= e["minor"] and -math.pi / 2 < e["angle"] <= math.pi / 2
+        tr, det = C[0][0] + C[1][1], C[0][0] * C[1][1] - C[0][1] ** 2
+        assert e["major"] + e["minor"] == pytest.approx(tr, rel=1e-9)
+        assert e["major"] * e["minor"] == pytest.approx(det, rel=1e-6, abs=1e-18)
+    assert isinstance(d["warnings"], list) and all(isinstance(w, str) for w in d["warnings"])
+
+
+def test_cli_json_matches_the_python_api(finger_json):
+    res = flexgen.solve(EX / "two_link_finger.toml")
+    assert json.loads(res.to_json()) == finger_json
+
+
+def test_table_output(capsys):
+    code, out, err = run(capsys, "solve", EX / "arc_moment.toml")
+    assert code == 0 and err == ""
+    assert "converged" in out and "beam.tip" in out and "major" in out
+    assert " 0.2876 " in out and " 0.006883 " in out   # the 3-mode compliance eigenvalues
+
+
+@pytest.mark.parametrize("argv, model, qlen", [
+    (["--model", "fem", "--elements", "8"], {"kind": "fem", "elements": 8}, 8),
+    (["--modes", "5"], {"kind": "scm", "modes": 5}, 5),
+    (["--model", "cc"], {"kind": "scm", "modes": 1}, 1),
+    (["--model", "prb"], {"kind": "prb"}, 1),
+    (["--model", "exact"], {"kind": "exact"}, 3),        # q: root loads Fx, Fy, M0
+])
+def test_model_overrides_beat_the_scene(capsys, argv, model, qlen):
+    code, out, err = run(capsys, "solve", EX / "cantilever_tip_load.toml", "--json", *argv)
+    assert code == 0, err
+    d = json.loads(out)
+    assert set(d) == CONTRACT
+    assert d["model"] == {"beam": model} and len(d["q"]["beam"]) == qlen
+
+
+def test_command_line_overrides_beat_per_flexure_keys(tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text('[model]\nkind = "prb"\n[[flexure]]\nname = "a"\nlength = 1.0\nEI = 1.0\n'
+                     'kind = "fem"\nelements = 4\n[[load]]\npoint = "a.tip"\nforce = [0.0, -1.0]\n')
+    code, out, _ = run(capsys, "solve", scene, "--json", "--model", "scm", "--modes", "4")
+    assert code == 0 and json.loads(out)["model"] == {"a": {"kind": "scm", "modes": 4}}
+
+
+def test_help_explains_every_option(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["solve", "--help"])
+    out = capsys.readouterr().out
+    assert exc.value.code == 0
+    for opt in ("--json", "--model", "--modes", "--elements", "exact", "Exit codes"):
+        assert opt in out
+
+
+@pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".svg", b"<svg")])
+def test_plot_writes_png_and_svg(tmp_path, capsys, suffix, magic):
+    path = tmp_path / f"finger{suffix}"
+    code, out, err = run(capsys, "plot", EX / "two_link_finger.toml", "-o", path)
+    assert code == 0, err
+    data = path.read_bytes()
+    assert len(data) > 5000 and magic in data[:400]
+
+
+def test_plot_of_the_exact_solution(tmp_path, capsys):
+    path = tmp_path / "arc.svg"
+    code, _, err = run(capsys, "plot", EX / "arc_moment.toml", "--model", "exact", "-o", path)
+    assert code == 0, err
+    assert path.stat().st_size > 5000
+
+
+# ---- bad input: exit 2, one line on stderr naming the key, nothing on stdout ------------------
+
+GOOD = """name = "bad"
+[base]
+points = { r0 = [0.0, 0.1] }
+[[flexure]]
+name = "beam"
+length = 1.0
+EI = 1.0
+[[load]]
+point = "beam.tip"
+force = [0.0, -1.0]
+[[tendon]]
+tension = 1.0
+route = ["base.r0", "beam.tip"]
+"""
+
+BAD = {   # name: (replace this, with that, key the message must name)
+    "negative length": ("length = 1.0", "length = -0.02", "flexure[0].length"),
+    "zero length": ("length = 1.0", "length = 0.0", "flexure[0].length"),
+    "zero EI": ("EI = 1.0", "EI = 0", "flexure[0].EI"),
+    "negative EI": ("EI = 1.0", "EI = -2.5e-5", "flexure[0].EI"),
+    "missing length": ("length = 1.0\n", "", "flexure[0].length"),
+    "missing force": ("force = [0.0, -1.0]\n", "", "load[0].force"),
+    "wrong type length": ("length = 1.0", 'length = "long"', "flexure[0].length"),
+    "wrong type force": ("force = [0.0, -1.0]", "force = 3.0", "load[0].force"),
+    "NaN length": ("length = 1.0", "length = nan", "flexure[0].length"),
+    "inf EI": ("EI = 1.0", "EI = inf", "flexure[0].EI"),
+    "NaN force": ("force = [0.0, -1.0]", "force = [nan, -1.0]", "load[0].force"),
+    "unknown parent": ('name = "beam"', 'name = "beam"\nparent = "palm"', "flexure[0].parent"),
+    "unknown point": ('point = "beam.tip"', 'point = "beam.pad"', "load[0].point"),
+    "duplicate names": ("[[load]]", '[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n[[load]]',
+                        "flexure[1].name"),
+    "cycle": ('name = "beam"', 'name = "beam"\nparent = "other"',
+              "flexure[0].parent", '[[flexure]]\nname = "other"\nparent = "beam"\nlength = 1.0\nEI = 1.0\n'),
+    "tendon with one point": ('route = ["base.r0", "beam.tip"]', 'route = ["base.r0"]', "tendon[0].route"),
+    "negative tension": ("tension = 1.0", "tension = -10.0", "tendon[0].tension"),
+    "modes < 1": ('name = "bad"', 'name = "bad"\n[model]\nmodes = 0', "model.modes"),
+    "unknown kind": ('name = "bad"', 'name = "bad"\n[model]\nkind = "magic"', "model.kind"),
+    "unknown flexure kind": ("EI = 1.0", 'EI = 1.0\nkind = "spline"', "flexure[0].kind"),
+}
+
+
+def _bad_scene(tmp_path, name) -> Path:
+    old, new, _key, *extra = BAD[name]
+    assert old in GOOD
+    text = GOOD.replace(old, new, 1) + (extra[0] if extra else "")
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    return path
+
+
+def _one_line_error(code, out, err, key):
+    assert code == 2
+    assert out == ""
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    assert key in lines[0]
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("name", sorted(BAD))
+def test_bad_scene_exits_2_with_one_line_naming_the_key(tmp_path, capsys, name):
+    path = _bad_scene(tmp_path, name)
+    for flag in ((), ("--json",)):
+        code, out, err = run(capsys, "solve", path, *flag)
+        _one_line_error(code, out, err, BAD[name][2])
+
+
+@pytest.mark.parametrize("text, key", [
+    ("", "flexure"),                                  # empty scene
+    ("name = \n[[flexure]]\n", "invalid TOML"),       # broken TOML
+    ("[[flexure]\nname = 'a'\n", "invalid TOML"),
+])
+def test_empty_and_broken_toml(tmp_path, capsys, text, key):
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    code, out, err = run(capsys, "solve", path, "--json")
+    _one_line_error(code, out, err, key)
+
+
+@pytest.mark.parametrize("argv, key", [
+    (["--modes", "0"], "--modes"),
+    (["--modes", "three"], "--modes"),
+    (["--elements", "-1"], "--elements"),
+    (["--model", "magic"], "--model"),
+    (["--modes", "40"], "scm40"),                     # no kernel with that many modes
+])
+def test_bad_command_line_overrides(capsys, argv, key):
+    code, out, err = run(capsys, "solve", EX / "arc_moment.toml", "--json", *argv)
+    _one_line_error(code, out, err, key)
+
+
+def test_missing_scene_file_and_bad_plot_suffix(tmp_path, capsys):
+    code, out, err = run(capsys, "solve", tmp_path / "nope.toml")
+    _one_line_error(code, out, err, "nope.toml")
+    code, out, err = run(capsys, "plot", EX / "arc_moment.toml", "-o", tmp_path / "arc.jpg")
+    _one_line_error(code, out, err, "-o")
+    assert not (tmp_path / "arc.jpg").exists()
+
+
+def test_bad_input_in_a_subprocess_has_no_traceback(tmp_path):
+    code, out, err = cli("solve", _bad_scene(tmp_path, "negative length"), "--json")
+    _one_line_error(code, out, err, "flexure[0].length")
+    code, out, err = cli("plot", EX / "arc_moment.toml", "-o", tmp_path / "x.pdf")
+    _one_line_error(code, out, err, "-o")
+
+
+# ---- no equilibrium, and the scm kernel switch -----------------------------------------------
+
+def _bent(kernel: str) -> dict:
+    """A flexure under a tip moment of 2.5 EI/L: a 143-degree arc, past the polynomial range."""
+    return {"name": "bent", "model": {"kind": "scm", "modes": 3, "kernel": kernel},
+            "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+            "load": [{"point": "beam.tip", "force": [0.0, 0.0], "moment": 2.5}]}
+
+
+def test_auto_kernel_switches_to_gauss_past_the_range_with_a_warning():
+    res = flexgen.solve(_bent("auto"))
+    assert res.converged and res.stable
+    x, y, th = res.points["beam.tip"].pose            # a circular arc: closed form
+    assert (x, y, th) == (pytest.approx(math.sin(2.5) / 2.5, abs=1e-9),
+                          pytest.approx((1 - math.cos(2.5)) / 2.5, abs=1e-9), pytest.approx(2.5))
+    switch = [w for w in res.warnings if "Gauss kernel" in w]
+    assert len(switch) == 1 and "'beam'" in switch[0] and "90 deg" in switch[0]
+    # in range: no warning
+    inside = _bent("auto")
+    inside["load"][0]["moment"] = 1.0
+    assert not any("Gauss" in w for w in flexgen.solve(inside).warnings)
+
+
+def test_poly_kernel_out_of_range_is_no_equilibrium_naming_flexure_and_range():
+    res = flexgen.solve(_bent("poly"))
+    assert res.converged is False
+    assert "'beam'" in res.reason and "90 deg" in res.reason and "poly" in res.reason
+
+
+def test_no_equilibrium_exits_1_with_the_reason_in_json(tmp_path):
+    path = tmp_path / "bent.toml"
+    path.write_text('name = "bent"\n[model]\nkind = "scm"\nkernel = "poly"\n'
+                    '[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'
+                    '[[load]]\npoint = "beam.tip"\nforce = [0.0, 0.0]\nmoment = 2.5\n')
+    code, out, err = cli("solve", path, "--json")
+    assert code == 1
+    d = json.loads(out)
+    assert set(d) == CONTRACT | {"reason"}
+    assert d["converged"] is False and "'beam'" in d["reason"] and "90 deg" in d["reason"]
+    lines = err.splitlines()
+    assert len(lines) == 1 and "no equilibrium" in lines[0] and "Traceback" not in err
+    code, out, err = cli("solve", path)                # table: stdout says so, stderr one line
+    assert code == 1 and "NOT converged" in out and len(err.splitlines()) == 1
