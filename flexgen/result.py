@@ -107,7 +107,8 @@ class Result:
             detail = ", ".join(f"{k}={v}" for k, v in spec.items() if k != "kind")
             qs = " ".join(f"{x:+.6g}" for x in self.q.get(name, []))
             lines.append(f"  {name}: {spec.get('kind')}" + (f" ({detail})" if detail else "")
-                         + (f"  q = [{qs}]" if qs else ""))
+                         + (f"  {'root loads [Fx Fy M0]' if spec.get('kind') == 'exact' else 'q'}"
+                            f" = [{qs}]" if qs else ""))
         if self.points:
             w = max(len(ref) for ref in self.points)
             lines.append(f"  {'point':<{w}}  {'x':>12} {'y':>12} {'angle':>10}  "
