@@ -9,7 +9,8 @@ evaluate(q): q (..., 1) -> pose (..., 3) = (x/L, y/L, theta), J (..., 3, 1),
 H (..., 3, 1, 1); leading axes broadcast. Lengths are in units of the flexure length L.
 Error bounds (certified on |phi| <= PHI_MAX along the flexure): pose 1.58e-12,
 J 1.52e-11, H 1.82e-10 (units of L).
-Evaluation structure: 7 nodes x (2 ops (0 add, 0 mul, 2 cos/sin)), then three small matrix products.
+Evaluation structure: 7 nodes x (2 ops (0 add, 0 mul, 2 cos/sin)), then small matrix products, in
+blocks of CHUNK rows.
 """
 import numpy as np
 
@@ -89,6 +90,8 @@ RANGE_SAMPLES = np.array([
         [1.0],
     ])
 RANGE_MARGIN = np.array([0.0])
+# rows evaluated per block: keeps the (rows, NODES) temporaries in cache (2-3x faster at 1e5)
+CHUNK = 1024
 
 
 def _trig(phi):
@@ -111,20 +114,23 @@ def evaluate(q):
     if q.shape[-1:] != (N,):
         raise ValueError(f"q must have shape (..., {N}), got {q.shape}")
     lead = q.shape[:-1]
-    phi = q @ NODE_BASIS.T
-    c, dc, ddc, s, ds, dds = _trig(phi)
-    pose = np.empty(lead + (3,))
-    pose[..., 0] = c @ POSE_WEIGHTS
-    pose[..., 1] = s @ POSE_WEIGHTS
-    pose[..., 2] = q[..., 0]
-    J = np.zeros(lead + (3, N))
-    J[..., 0, :] = dc @ JACOBIAN_WEIGHTS
-    J[..., 1, :] = ds @ JACOBIAN_WEIGHTS
-    J[..., 2, 0] = 1.0
-    H = np.zeros(lead + (3, N, N))
-    H[..., 0, :, :] = (ddc @ HESSIAN_WEIGHTS).reshape(lead + (N, N))
-    H[..., 1, :, :] = (dds @ HESSIAN_WEIGHTS).reshape(lead + (N, N))
-    return pose, J, H
+    flat = q.reshape(-1, N)
+    rows = flat.shape[0]
+    pose = np.empty((rows, 3))
+    J = np.zeros((rows, 3, N))
+    H = np.zeros((rows, 3, N, N))
+    for start in range(0, rows, CHUNK):
+        block = slice(start, start + CHUNK)
+        c, dc, ddc, s, ds, dds = _trig(flat[block] @ NODE_BASIS.T)
+        pose[block, 0] = c @ POSE_WEIGHTS
+        pose[block, 1] = s @ POSE_WEIGHTS
+        J[block, 0, :] = dc @ JACOBIAN_WEIGHTS
+        J[block, 1, :] = ds @ JACOBIAN_WEIGHTS
+        H[block, 0, :, :] = (ddc @ HESSIAN_WEIGHTS).reshape(-1, N, N)
+        H[block, 1, :, :] = (dds @ HESSIAN_WEIGHTS).reshape(-1, N, N)
+    pose[:, 2] = flat[:, 0]
+    J[:, 2, 0] = 1.0
+    return pose.reshape(lead + (3,)), J.reshape(lead + (3, N)), H.reshape(lead + (3, N, N))
 
 
 def in_range(q):
