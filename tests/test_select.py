@@ -1,0 +1,224 @@
+"""The fewest modes: flexgen.select, solve(tolerance=...), [model] tolerance, `flexgen select`.
+
+The honesty test runs the seeded suite of benchmarks/selection.py (65 scenes, 4 tolerances; about
+10 s) against the exact elastica."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flexgen import select
+from flexgen.cli import main
+from flexgen.scene import SceneError, load_scene, scene_from_dict
+from flexgen.solve import solve
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+TOLS = (1e-2, 1e-4, 1e-6, 1e-8)
+
+
+def cantilever(force=(0.0, -2.0), moment=0.0, **model):
+    return scene_from_dict({
+        "name": "cantilever", "model": {"kind": "scm", **model},
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "beam.tip", "force": list(force), "moment": moment}]})
+
+
+# -- honesty (the requirement of issue 4, section 3) ----------------------------------------------
+
+@pytest.fixture(scope="module")
+def honesty():
+    scenes = []
+    for seed in range(5):
+        scenes += [(f"s{seed} {label}", sc) for label, sc in select.honesty_suite(seed)]
+    return scenes, select.honesty_cases(scenes, TOLS)
+
+
+def test_suite_has_every_kind_of_scene(honesty):
+    scenes, cases = honesty
+    labels = " ".join(label for label, _ in scenes)
+    for kind in ("(force)", "(moment)", "(both)", "chain", "tendon"):
+        assert kind in labels
+    # every scene was solved by the exact reference (none silently dropped)
+    assert len(cases) == len(scenes) * len(TOLS)
+
+
+def test_estimate_is_honest_for_every_tolerance(honesty):
+    _, cases = honesty
+    rates = select.honesty_rates(cases)
+    for tol in TOLS:
+        r = rates[tol]
+        assert r["covered"] >= 0.95, (tol, r)         # true error <= estimate
+        assert r["worst_ratio"] <= 10.0, (tol, r)     # never more than 10x the estimate
+        assert r["true_within_tol"] >= 0.95, (tol, r)
+
+
+def test_choice_is_the_cheapest(honesty):
+    _, cases = honesty
+    rates = select.honesty_rates(cases)
+    for tol in TOLS:
+        assert rates[tol]["cheapest"] >= 0.90, (tol, rates[tol])
+        assert rates[tol]["checked"] >= 0.9 * rates[tol]["cases"]
+
+
+def test_fewer_modes_for_looser_tolerance(honesty):
+    _, cases = honesty
+    by_scene = {}
+    for c in cases:
+        by_scene.setdefault(c.label, {})[c.tol] = sum(c.modes)
+    for label, modes in by_scene.items():
+        totals = [modes[t] for t in TOLS]
+        assert totals == sorted(totals), label
+
+
+# -- the Result contract --------------------------------------------------------------------------
+
+def test_plain_solve_has_no_selection_fields():
+    d = json.loads(solve(cantilever(modes=3)).to_json())
+    assert "error_estimate" not in d
+    assert d["model"]["beam"] == {"kind": "scm", "modes": 3}
+
+
+def test_tolerance_adds_modes_and_estimates_to_json():
+    res = solve(cantilever(), tolerance=1e-6)
+    d = json.loads(res.to_json())
+    info = d["model"]["beam"]
+    assert isinstance(info["modes"], int) and 1 <= info["modes"] <= 8
+    assert info["kernel"] in ("poly", "gauss")
+    assert 0 <= info["error_estimate"] <= 1e-6
+    assert 0 < d["error_estimate"] <= 1e-6
+    assert res.tolerance == 1e-6
+    # the modes are the fewest: exact errors 1.0e-5 (3 modes), 2.2e-6 (4), 7.5e-8 (5)
+    assert info["modes"] == 5
+
+
+def test_scene_tolerance_triggers_selection(tmp_path):
+    text = (EXAMPLES / "two_link_finger.toml").read_text().replace("modes = 3", "tolerance = 1e-4")
+    path = tmp_path / "finger.toml"
+    path.write_text(text)
+    scene = load_scene(path)
+    assert select.scene_tolerance(scene) == 1e-4
+    d = json.loads(solve(scene).to_json())
+    assert d["error_estimate"] <= 1e-4
+    assert set(d["model"]) == {"proximal", "distal"}
+    assert all("error_estimate" in v for v in d["model"].values())
+    import flexgen
+    assert flexgen.solve(path).error_estimate == pytest.approx(d["error_estimate"])
+
+
+def test_solve_with_tolerance_and_models_is_an_error():
+    from flexgen.models.scm import SCMModel
+    with pytest.raises(ValueError):
+        solve(cantilever(), {"beam": SCMModel(1.0, 1.0, 3)}, tolerance=1e-4)
+
+
+@pytest.mark.parametrize("bad", [0.0, -1e-3, math.nan, math.inf])
+def test_bad_tolerance(bad):
+    with pytest.raises(SceneError):
+        select.solve_to_tolerance(cantilever(), bad)
+
+
+def test_tolerance_needs_scm_flexures():
+    with pytest.raises(SceneError, match="kind 'scm'"):
+        select.solve_to_tolerance(cantilever(kind="fem"), 1e-3)
+
+
+def test_out_of_reach_says_so():
+    # the rectangular elastica bends to 90 degrees at the tip: past the polynomial kernels' range,
+    # so at most 6 Gauss modes, whose error (~1e-6) is far above 1e-8
+    sel = select.select_models(load_scene(EXAMPLES / "rectangular_elastica.toml"), 1e-8)
+    assert not sel.reached
+    assert sel.error_estimate > 1e-8
+    assert sel.choices["beam"].modes == 6 and sel.choices["beam"].kernel == "gauss"
+    assert any("out of reach" in w for w in sel.result.warnings)
+    assert "out of reach" in sel.message
+
+
+def test_positional_tolerance_does_not_clash_with_residual_tol():
+    res = select.solve_to_tolerance(cantilever(), 1e-4, tol=1e-11)
+    assert res.converged and res.error_estimate <= 1e-4
+
+
+# -- warm start -----------------------------------------------------------------------------------
+
+def test_warm_start_matches_cold_solve_with_fewer_iterations():
+    from flexgen.models.scm import SCMModel
+    sc = load_scene(EXAMPLES / "two_link_finger.toml")
+    rich = solve(sc, {f.name: SCMModel(f.length, f.EI, 8, "poly") for f in sc.flexures})
+    models = lambda: {f.name: SCMModel(f.length, f.EI, 4) for f in sc.flexures}   # noqa: E731
+    cold = solve(sc, models())
+    warm = solve(sc, models(), q0=rich.q)           # 8 coefficients truncated to 4
+    assert warm.converged and warm.iterations < cold.iterations
+    for name in cold.q:
+        np.testing.assert_allclose(warm.q[name], cold.q[name], atol=1e-10)
+    short = solve(sc, {f.name: SCMModel(f.length, f.EI, 8, "poly") for f in sc.flexures},
+                  q0=cold.q)                         # 4 coefficients padded to 8
+    for name in rich.q:
+        np.testing.assert_allclose(short.q[name], rich.q[name], atol=1e-10)
+
+
+def test_bad_warm_start_falls_back_to_continuation():
+    sc = cantilever(force=(0.0, -2.0), modes=3)
+    cold = solve(sc)
+    wild = solve(sc, q0={"beam": [40.0, -30.0, 25.0]})
+    np.testing.assert_allclose(wild.q["beam"], cold.q["beam"], atol=1e-10)
+    assert wild.stable
+
+
+# -- the error measure ----------------------------------------------------------------------------
+
+def test_error_components_are_relative_and_wrap_angles():
+    sc = cantilever()
+    C = np.array([[2.0, 0.0], [0.0, 1.0]])
+    ref = {"beam.tip": (np.array([1.0, 0.0, math.pi - 1e-3]), C)}
+    got = {"beam.tip": (np.array([1.0, 0.5, -math.pi + 1e-3]), C + np.array([[0.2, 0], [0, 0]]))}
+    e = select.error_components(got, ref, select.length_scales(sc, ref))
+    np.testing.assert_allclose(e, [0.5, 2e-3, 0.1], rtol=1e-9)
+    assert select.error(got, ref, {"beam.tip": 1.0}) == pytest.approx(0.5)
+    assert select.error(None, ref, {"beam.tip": 1.0}) == math.inf
+
+
+def test_length_scale_is_the_flexures_on_the_path():
+    sc = load_scene(EXAMPLES / "two_link_finger.toml")
+    s = select.length_scales(sc, ["middle.pad", "fingertip.pad", "base.r0"])
+    assert s == pytest.approx({"middle.pad": 0.020, "fingertip.pad": 0.035, "base.r0": 0.020})
+
+
+# -- the command ----------------------------------------------------------------------------------
+
+def test_cli_select_prints_choice_and_cost(capsys):
+    rc = main(["select", str(EXAMPLES / "two_link_finger.toml"), "--tol", "1e-6", "--repeat", "1"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "proximal" in out and "distal" in out
+    assert "ms per solve" in out and "error estimate of the whole answer" in out
+
+
+def test_cli_select_json(capsys):
+    rc = main(["select", str(EXAMPLES / "arc_moment.toml"), "--tol", "1e-4", "--json"])
+    d = json.loads(capsys.readouterr().out)
+    assert rc == 0 and d["error_estimate"] <= 1e-4 and d["model"]["beam"]["modes"] == 4
+
+
+@pytest.mark.parametrize("tol", ["0", "-1e-3", "nan", "abc"])
+def test_cli_select_bad_tolerance(tol, capsys):
+    rc = main(["select", str(EXAMPLES / "arc_moment.toml"), "--tol", tol])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.count("\n") == 1 and "--tol" in err
+
+
+def test_cli_select_unreachable_exits_1(capsys):
+    rc = main(["select", str(EXAMPLES / "rectangular_elastica.toml"), "--tol", "1e-8",
+               "--repeat", "0"])
+    cap = capsys.readouterr()
+    assert rc == 1
+    assert "out of reach" in cap.err and "DOES NOT meet" in cap.out
+
+
+def test_cli_select_missing_scene(capsys, tmp_path):
+    rc = main(["select", str(tmp_path / "nope.toml"), "--tol", "1e-3"])
+    assert rc == 2 and capsys.readouterr().err.count("\n") == 1
