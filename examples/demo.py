@@ -92,8 +92,10 @@ def tip_load() -> None:
 
 
 def finger() -> None:
-    header("two-link finger (examples/two_link_finger.toml): tendon at 10 N, 0.5 N on the "
-           "fingertip pad")
+    scene = flexgen.load_scene(EX / "two_link_finger.toml")
+    load = scene.loads[0]
+    header(f"two-link finger (examples/two_link_finger.toml): tendon at "
+           f"{scene.tendons[0].tension:g} N, {math.hypot(*load.force):g} N on {load.point}")
     rows = solve_all("two_link_finger.toml", "fingertip.pad")
     ex = rows["exact"][0].pose
     print(f"  {'model':<6} {'pad x mm':>9} {'pad y mm':>9} {'angle':>9} {'|dpos| mm':>9}  source")
