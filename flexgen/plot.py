@@ -12,7 +12,7 @@ matplotlib (Agg, no pyplot) is imported only when drawing.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -78,10 +78,22 @@ def loaded(scene: Scene, result: Result, exact_solution=None, num: int = 64) -> 
         return Geometry(frames, _roots(scene, frames), shapes)
     from .chain import Chain
     from .models.registry import build_models
+    scene = _as_solved(scene, result)
     chain = Chain(scene, build_models(scene))
     q = chain.pack(result.q)
     frames = {b: np.asarray(k.pose, float) for b, k in chain.frames(q).items()}
     return Geometry(frames, _roots(scene, frames), chain.shapes(q, num))
+
+
+def _as_solved(scene: Scene, result: Result) -> Scene:
+    """The scene with each flexure's modes as the result has them (--tol chooses them)."""
+    flexures = []
+    for f in scene.flexures:
+        modes = result.model.get(f.name, {}).get("modes")
+        if modes is not None and modes != f.model.modes:
+            f = replace(f, model=replace(f.model, modes=modes, tolerance=None))
+        flexures.append(f)
+    return replace(scene, flexures=tuple(flexures))
 
 
 def _model_label(result: Result) -> str:

@@ -33,3 +33,30 @@ def test_closed_pipe_is_quiet():
         text=True, cwd=Path(__file__).parents[1])
     assert result.stdout.strip() == "141"
     assert "Traceback" not in result.stderr and "BrokenPipe" not in result.stderr
+
+
+def _flexgen(*args):
+    return subprocess.run([sys.executable, "-m", "flexgen", *args], capture_output=True,
+                          text=True, cwd=Path(__file__).parents[1])
+
+
+def test_solve_tol_reports_the_choice_and_plot_draws_it(tmp_path):
+    import json
+    result = _flexgen("solve", "examples/two_link_finger.toml", "--tol", "1e-6", "--json")
+    assert result.returncode == 0
+    out = json.loads(result.stdout)
+    assert out["error_estimate"] <= 1e-6
+    for name in ("proximal", "distal"):
+        assert out["model"][name]["error_estimate"] <= 1e-6
+        assert len(out["q"][name]) == out["model"][name]["modes"] > 3
+    png = tmp_path / "finger.png"
+    assert _flexgen("plot", "examples/two_link_finger.toml", "--tol", "1e-6",
+                    "-o", str(png)).returncode == 0
+    assert png.stat().st_size > 10000
+
+
+@pytest.mark.parametrize("args", [["--tol", "0"], ["--tol", "abc"], ["--tol", "1e-4", "--modes", "3"]])
+def test_solve_tol_bad_input(args):
+    result = _flexgen("solve", "examples/arc_moment.toml", *args)
+    assert result.returncode == 2 and result.stdout == ""
+    assert len(result.stderr.strip().splitlines()) == 1 and "--tol" in result.stderr

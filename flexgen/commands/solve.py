@@ -39,11 +39,23 @@ def add_model_options(p) -> None:
                         "1..8 with the checked-in kernels)")
     p.add_argument("--elements", type=_count, metavar="N",
                    help="fem: rigid elements per flexure (overrides the scene)")
-    # --tol T (mode selection by tolerance) is added here by flexgen/select.py's integration;
-    # solve_args passes every option in OPTION_NAMES on to the API.
+    p.add_argument("--tol", type=_tolerance, dest="tolerance", metavar="T",
+                   help="choose per scm flexure the fewest modes (and the kernel) whose error "
+                        "estimate on the output poses and compliances is <= T (relative); the "
+                        "result reports the choice and the estimate (docs/selection.md)")
 
 
-OPTION_NAMES: list[str] = []     # extra argparse dests forwarded to flexgen.api.solve_scene
+OPTION_NAMES = ["tolerance"]     # extra argparse dests forwarded to flexgen.api.solve_scene
+
+
+def _tolerance(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number in (0, 1), got {text!r}") from None
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"must be a number in (0, 1), got {text}")
+    return value
 
 
 def solve_args(args):
@@ -53,6 +65,8 @@ def solve_args(args):
     from flexgen.kernels import KernelNotFound
     from flexgen.models.registry import ModelError
 
+    if getattr(args, "tolerance", None) is not None and (args.modes or args.elements):
+        raise UsageError("--tol chooses the modes itself: give either --tol or --modes/--elements")
     scene = override(as_scene(args.scene), args.model, args.modes, args.elements)
     options = {name: getattr(args, name) for name in OPTION_NAMES
                if getattr(args, name, None) is not None}
