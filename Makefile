@@ -1,7 +1,7 @@
 # flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
 PYTHON ?= python3
 
-.PHONY: setup test regen check-generated bench bench-kernels demo
+.PHONY: setup test regen check-generated bench bench-kernels bench-models demo
 
 setup:
 	$(PYTHON) -m pip install --quiet -e ".[test]"
@@ -16,7 +16,12 @@ regen:
 check-generated:
 	$(PYTHON) -m flexgen generate --out generated --check
 
-bench: bench-kernels
+bench: bench-kernels bench-models
+
+# flexgen bench (accuracy vs speed) and flexgen stability (where models fail) into docs/
+bench-models:
+	OPENBLAS_NUM_THREADS=1 $(PYTHON) -m flexgen bench --out docs
+	OPENBLAS_NUM_THREADS=1 $(PYTHON) -m flexgen stability --out docs
 
 bench-kernels:
 	$(PYTHON) benchmarks/kernels.py --out docs/benchmarks.md

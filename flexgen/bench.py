@@ -215,7 +215,7 @@ def suite(quick: bool = False, n_random: int | None = None) -> list[tuple[str, S
     ex = example_scenes()
     if quick:
         ex = [(n, s) for n, s in ex if n in (SMOOTH_SCENE, "arc_moment")]
-    n_random = (1 if quick else 12) if n_random is None else n_random
+    n_random = (1 if quick else 20) if n_random is None else n_random
     return ex + random_scenes(n_random)
 
 
@@ -469,7 +469,7 @@ def run_bench(quick: bool = False, out: Path | str | None = None, progress: bool
         print(f"[bench] building the suite ({'quick' if quick else 'full'})", file=sys.stderr)
     scenes = suite(quick, n_random)
     models = model_defs(quick)
-    repeats = 2 if quick else 5
+    repeats = 2 if quick else 7
     data = BenchData(quick, [n for n, _ in scenes], models, {}, {}, {}, {}, {}, {}, {})
     bar = Progress(len(scenes) * len(models), "bench", enabled=progress)
     for name, scene in scenes:

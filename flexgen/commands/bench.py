@@ -18,7 +18,7 @@ def register(sub) -> None:
                    help="a few scenes and models (for the tests; well under a minute)")
     p.add_argument("--out", type=Path, default=REPO / "docs", help="output folder (default docs/)")
     p.add_argument("--random", type=int, default=None, metavar="N",
-                   help="number of random scenes (default 12, quick 1)")
+                   help="number of random scenes (default 20, quick 1)")
     p.set_defaults(run=run)
 
 

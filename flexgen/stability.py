@@ -1,0 +1,1006 @@
+"""Where the models fail: load sweeps, what each model claims, and buckling loads.
+
+``flexgen stability`` (``run_stability``) sweeps a dead load's magnitude alpha = P L^2/EI (up to
+20) and direction (0-360 deg, 0 = along the undeformed axis, i.e. tension; 180 = axial
+compression) on a cantilever and on the two-link finger, solves every grid point with every model
+and with the exact elastica, and records per point: converged, kernel out of range, stable,
+buckled (a critical load factor on the path), error against exact, and what the model claims.
+
+What a model claims (``assess``)
+--------------------------------
+No solve here is given a tolerance, so no model claims its own error a posteriori; every result
+carries instead an *indicative error class*: an upper bound of its pose error (relative to the
+flexure length, as in ``flexgen.bench``) and of its compliance error (relative, spectral norm)
+that depends on the model and on how far the answer is bent, beta = max |phi(s)| over every
+flexure (the angle relative to the flexure's root frame). The classes are ``CLAIMS`` below: for
+each model a bound per bend band, measured on the calibration sweep (``flexgen stability``, both
+scenes) and rounded up to the next half decade with a factor >= 3 of margin, made non-decreasing
+in beta. Beyond the bands a model is *past its validity* and the result says so with a warning:
+
+* prb past 64 deg of pin rotation (Howell's validity limit);
+* a polynomial scm kernel past its range (|phi| > 90 deg: ``in_range`` is false) -- the answer is
+  that of an interpolant outside its interval and may be wrong by anything;
+* a Gauss kernel past its certified range (|phi| > 180 deg);
+* any model bent past 180 deg (the bands end there);
+* the stiffness matrix near singular (smallest eigenvalue of K below 5 % of that of the elastic
+  Hessian: near a critical load the compliance error is amplified by 1/margin, so the compliance
+  claim is divided by the margin, and below 5 % the result warns);
+* every warning that ``solve`` itself gives (buckling, snap-through, unstable equilibrium), and
+  ``converged = False``.
+
+The rule (tested in tests/test_stability.py): **no answer is silently wrong** -- wherever a
+model's error exceeds its claim, the result is not converged or carries a warning. ``exact`` is
+the reference and is not assessed.
+
+Buckling (``buckling_loads``): along an axial compressive load ramp the stiffness at the straight
+state is K(P) = hess U - P hess x_tip(0) (linear in P), so the loads where its eigenvalues cross
+zero are the generalized eigenvalues of (hess U, hess x_tip(0)). They are compared with
+(2k - 1)^2 pi^2/4 for k = 1, 2, 3; the first is cross-checked against ``solve``'s
+``critical_load_factors`` on an axial load past it.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from flexgen.bench import (EXAMPLES, ModelDef, Progress, answer, errors, model_def, model_defs)
+from flexgen.scene import Scene, load_scene, scene_from_dict
+
+FINGER = EXAMPLES / "two_link_finger.toml"
+PRB_LIMIT = math.radians(64.0)
+NEAR_SINGULAR = 0.05
+BANDS = (math.radians(30), math.radians(60), math.radians(90), math.radians(120),
+         math.radians(150), math.pi)
+LOAD_BANDS = (1.0, 3.0, 10.0, 30.0)     # load level lambda (see load_level)
+
+# label -> table[load band][bend band] = (pose bound, compliance bound) or (None, None) where
+# nothing is claimed. Calibrated (``calibrate``) on the full sweep of `flexgen stability`; the
+# block between the markers is rewritten by `python -m flexgen.stability --calibrate`.
+# CLAIMS-BEGIN
+CLAIMS: dict = {'cc': (((0.32, 1.0), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
+        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
+        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None))),
+ 'fem16': (((0.001, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
+           ((0.0032, 0.01), (0.0032, 0.01), (0.01, 0.01), (None, None), (None, None), (None, None)),
+           ((0.0032, 0.01),
+            (0.01, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01)),
+           ((0.01, 0.01),
+            (0.01, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.032))),
+ 'fem32': (((0.00032, 0.001), (None, None), (None, None), (None, None), (None, None), (None, None)),
+           ((0.001, 0.0032),
+            (0.001, 0.0032),
+            (0.0032, 0.0032),
+            (None, None),
+            (None, None),
+            (None, None)),
+           ((0.001, 0.0032),
+            (0.0032, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032)),
+           ((0.001, 0.0032),
+            (0.0032, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032))),
+ 'fem4': (((0.032, 0.1), (None, None), (None, None), (None, None), (None, None), (None, None)),
+          ((0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (None, None), (None, None), (None, None)),
+          ((0.1, 0.1), (0.1, 0.1), (0.32, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32)),
+          ((0.1, 0.32), (0.1, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32))),
+ 'fem64': (((0.0001, 0.00032),
+            (None, None),
+            (None, None),
+            (None, None),
+            (None, None),
+            (None, None)),
+           ((0.00032, 0.00032),
+            (0.00032, 0.00032),
+            (0.00032, 0.001),
+            (None, None),
+            (None, None),
+            (None, None)),
+           ((0.00032, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001)),
+           ((0.00032, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001))),
+ 'fem8': (((0.01, 0.032), (None, None), (None, None), (None, None), (None, None), (None, None)),
+          ((0.032, 0.032),
+           (0.032, 0.032),
+           (0.032, 0.032),
+           (None, None),
+           (None, None),
+           (None, None)),
+          ((0.032, 0.032), (0.032, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032)),
+          ((0.032, 0.1), (0.032, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1))),
+ 'prb': (((1.0, 0.32), (None, None), (None, None), (None, None), (None, None), (None, None)),
+         ((1.0, 0.32), (3.2, 1.0), (3.2, 1.0), (None, None), (None, None), (None, None)),
+         ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None)),
+         ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None))),
+ 'scm2 gauss': (((0.0032, 0.01),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.032, 0.032),
+                 (0.032, 0.1),
+                 (0.032, 0.1),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32)),
+                ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32), (1.0, 0.32), (1.0, 1.0))),
+ 'scm2 poly': (((0.0032, 0.01),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.032, 0.032),
+                (0.032, 0.1),
+                (0.032, 0.1),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (None, None), (None, None), (None, None)),
+               ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (None, None), (None, None), (None, None))),
+ 'scm3 auto': (((3.2e-05, 0.00032),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.001, 0.0032),
+                (0.001, 0.0032),
+                (0.0032, 0.01),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.0032, 0.0032),
+                (0.0032, 0.01),
+                (0.0032, 0.01),
+                (0.01, 0.032),
+                (0.01, 0.032),
+                (0.032, 0.032)),
+               ((0.032, 0.032),
+                (0.032, 0.032),
+                (0.032, 0.032),
+                (0.032, 0.1),
+                (0.032, 0.1),
+                (0.032, 0.1))),
+ 'scm3 gauss': (((3.2e-05, 0.00032),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.001, 0.0032),
+                 (0.001, 0.0032),
+                 (0.0032, 0.01),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.0032, 0.0032),
+                 (0.0032, 0.01),
+                 (0.0032, 0.01),
+                 (0.01, 0.032),
+                 (0.01, 0.032),
+                 (0.032, 0.032)),
+                ((0.032, 0.032),
+                 (0.032, 0.032),
+                 (0.032, 0.032),
+                 (0.032, 0.1),
+                 (0.032, 0.1),
+                 (0.032, 0.1))),
+ 'scm3 poly': (((3.2e-05, 0.00032),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.001, 0.0032),
+                (0.001, 0.0032),
+                (0.0032, 0.01),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.0032, 0.0032),
+                (0.0032, 0.01),
+                (0.0032, 0.01),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.032, 0.032),
+                (0.032, 0.032),
+                (0.032, 0.032),
+                (None, None),
+                (None, None),
+                (None, None))),
+ 'scm4 gauss': (((1e-06, 3.2e-05),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-06, 3.2e-05),
+                 (3.2e-05, 0.00032),
+                 (0.00032, 0.001),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.0001, 0.0001),
+                 (0.0001, 0.00032),
+                 (0.00032, 0.001),
+                 (0.001, 0.01),
+                 (0.0032, 0.01),
+                 (0.0032, 0.01)),
+                ((0.001, 0.001),
+                 (0.0032, 0.0032),
+                 (0.0032, 0.0032),
+                 (0.0032, 0.01),
+                 (0.0032, 0.032),
+                 (0.01, 0.032))),
+ 'scm4 poly': (((1e-06, 3.2e-05),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-06, 3.2e-05),
+                (3.2e-05, 0.00032),
+                (0.00032, 0.001),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.0001, 0.0001),
+                (0.0001, 0.00032),
+                (0.00032, 0.001),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.001, 0.001),
+                (0.0032, 0.0032),
+                (0.0032, 0.0032),
+                (None, None),
+                (None, None),
+                (None, None))),
+ 'scm5 auto': (((1e-08, 3.2e-07),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-07, 1e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-06, 3.2e-05),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-06, 3.2e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-05, 0.00032),
+                (0.0001, 0.001),
+                (0.00032, 0.0032),
+                (0.00032, 0.0032)),
+               ((0.0001, 0.0001),
+                (0.0001, 0.0001),
+                (0.0001, 0.001),
+                (0.001, 0.0032),
+                (0.0032, 0.01),
+                (0.0032, 0.01))),
+ 'scm5 gauss': (((1e-08, 3.2e-07),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-07, 1e-06),
+                 (3.2e-06, 3.2e-05),
+                 (3.2e-06, 3.2e-05),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-06, 3.2e-06),
+                 (3.2e-06, 3.2e-05),
+                 (3.2e-05, 0.00032),
+                 (0.0001, 0.001),
+                 (0.00032, 0.0032),
+                 (0.00032, 0.0032)),
+                ((0.0001, 0.0001),
+                 (0.0001, 0.0001),
+                 (0.0001, 0.001),
+                 (0.001, 0.0032),
+                 (0.0032, 0.01),
+                 (0.0032, 0.01))),
+ 'scm5 poly': (((1e-08, 3.2e-07),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-07, 1e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-06, 3.2e-05),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-06, 3.2e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-05, 0.00032),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.0001, 0.0001),
+                (0.0001, 0.0001),
+                (0.0001, 0.001),
+                (None, None),
+                (None, None),
+                (None, None))),
+ 'scm6 gauss': (((1e-10, 3.2e-08),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-09, 1e-07),
+                 (1e-07, 1e-06),
+                 (1e-06, 3.2e-06),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-08, 3.2e-07),
+                 (1e-06, 1e-05),
+                 (3.2e-06, 3.2e-05),
+                 (1e-05, 0.0001),
+                 (1e-05, 0.0001),
+                 (3.2e-05, 0.0001)),
+                ((1e-06, 3.2e-06),
+                 (3.2e-06, 3.2e-05),
+                 (3.2e-05, 0.00032),
+                 (0.00032, 0.001),
+                 (0.00032, 0.0032),
+                 (0.001, 0.0032))),
+ 'scm6 poly': (((3.2e-10, 3.2e-08),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-09, 1e-07),
+                (1e-07, 1e-06),
+                (1e-06, 3.2e-06),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-08, 3.2e-07),
+                (1e-06, 1e-05),
+                (3.2e-06, 3.2e-05),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-06, 3.2e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-05, 0.00032),
+                (None, None),
+                (None, None),
+                (None, None)))}
+# CLAIMS-END
+
+
+# -- scenes ----------------------------------------------------------------------------------
+
+def cantilever(alpha: float, direction_deg: float, L: float = 1.0, EI: float = 1.0) -> Scene:
+    """A cantilever along +x with a dead tip force alpha EI/L^2 in direction ``direction_deg``."""
+    P = alpha * EI / L ** 2
+    d = math.radians(direction_deg)
+    return scene_from_dict({
+        "name": f"cantilever a={alpha:g} d={direction_deg:g}",
+        "flexure": [{"name": "beam", "length": L, "EI": EI}],
+        "load": [{"point": "beam.tip", "force": [P * math.cos(d), P * math.sin(d)]}],
+        "output": {"points": ["beam.tip"]}})
+
+
+_FINGER_CACHE: dict = {}
+
+
+def finger(alpha: float, direction_deg: float) -> Scene:
+    """The two-link finger (examples/two_link_finger.toml, tendon at its file tension) with its
+    pad force replaced by alpha EI_p / (L_p r) in direction ``direction_deg`` (world frame), EI_p and
+    L_p of the proximal flexure and r the distance from its root to the pad: alpha is then the
+    nondimensional root moment the force would exert on the straight finger."""
+    import tomllib
+    if "raw" not in _FINGER_CACHE:
+        _FINGER_CACHE["raw"] = tomllib.loads(FINGER.read_text())
+        _FINGER_CACHE["scene"] = load_scene(FINGER)
+    raw, base = _FINGER_CACHE["raw"], _FINGER_CACHE["scene"]
+    prox = base.flexures[0]
+    r = 0.045 + 0.015 + 0.015           # root -> distal joint -> pad along the straight finger
+    P = alpha * prox.EI / (prox.length * r)
+    d = math.radians(direction_deg)
+    d2 = dict(raw)
+    d2["name"] = f"finger a={alpha:g} d={direction_deg:g}"
+    d2["load"] = [{"point": "fingertip.pad", "force": [P * math.cos(d), P * math.sin(d)]}]
+    return scene_from_dict(d2, order=("flexure", "link", "flexure", "link"))
+
+
+SCENES = {"cantilever": cantilever, "finger": finger}
+
+
+# -- what a result claims ----------------------------------------------------------------------
+
+@dataclass
+class Claim:
+    pose: float                   # claimed bound on the pose error
+    comp: float                   # claimed bound on the compliance error
+    beta: float                   # largest bend (rad)
+    margin: float                 # smallest eigenvalue of K / that of hess U
+    out_of_range: bool            # a kernel past its valid (poly) or certified (gauss) range
+    switched: bool                # an auto kernel moved from poly to gauss
+    warnings: list = field(default_factory=list)   # validity warnings (added to solve's)
+    uncalibrated: bool = False    # one of those warnings: no error class for this bend
+
+
+def bend(model, q) -> float:
+    """max |phi(s)| of one flexure at coordinates q."""
+    q = np.asarray(q, dtype=float)
+    kind = getattr(model, "kind", "")
+    if kind == "scm":
+        from flexgen.models.scm import angle_basis
+        return float(np.max(np.abs(angle_basis(len(q), np.linspace(0.0, 1.0, 65)) @ q)))
+    if kind == "fem":
+        return float(np.max(np.abs(np.cumsum(q)), initial=0.0))
+    return float(np.max(np.abs(q), initial=0.0))
+
+
+def _band_index(beta: float, lam: float) -> tuple[int, int] | None:
+    i = next((k for k, e in enumerate(LOAD_BANDS) if lam <= e * (1 + 1e-12)), None)
+    j = next((k for k, e in enumerate(BANDS) if beta <= e + 1e-12), None)
+    return None if i is None or j is None else (i, j)
+
+
+def load_level(scene: Scene) -> float:
+    """lambda = max over flexures of L^2/EI x (sum of |force| of the loads + 2 x sum of tendon
+    tensions): a bound of the nondimensional force through any flexure (alpha for a cantilever
+    with one tip force)."""
+    total = sum(math.hypot(*ld.force) for ld in scene.loads) + 2 * sum(
+        t.tension for t in scene.tendons)
+    return max(f.length ** 2 / f.EI for f in scene.flexures) * total
+
+
+def prb_load_case(scene: Scene) -> bool:
+    """The case the PRB constants are fitted for: one flexure, loads only at its tip, no moment,
+    no tendon."""
+    if len(scene.flexures) != 1 or scene.tendons:
+        return False
+    tip = f"{scene.flexures[0].name}.tip"
+    return all(ld.point == tip and ld.moment == 0.0 for ld in scene.loads)
+
+
+def assess(scene: Scene, result, models: dict, label: str) -> Claim:
+    """The claim and the validity warnings of a converged ``solve`` result whose flexure models
+    are ``models`` (the dict passed to solve)."""
+    from flexgen.chain import Chain
+    from flexgen.solve import System
+    warnings: list[str] = []
+    beta, oor, switched = 0.0, False, False
+    for name, m in models.items():
+        q = np.asarray(result.q[name], dtype=float)
+        b = bend(m, q)
+        beta = max(beta, b)
+        if m.kind == "scm":
+            switched |= bool(getattr(m, "switched", False))
+            poly_only = m.gauss is None
+            if poly_only and not m.poly.in_range(q):
+                oor = True
+                warnings.append(f"{name}: polynomial kernel past its range (max |phi| = "
+                                f"{math.degrees(b):.0f} deg > {math.degrees(m.poly.PHI_MAX):.0f});"
+                                " the answer is not reliable")
+            elif not poly_only and not m.kernel_at(q).in_range(q):
+                oor = True
+                warnings.append(f"{name}: past the certified range of the Gauss kernel "
+                                f"(max |phi| = {math.degrees(b):.0f} deg)")
+        if m.kind == "prb" and b > PRB_LIMIT:
+            warnings.append(f"{name}: prb past its validity (pin rotation "
+                            f"{math.degrees(b):.0f} deg > 64 deg)")
+    if any(m.kind == "prb" for m in models.values()) and not prb_load_case(scene):
+        warnings.append("prb is calibrated for a force at the tip of a single flexure (no end "
+                        "moment, link lever arm or tendon): no accuracy is claimed")
+    if beta > BANDS[-1]:
+        warnings.append(f"bent past {math.degrees(BANDS[-1]):.0f} deg (max |phi| = "
+                        f"{math.degrees(beta):.0f} deg): no accuracy is claimed")
+    # stiffness margin at the answer
+    chain = Chain(scene, models)
+    st = System(chain).state(chain.pack(result.q), 1.0)
+    KU = chain.energy_hessian(st.q)
+    lam_k = float(np.linalg.eigvalsh(st.K)[0])
+    lam_u = float(np.linalg.eigvalsh(KU)[0])
+    margin = lam_k / lam_u if lam_u > 0 else math.nan
+    if margin < NEAR_SINGULAR:
+        warnings.append(f"near a critical load: smallest stiffness eigenvalue is {margin:.1%} "
+                        "of the unloaded one; compliance is sensitive to any model error")
+    lam = load_level(scene)
+    if lam > LOAD_BANDS[-1]:
+        warnings.append(f"load level {lam:.3g} (force L^2/EI) beyond the calibrated "
+                        f"{LOAD_BANDS[-1]:g}: no accuracy is claimed")
+    idx = _band_index(beta, lam)
+    pose = comp = math.inf
+    uncalibrated = False
+    if idx is not None:
+        table = CLAIMS.get(label)
+        pose, comp = (None, None) if table is None else table[idx[0]][idx[1]]
+        uncalibrated = pose is None
+        if uncalibrated:
+            warnings.append(f"{label} has no calibrated error class at {math.degrees(beta):.0f} "
+                            f"deg of bend and load level {lam:.3g}: no accuracy is claimed")
+    pose = math.inf if pose is None else pose
+    comp = math.inf if comp is None else comp / max(min(margin, 1.0), 1e-300)
+    return Claim(pose, comp, beta, margin, oor, switched, warnings, uncalibrated)
+
+
+def solve_assessed(scene: Scene, md: ModelDef):
+    """solve() with fresh models, and assess() of the result (None if not converged)."""
+    from flexgen.models.registry import build_models
+    from flexgen.solve import solve
+    models = build_models(scene, None, md.factory())
+    r = solve(scene, models=models)
+    claim = assess(scene, r, models, md.label) if r.converged else None
+    return r, claim
+
+
+# -- the sweep -------------------------------------------------------------------------------
+
+@dataclass
+class Point:
+    scene: str
+    alpha: float
+    direction: float
+    model: str
+    converged: bool
+    stable: bool
+    buckled: bool
+    out_of_range: bool
+    switched: bool
+    warned: bool                   # solve's warnings or assess's validity warnings
+    pose_err: float
+    comp_err: float
+    claim_pose: float
+    claim_comp: float
+    beta: float
+    reference: bool                # exact converged (stable, no snap) at this point
+    margin: float = math.nan       # smallest eigenvalue of K / that of hess U
+    uncalibrated: bool = False     # the only warning may be "no calibrated class" (calibration)
+    load: float = math.nan         # load level lambda of the scene
+
+    @property
+    def exceeds(self) -> bool:
+        return self.pose_err > self.claim_pose or self.comp_err > self.claim_comp
+
+    @property
+    def silent(self) -> bool:
+        """Wrong beyond the claim, converged, and no warning: what must never happen."""
+        return self.reference and self.converged and not self.warned and self.exceeds
+
+    @property
+    def category(self) -> str:
+        if not self.reference:
+            return "no reference"
+        if not self.converged:
+            return "not converged"
+        if self.silent:
+            return "SILENT"
+        if self.warned:
+            return "warned"
+        return "within claim"
+
+
+def grid(quick: bool):
+    if quick:
+        return (1.0, 5.0, 20.0), (0.0, 90.0, 180.0, 225.0)
+    return ((0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0),
+            tuple(float(d) for d in range(0, 360, 30)) + (165.0, 175.0, 195.0))
+
+
+def stability_models(quick: bool) -> list[ModelDef]:
+    if quick:
+        return [model_def(lab) for lab in ("cc", "prb", "scm3 poly", "scm3 gauss", "scm5 gauss",
+                                           "fem8")]
+    defs = [md for md in model_defs() if md.kind != "exact"]
+    defs += [ModelDef(f"scm{n} auto", "scm-auto", "scm", modes=n, kernel="auto") for n in (3, 5)]
+    return defs
+
+
+def sweep(scenes=("cantilever", "finger"), models: list[ModelDef] | None = None,
+          alphas=None, directions=None, quick: bool = False, progress: bool = True) -> list[Point]:
+    a_def, d_def = grid(quick)
+    alphas = a_def if alphas is None else alphas
+    directions = d_def if directions is None else directions
+    models = stability_models(quick) if models is None else models
+    exact = model_def("exact")
+    pts: list[Point] = []
+    bar = Progress(len(scenes) * len(alphas) * len(directions), "stability", enabled=progress)
+    for sname in scenes:
+        for a in alphas:
+            for d in directions:
+                scene = SCENES[sname](a, d)
+                try:
+                    ref = answer(scene, exact)
+                    has_ref = ref.converged and ref.stable and not any(
+                        "snap" in w or "stall" in w or "lost stability" in w for w in ref.warnings)
+                except Exception:   # noqa: BLE001 - no reference at this point
+                    ref, has_ref = None, False
+                for md in models:
+                    try:
+                        r, claim = solve_assessed(scene, md)
+                    except Exception as exc:   # noqa: BLE001 - a crash counts as not converged
+                        print(f"\n[stability] {md.label} {sname} a={a} d={d}: {exc}",
+                              file=sys.stderr)
+                        r, claim = None, None
+                    conv = bool(r is not None and r.converged)
+                    if conv and has_ref:
+                        pe, ce = _errors_of(scene, r, ref)
+                    else:
+                        pe, ce = math.nan, math.nan
+                    pts.append(Point(
+                        sname, a, d, md.label, conv, bool(r is not None and r.stable),
+                        bool(r is not None and r.critical_load_factors),
+                        bool(claim and claim.out_of_range), bool(claim and claim.switched),
+                        bool(r is not None and (r.warnings or (claim and claim.warnings))),
+                        pe, ce, claim.pose if claim else math.nan,
+                        claim.comp if claim else math.nan, claim.beta if claim else math.nan,
+                        has_ref, claim.margin if claim else math.nan,
+                        bool(claim and claim.uncalibrated and len(claim.warnings) == 1
+                             and not r.warnings), load_level(scene)))
+                bar.step(f"{sname} a={a:g} d={d:g}")
+    return pts
+
+
+def _errors_of(scene: Scene, r, ref) -> tuple[float, float]:
+    from flexgen.bench import Answer
+    ans = Answer(r.converged, r.stable, {k: np.asarray(p.pose) for k, p in r.points.items()},
+                 {k: np.asarray(p.compliance) for k, p in r.points.items()})
+    return errors(scene, ans, ref)
+
+
+def calibrate(points: list[Point], factor: float = 3.0) -> dict:
+    """Error classes from a sweep: per model, load band and bend band, ``factor`` x the largest
+    error among converged points with a reference and no warning (compliance times the stiffness
+    margin), rounded up to the next half decade, made non-decreasing in beta and in the load;
+    None where a band has no such point (no claim: the result warns)."""
+    def up(x):
+        e = math.log10(max(x, 1e-15))
+        return float(f"{10 ** (math.ceil(2 * e - 1e-9) / 2):.2g}")
+    out = {}
+    for m in dict.fromkeys(p.model for p in points):
+        table = []
+        for i in range(len(LOAD_BANDS)):
+            row = []
+            for j in range(len(BANDS)):
+                sel = [p for p in points if p.model == m and p.reference and p.converged
+                       and (not p.warned or p.uncalibrated)
+                       and _band_index(p.beta, p.load) == (i, j)]
+                if not sel:
+                    row.append((None, None))
+                    continue
+                row.append((up(factor * max(p.pose_err for p in sel)),
+                            up(factor * max(p.comp_err * min(p.margin, 1.0) for p in sel))))
+            table.append(row)
+        for i in range(len(LOAD_BANDS)):          # monotone in beta, then in the load
+            for j in range(len(BANDS)):
+                cur = table[i][j]
+                if cur[0] is None:
+                    continue
+                prev = [table[i][j - 1] if j else (None, None), table[i - 1][j] if i else (None, None)]
+                pe = max([cur[0]] + [x[0] for x in prev if x[0] is not None])
+                ce = max([cur[1]] + [x[1] for x in prev if x[1] is not None])
+                table[i][j] = (pe, ce)
+        out[m] = tuple(tuple(r) for r in table)
+    return out
+
+
+# -- buckling --------------------------------------------------------------------------------
+
+def buckling_loads(modes: int, count: int = 3) -> np.ndarray:
+    """First ``count`` critical axial loads (EI = L = 1) of scm ``modes``: the loads P where an
+    eigenvalue of K(P) = hess U - P hess x_tip(0) crosses zero (generalized eigenvalues)."""
+    import scipy.linalg
+    from flexgen.models.scm import SCMModel
+    try:
+        m = SCMModel(1.0, 1.0, modes, "gauss")      # the tighter Hessian bound
+    except LookupError:
+        m = SCMModel(1.0, 1.0, modes, "poly")       # q = 0 is in range
+    q0 = np.zeros(modes)
+    A = m.energy_hessian(q0)
+    B = -m.tip(q0).H[0]                              # -hess x_tip: positive definite
+    w = scipy.linalg.eigh(A, 0.5 * (B + B.T), eigvals_only=True)
+    w = np.sort(w[w > 0])
+    out = np.full(count, np.nan)
+    out[:min(count, len(w))] = w[:count]
+    return out
+
+
+def euler(k: int) -> float:
+    return (2 * k - 1) ** 2 * math.pi ** 2 / 4
+
+
+def buckling_table(modes=range(3, 9)) -> list[dict]:
+    """Per N: the three critical loads, their relative errors, and solve's first critical load
+    along an axial ramp to 1.2 x the first (cross-check)."""
+    from flexgen.solve import solve
+    rows = []
+    for n in modes:
+        P = buckling_loads(n)
+        rel = [abs(P[k] - euler(k + 1)) / euler(k + 1) if math.isfinite(P[k]) else math.nan
+               for k in range(3)]
+        kernel = "gauss" if n <= 6 else "poly"
+        ramp = 1.2 * euler(1)
+        scene = cantilever(ramp, 180.0)
+        r = solve(scene, model_factory=ModelDef(f"scm{n}", "scm", "scm", modes=n,
+                                                kernel=kernel).factory())
+        solve_first = r.critical_load_factors[0] * ramp if r.critical_load_factors else math.nan
+        rows.append({"modes": n, "loads": P.tolist(), "rel": rel, "solve_first": solve_first,
+                     "solve_rel": abs(solve_first - euler(1)) / euler(1)})
+    return rows
+
+
+# -- run and outputs -------------------------------------------------------------------------
+
+@dataclass
+class StabilityData:
+    quick: bool
+    points: list
+    buckling: list
+    models: list
+    elapsed: float = 0.0
+
+
+def run_stability(quick: bool = False, out: Path | str | None = None,
+                  progress: bool = True) -> StabilityData:
+    t0 = time.perf_counter()
+    models = stability_models(quick)
+    pts = sweep(models=models, quick=quick, progress=progress)
+    buck = buckling_table(range(3, 9) if not quick else (3, 5))
+    data = StabilityData(quick, pts, buck, [md.label for md in models],
+                         time.perf_counter() - t0)
+    if out is not None:
+        write_outputs(data, Path(out))
+    return data
+
+
+CAT_COLORS = {"within claim": "tab:green", "warned": "tab:orange", "not converged": "0.6",
+              "SILENT": "red", "no reference": "white"}
+
+
+def plot(data: StabilityData, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    scenes = list(dict.fromkeys(p.scene for p in data.points))
+    panels = [(m, s) for m in data.models for s in scenes]
+    ncol = 6
+    nrow = math.ceil(len(panels) / ncol)
+    fig = plt.figure(figsize=(2.6 * ncol, 2.8 * nrow))
+    amax = max(p.alpha for p in data.points)
+    for i, (m, s) in enumerate(panels):
+        ax = fig.add_subplot(nrow, ncol, i + 1, projection="polar")
+        sel = [p for p in data.points if p.model == m and p.scene == s]
+        for cat, color in CAT_COLORS.items():
+            cp = [p for p in sel if p.category == cat]
+            if not cp:
+                continue
+            ax.scatter([math.radians(p.direction) for p in cp],
+                       [math.sqrt(p.alpha / amax) for p in cp], s=14, c=color,
+                       edgecolors="k", linewidths=0.3,
+                       marker="X" if cat == "SILENT" else "o", zorder=3)
+        bk = [p for p in sel if p.buckled]
+        if bk:
+            ax.scatter([math.radians(p.direction) for p in bk],
+                       [math.sqrt(p.alpha / amax) for p in bk], s=40, facecolors="none",
+                       edgecolors="purple", linewidths=0.8, zorder=4)
+        ax.set_ylim(0, 1.05)
+        ax.set_yticks([math.sqrt(a / amax) for a in (1, 5, 20) if a <= amax])
+        ax.set_yticklabels([])
+        ax.set_xticklabels([])
+        ax.set_title(f"{m} / {s}", fontsize=8)
+    handles = [plt.Line2D([], [], marker="X" if c == "SILENT" else "o", ls="", color=col,
+                          markeredgecolor="k", label=c) for c, col in CAT_COLORS.items()]
+    handles.append(plt.Line2D([], [], marker="o", ls="", markerfacecolor="none",
+                              markeredgecolor="purple", label="buckled (critical load on path)"))
+    fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=9)
+    fig.suptitle("flexgen stability: load direction (angle, 0 = tension along the axis, 180 = "
+                 "axial compression) and magnitude (radius ~ sqrt(alpha), rings at 1, 5, 20)",
+                 fontsize=10)
+    fig.tight_layout(rect=(0, 0.04, 1, 0.97))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _e(x: float) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    if math.isinf(x):
+        return "inf"
+    return f"{x:.1e}"
+
+
+def _ratio(x: float) -> str:
+    return "-" if math.isnan(x) else f"{x:.2f}"
+
+
+def model_table(data: StabilityData) -> list[dict]:
+    rows = []
+    scenes = list(dict.fromkeys(p.scene for p in data.points))
+    for m in data.models:
+        for s in scenes:
+            sel = [p for p in data.points if p.model == m and p.scene == s]
+            ref = [p for p in sel if p.reference]
+            conv = [p for p in ref if p.converged]
+            quiet = [p for p in conv if not p.warned]
+            ratio = max((max(p.pose_err / p.claim_pose, p.comp_err / p.claim_comp)
+                         for p in quiet), default=math.nan)
+            rows.append({
+                "model": m, "scene": s, "points": len(sel), "reference": len(ref),
+                "converged": sum(p.converged for p in sel),
+                "stable": sum(p.converged and p.stable for p in sel),
+                "buckled": sum(p.buckled for p in sel),
+                "out_of_range": sum(p.out_of_range for p in sel),
+                "switched": sum(p.switched for p in sel),
+                "warned": sum(p.converged and p.warned for p in sel),
+                "within": sum(p.category == "within claim" for p in sel),
+                "silent": sum(p.silent for p in sel),
+                "worst_quiet_ratio": ratio,
+                "max_pose_quiet": max((p.pose_err for p in quiet), default=math.nan),
+                "max_pose_warned": max((p.pose_err for p in conv if p.warned), default=math.nan),
+            })
+    return rows
+
+
+def render_markdown(data: StabilityData) -> str:
+    a, d = grid(data.quick)
+    silent = [p for p in data.points if p.silent]
+    L = ["# Where the models fail", "",
+         f"Generated by `flexgen stability{' --quick' if data.quick else ''}` in "
+         f"{data.elapsed:.0f} s; every number below comes from that run (rerun with "
+         "`make bench`).", "",
+         "![stability map](stability-map.png)", "",
+         "## Sweep", "",
+         f"Two scenes: a cantilever (EI = L = 1) with a dead tip force alpha EI/L^2, and the "
+         "two-link finger (`examples/two_link_finger.toml`, tendon at 10 N) with its pad force "
+         "replaced by alpha EI_p/(L_p r) (proximal flexure; r = 75 mm, the straight finger's "
+         "lever arm: alpha is the nondimensional root moment). alpha in "
+         f"{', '.join(f'{x:g}' for x in a)}; direction (world frame, 0 = along the undeformed "
+         f"axis, i.e. tension; 180 = axial compression) in {', '.join(f'{x:g}' for x in d)} deg. "
+         "Every point is solved by every model (load continuation from the unloaded state) and "
+         "by the exact elastica; points where the exact solver does not converge or reports a "
+         "snap or loss of stability have no reference.", "",
+         "## What each model claims", "",
+         "Without a requested tolerance no model estimates its own error. Every result instead "
+         "carries an indicative error class -- a bound on its pose error (relative to the "
+         "flexure length) and on its compliance error (relative, spectral norm) -- by model and "
+         "by bend band (beta = max |phi| over the flexures), and a warning wherever the load "
+         "pushes it past its validity (see `flexgen/stability.py`): prb past 64 deg, a "
+         "polynomial kernel past 90 deg, a Gauss kernel past 180 deg, any model bent past 180 "
+         "deg, the stiffness within 5 % of singular (compliance claim divided by the margin), and "
+         "every warning of `solve` itself (buckling, snap-through, unstable, kernel switch). "
+         "The bands: bend beta and load level lambda = max_f L_f^2/EI_f x (sum |force| + 2 sum "
+         f"tension) (alpha for the cantilever; above {LOAD_BANDS[-1]:g} nothing is claimed). The "
+         "classes are calibrated on this sweep (`python -m flexgen.stability --calibrate`: 3x the "
+         "worst unwarned error per band, rounded up to a half decade, monotone in beta and "
+         "lambda; `none` = no unwarned point in the band, so nothing is claimed and the result "
+         "warns); `scmN auto` uses the classes of `scmN gauss`. The test sweep "
+         "(tests/test_stability.py) uses loads and directions off this grid. Classes "
+         "(pose / compliance bound):", "",
+         "| model | load level | " + " | ".join(f"beta <= {math.degrees(b):.0f} deg"
+                                              for b in BANDS) + " |",
+         "|---|---|" + "---|" * len(BANDS)]
+    for m in data.models:
+        table = CLAIMS.get(m)
+        for i, lb in enumerate(LOAD_BANDS):
+            cells = ["none"] * len(BANDS) if table is None else [
+                "none" if pe is None else f"{_e(pe)} / {_e(ce)}" for pe, ce in table[i]]
+            L.append(f"| {m} | <= {lb:g} | " + " | ".join(cells) + " |")
+    L += ["", "## The rule: no answer is silently wrong", "",
+          (f"**{len(silent)} silent failures** (error above the claim, converged, no warning)."
+           if silent else "**No silent failure**: wherever a model's error exceeds its claim, "
+           "the result is not converged or carries a warning."), ""]
+    for p in silent[:20]:
+        L.append(f"- {p.model} / {p.scene} alpha={p.alpha:g} dir={p.direction:g}: pose "
+                 f"{_e(p.pose_err)} (claim {_e(p.claim_pose)}), compliance {_e(p.comp_err)} "
+                 f"(claim {_e(p.claim_comp)})")
+    L += ["", "## Per model and scene", "",
+          "Counts over the grid points. `warned`: converged with a warning (solve's or a "
+          "validity warning); `out of range`: a kernel past its range; `switched`: an auto "
+          "kernel moved to Gauss; `buckled`: a critical load on the path; `worst quiet ratio`: "
+          "the largest error/claim among converged points without a warning (<= 1 is the rule).",
+          "", "| model | scene | points | with reference | converged | stable | buckled | "
+          "out of range | switched | warned | within claim | SILENT | worst quiet ratio | "
+          "max pose err (quiet) | max pose err (warned) |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in model_table(data):
+        L.append(f"| {r['model']} | {r['scene']} | {r['points']} | {r['reference']} | "
+                 f"{r['converged']} | {r['stable']} | {r['buckled']} | {r['out_of_range']} | "
+                 f"{r['switched']} | {r['warned']} | {r['within']} | {r['silent']} | "
+                 f"{_ratio(r['worst_quiet_ratio'])} | "
+                 f"{_e(r['max_pose_quiet'])} | {_e(r['max_pose_warned'])} |")
+    L += ["", "## Buckling: critical axial loads of scm N", "",
+          "Stiffness at the straight state under an axial compressive tip load P (EI = L = 1): "
+          "K(P) = hess U - P hess x_tip(0); the loads where its eigenvalues cross zero are the "
+          "generalized eigenvalues of (hess U, -hess x_tip(0)) (Gauss kernels for N <= 6, the "
+          "polynomial kernels for 7 and 8, exact at q = 0). Exact: (2k - 1)^2 pi^2/4 = "
+          f"{euler(1):.7f}, {euler(2):.5f}, {euler(3):.5f}. The last column is `solve`'s first "
+          "critical load factor on an axial ramp to 1.2 x the Euler load (bisection on the "
+          "smallest eigenvalue along the path).", "",
+          "| N | P1 | rel. error | P2 | rel. error | P3 | rel. error | solve: P1 (rel. error) |",
+          "|---|---|---|---|---|---|---|---|"]
+    for r in data.buckling:
+        P, rel = r["loads"], r["rel"]
+        cells = " | ".join(f"{P[k]:.8g} | {_e(rel[k])}" if math.isfinite(P[k]) else "- | -"
+                           for k in range(3))
+        L.append(f"| {r['modes']} | {cells} | {r['solve_first']:.9g} ({_e(r['solve_rel'])}) |")
+    L += ["", "N modes resolve about N/2 buckling modes: the third load needs N >= 6 to be "
+          "within a few percent; the first is spectrally accurate (model-notes: 8.6e-9 for N = "
+          "5).", ""]
+    return "\n".join(L)
+
+
+def write_claims(claims: dict, path: Path = Path(__file__)) -> None:
+    """Rewrite the CLAIMS block of this module."""
+    import pprint
+    text = path.read_text()
+    a = text.index("# CLAIMS-BEGIN\n") + len("# CLAIMS-BEGIN\n")
+    b = text.index("# CLAIMS-END")
+    body = "CLAIMS: dict = " + pprint.pformat(claims, width=100, sort_dicts=True) + "\n"
+    path.write_text(text[:a] + body + text[b:])
+
+
+def main(argv=None) -> int:
+    import argparse
+    ap = argparse.ArgumentParser(description="calibrate the error classes (CLAIMS)")
+    ap.add_argument("--calibrate", action="store_true")
+    args = ap.parse_args(argv)
+    if not args.calibrate:
+        ap.print_help()
+        return 2
+    pts = sweep(quick=False)
+    claims = calibrate(pts)
+    for n in (3, 5):
+        if f"scm{n} gauss" in claims:
+            claims[f"scm{n} auto"] = claims[f"scm{n} gauss"]
+    write_claims(claims)
+    print(f"wrote CLAIMS for {len(claims)} models into {__file__}", file=sys.stderr)
+    return 0
+
+
+def write_outputs(data: StabilityData, out: Path) -> tuple[Path, Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    png, md = out / "stability-map.png", out / "stability.md"
+    plot(data, png)
+    md.write_text(render_markdown(data))
+    return png, md
+
+
+if __name__ == "__main__":
+    sys.exit(main())
