@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from flexgen.commands.common import REPO
+from flexgen.commands.common import REPO, integer
 
 
 def register(sub) -> None:
@@ -17,7 +17,7 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true",
                    help="a few scenes and models (for the tests; well under a minute)")
     p.add_argument("--out", type=Path, default=REPO / "docs", help="output folder (default docs/)")
-    p.add_argument("--random", type=int, default=None, metavar="N",
+    p.add_argument("--random", type=integer(1), default=None, metavar="N",
                    help="number of random scenes (default 20, quick 1)")
     p.set_defaults(run=run)
 

@@ -7,17 +7,9 @@ import time
 from pathlib import Path
 
 from flexgen.codegen.spec import FAMILIES, KernelSpec
-from flexgen.commands.common import REPO, UsageError
+from flexgen.commands.common import REPO, UsageError, integer
 
 LANGS = ("numpy", "c")
-
-
-def _modes(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    return value
 
 
 def _langs(text: str) -> tuple[str, ...]:
@@ -36,7 +28,7 @@ def register(sub) -> None:
         "--modes, regenerates the checked-in set (scm1..scm8 polynomial at 90 degrees, Gauss "
         "kernels for 1..6 modes). With --check, writes nothing and exits 1 naming the files in "
         "--out that differ from a fresh generation."))
-    gen.add_argument("--modes", type=_modes, help="Legendre curvature modes N (1..8)")
+    gen.add_argument("--modes", type=integer(), help="Legendre curvature modes N (1..8)")
     gen.add_argument("--kernel", default="poly", choices=FAMILIES,
                      help="poly: cos/sin as a Chebyshev polynomial on the range (closed-form "
                           "polynomial in q); gauss: Gauss-Legendre quadrature, any angle")
@@ -45,11 +37,11 @@ def register(sub) -> None:
                           "(default 90, must be < 180); gauss kernels certify their bound there "
                           "(default 180)")
     how = gen.add_mutually_exclusive_group()
-    how.add_argument("--degree", type=int, help="poly: interpolation degree of cos and sin")
+    how.add_argument("--degree", type=integer(), help="poly: interpolation degree of cos and sin")
     how.add_argument("--tol", type=float, default=1e-10,
                      help="poly: bound on the cos/sin error on the range; gauss: bound on the "
                           "pose error (default 1e-10, units of the flexure length)")
-    gen.add_argument("--nodes", type=int, help="gauss: number of quadrature nodes")
+    gen.add_argument("--nodes", type=integer(), help="gauss: number of quadrature nodes")
     gen.add_argument("--lang", type=_langs, default=LANGS, metavar="LIST",
                      help="comma-separated backends: numpy,c (default both)")
     gen.add_argument("--out", type=Path, default=REPO / "generated",

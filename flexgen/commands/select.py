@@ -8,21 +8,10 @@ T <= 0), with a one-line message.
 """
 from __future__ import annotations
 
-import argparse
-import json
-import math
 import sys
 from pathlib import Path
 
-from flexgen.commands.common import UsageError
-
-
-def _tol(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-    return value
+from flexgen.commands.common import integer, tolerance
 
 
 def register(sub) -> None:
@@ -33,11 +22,11 @@ def register(sub) -> None:
         "compliances (relative, spectral norm) is <= TOL, and print the choice with its "
         "estimate and cost. Exit 1 if TOL is out of reach (the best estimate is printed)."))
     p.add_argument("scene", type=Path, help="scene file (TOML)")
-    p.add_argument("--tol", type=_tol, required=True, metavar="T",
+    p.add_argument("--tol", type=tolerance, required=True, metavar="T",
                    help="tolerance on the relative error of poses and compliances (> 0)")
     p.add_argument("--json", action="store_true",
                    help="print the solved Result as JSON (with modes and error estimates)")
-    p.add_argument("--repeat", type=int, default=5, metavar="N",
+    p.add_argument("--repeat", type=integer(0), default=5, metavar="N",
                    help="solves timed for the cost (best of N, default 5; 0 skips timing)")
     p.set_defaults(run=run)
 
@@ -46,13 +35,8 @@ def run(args) -> int:
     from flexgen import select
     from flexgen.scene import load_scene
 
-    tol = args.tol
-    if not (math.isfinite(tol) and tol > 0):
-        raise UsageError(f"--tol: must be a positive finite number, got {tol!r}")
-    if args.repeat < 0:
-        raise UsageError(f"--repeat: must be >= 0, got {args.repeat}")
     scene = load_scene(args.scene)
-    sel = select.select_models(scene, tol)
+    sel = select.select_models(scene, args.tol)
     res = sel.result
     if args.json:
         print(res.to_json(indent=2))

@@ -8,22 +8,11 @@ with --json the object with "converged": false and "reason" still goes to stdout
 """
 from __future__ import annotations
 
-import argparse
 import sys
 
-from flexgen.commands.common import UsageError
+from flexgen.commands.common import UsageError, integer, tolerance
 
 KINDS = ("scm", "cc", "prb", "fem", "exact")
-
-
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {value}")
-    return value
 
 
 def add_model_options(p) -> None:
@@ -34,28 +23,18 @@ def add_model_options(p) -> None:
                         "kinds: scm (smooth curvature, Legendre modes), cc (constant curvature, "
                         "= scm with 1 mode), prb (pseudo-rigid-body 1R), fem (chain of rigid "
                         "elements and torsion springs), exact (elastica by shooting; slow)")
-    p.add_argument("--modes", type=_count, metavar="N",
+    p.add_argument("--modes", type=integer(1), metavar="N",
                    help="scm: Legendre curvature modes of every flexure (overrides the scene; "
                         "1..8 with the checked-in kernels)")
-    p.add_argument("--elements", type=_count, metavar="N",
+    p.add_argument("--elements", type=integer(1), metavar="N",
                    help="fem: rigid elements per flexure (overrides the scene)")
-    p.add_argument("--tol", type=_tolerance, dest="tolerance", metavar="T",
+    p.add_argument("--tol", type=tolerance, dest="tolerance", metavar="T",
                    help="choose per scm flexure the fewest modes (and the kernel) whose error "
                         "estimate on the output poses and compliances is <= T (relative); the "
                         "result reports the choice and the estimate (docs/selection.md)")
 
 
 OPTION_NAMES = ["tolerance"]     # extra argparse dests forwarded to flexgen.api.solve_scene
-
-
-def _tolerance(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number in (0, 1), got {text!r}") from None
-    if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"must be a number in (0, 1), got {text}")
-    return value
 
 
 def solve_args(args):
