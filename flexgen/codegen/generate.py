@@ -5,7 +5,6 @@ disk until ``render.write_files``. The checked-in set is ``CHECKED_IN``.
 """
 from __future__ import annotations
 
-import math
 
 import mpmath
 import sympy as sp
