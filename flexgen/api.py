@@ -11,6 +11,10 @@
 
 Kind ``"exact"`` must apply to every flexure (the elastica solver solves the whole scene at once);
 it runs ``models.exact.solve_exact`` and converts its answer (``flexgen.exact_result``).
+
+Every converged chain-model answer is checked against what its models may claim
+(``flexgen.validity``): the validity warnings are appended to ``Result.warnings`` and the
+indicative error class is ``Result.error_class`` (Python API only).
 """
 from __future__ import annotations
 
@@ -73,12 +77,20 @@ def uses_exact(scene: Scene) -> bool:
 
 
 def solve_scene(scene: Scene, **options):
-    """``(Result, exact SceneSolution or None)`` for an already overridden scene."""
+    """``(Result, exact SceneSolution or None)`` for an already overridden scene.
+
+    A converged chain-model result also carries the validity warnings of its models
+    (``flexgen.validity.check``: appended to ``warnings``) and, for the Python API,
+    ``error_class`` = {"pose", "compliance"}, the indicative error class (None when a tolerance
+    chose the models: ``error_estimate`` is then the claim; not part of the JSON contract)."""
     if uses_exact(scene):
         from . import exact_result
         return exact_result.solve(scene)
     from .solve import solve as chain_solve
-    return chain_solve(scene, **options), None
+    from .validity import check
+    result = chain_solve(scene, **options)
+    check(scene, result, options.get("models"), options.get("model_factory"))
+    return result, None
 
 
 def solve(scene, model: str | None = None, modes: int | None = None,

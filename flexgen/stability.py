@@ -6,27 +6,19 @@ compression) on a cantilever and on the two-link finger, solves every grid point
 and with the exact elastica, and records per point: converged, kernel out of range, stable,
 buckled (a critical load factor on the path), error against exact, and what the model claims.
 
-What a model claims (``assess``)
---------------------------------
+What a model claims (``flexgen.validity``)
+-----------------------------------------
 No solve here is given a tolerance, so no model claims its own error a posteriori; every result
-carries instead an *indicative error class*: an upper bound of its pose error (relative to the
-flexure length, as in ``flexgen.bench``) and of its compliance error (relative, spectral norm)
-that depends on the model and on how far the answer is bent, beta = max |phi(s)| over every
-flexure (the angle relative to the flexure's root frame). The classes are ``CLAIMS`` below: for
-each model a bound per bend band, measured on the calibration sweep (``flexgen stability``, both
-scenes) and rounded up to the next half decade with a factor >= 3 of margin, made non-decreasing
-in beta. Beyond the bands a model is *past its validity* and the result says so with a warning:
-
-* prb past 64 deg of pin rotation (Howell's validity limit);
-* a polynomial scm kernel past its range (|phi| > 90 deg: ``in_range`` is false) -- the answer is
-  that of an interpolant outside its interval and may be wrong by anything;
-* a Gauss kernel past its certified range (|phi| > 180 deg);
-* any model bent past 180 deg (the bands end there);
-* the stiffness matrix near singular (smallest eigenvalue of K below 5 % of that of the elastic
-  Hessian: near a critical load the compliance error is amplified by 1/margin, so the compliance
-  claim is divided by the margin, and below 5 % the result warns);
-* every warning that ``solve`` itself gives (buckling, snap-through, unstable equilibrium), and
-  ``converged = False``.
+carries instead the *indicative error class* of ``flexgen.validity`` (``CLAIMS``: a bound of the
+pose and of the compliance error per model, load band and bend band) and its validity warnings
+wherever the answer is past what the model may claim (prb past 64 deg or outside its tip-force
+case, a kernel past its range, bent past 180 deg, stiffness within 5 % of singular, load level
+above 30, a band without a class). ``flexgen solve`` and ``flexgen.solve`` give every result the
+same warnings (``flexgen.api.solve_scene`` calls ``validity.check``); here ``solve_assessed``
+calls ``validity.assess`` with the sweep's model label. Every warning that ``solve`` itself gives
+(buckling, snap-through, unstable equilibrium, kernel switch) and ``converged = False`` count too.
+The classes are calibrated on this module's sweep: ``python -m flexgen.stability --calibrate``
+rewrites the CLAIMS block of flexgen/validity.py.
 
 The rule (tested in tests/test_stability.py): **no answer is silently wrong** -- wherever a
 model's error exceeds its claim, the result is not converged or carries a warning. ``exact`` is
@@ -43,372 +35,18 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from flexgen.bench import (EXAMPLES, ModelDef, Progress, answer, errors, model_def, model_defs)
+from flexgen import validity as V
 from flexgen.scene import Scene, load_scene, scene_from_dict
+from flexgen.validity import (BANDS, LOAD_BANDS, NEAR_SINGULAR, PRB_LIMIT, Claim,  # noqa: F401
+                              assess, band_index, bend, load_level, prb_load_case)
 
 FINGER = EXAMPLES / "two_link_finger.toml"
-PRB_LIMIT = math.radians(64.0)
-NEAR_SINGULAR = 0.05
-BANDS = (math.radians(30), math.radians(60), math.radians(90), math.radians(120),
-         math.radians(150), math.pi)
-LOAD_BANDS = (1.0, 3.0, 10.0, 30.0)     # load level lambda (see load_level)
-
-# label -> table[load band][bend band] = (pose bound, compliance bound) or (None, None) where
-# nothing is claimed. Calibrated (``calibrate``) on the full sweep of `flexgen stability`; the
-# block between the markers is rewritten by `python -m flexgen.stability --calibrate`.
-# CLAIMS-BEGIN
-CLAIMS: dict = {'cc': (((0.32, 1.0), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
-        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
-        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None))),
- 'fem16': (((0.001, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
-           ((0.0032, 0.01), (0.0032, 0.01), (0.01, 0.01), (None, None), (None, None), (None, None)),
-           ((0.0032, 0.01),
-            (0.01, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01)),
-           ((0.01, 0.01),
-            (0.01, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.032))),
- 'fem32': (((0.00032, 0.001), (None, None), (None, None), (None, None), (None, None), (None, None)),
-           ((0.001, 0.0032),
-            (0.001, 0.0032),
-            (0.0032, 0.0032),
-            (None, None),
-            (None, None),
-            (None, None)),
-           ((0.001, 0.0032),
-            (0.0032, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032)),
-           ((0.001, 0.0032),
-            (0.0032, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032))),
- 'fem4': (((0.032, 0.1), (None, None), (None, None), (None, None), (None, None), (None, None)),
-          ((0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (None, None), (None, None), (None, None)),
-          ((0.1, 0.1), (0.1, 0.1), (0.32, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32)),
-          ((0.1, 0.32), (0.1, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32))),
- 'fem64': (((0.0001, 0.00032),
-            (None, None),
-            (None, None),
-            (None, None),
-            (None, None),
-            (None, None)),
-           ((0.00032, 0.00032),
-            (0.00032, 0.00032),
-            (0.00032, 0.001),
-            (None, None),
-            (None, None),
-            (None, None)),
-           ((0.00032, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001)),
-           ((0.00032, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001))),
- 'fem8': (((0.01, 0.032), (None, None), (None, None), (None, None), (None, None), (None, None)),
-          ((0.032, 0.032),
-           (0.032, 0.032),
-           (0.032, 0.032),
-           (None, None),
-           (None, None),
-           (None, None)),
-          ((0.032, 0.032), (0.032, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032)),
-          ((0.032, 0.1), (0.032, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1))),
- 'prb': (((1.0, 0.32), (None, None), (None, None), (None, None), (None, None), (None, None)),
-         ((1.0, 0.32), (3.2, 1.0), (3.2, 1.0), (None, None), (None, None), (None, None)),
-         ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None)),
-         ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None))),
- 'scm2 gauss': (((0.0032, 0.01),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.032, 0.032),
-                 (0.032, 0.1),
-                 (0.032, 0.1),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32)),
-                ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32), (1.0, 0.32), (1.0, 1.0))),
- 'scm2 poly': (((0.0032, 0.01),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.032, 0.032),
-                (0.032, 0.1),
-                (0.032, 0.1),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (None, None), (None, None), (None, None)),
-               ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (None, None), (None, None), (None, None))),
- 'scm3 auto': (((3.2e-05, 0.00032),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.001, 0.0032),
-                (0.001, 0.0032),
-                (0.0032, 0.01),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.0032, 0.0032),
-                (0.0032, 0.01),
-                (0.0032, 0.01),
-                (0.01, 0.032),
-                (0.01, 0.032),
-                (0.032, 0.032)),
-               ((0.032, 0.032),
-                (0.032, 0.032),
-                (0.032, 0.032),
-                (0.032, 0.1),
-                (0.032, 0.1),
-                (0.032, 0.1))),
- 'scm3 gauss': (((3.2e-05, 0.00032),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.001, 0.0032),
-                 (0.001, 0.0032),
-                 (0.0032, 0.01),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.0032, 0.0032),
-                 (0.0032, 0.01),
-                 (0.0032, 0.01),
-                 (0.01, 0.032),
-                 (0.01, 0.032),
-                 (0.032, 0.032)),
-                ((0.032, 0.032),
-                 (0.032, 0.032),
-                 (0.032, 0.032),
-                 (0.032, 0.1),
-                 (0.032, 0.1),
-                 (0.032, 0.1))),
- 'scm3 poly': (((3.2e-05, 0.00032),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.001, 0.0032),
-                (0.001, 0.0032),
-                (0.0032, 0.01),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.0032, 0.0032),
-                (0.0032, 0.01),
-                (0.0032, 0.01),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.032, 0.032),
-                (0.032, 0.032),
-                (0.032, 0.032),
-                (None, None),
-                (None, None),
-                (None, None))),
- 'scm4 gauss': (((1e-06, 3.2e-05),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-06, 3.2e-05),
-                 (3.2e-05, 0.00032),
-                 (0.00032, 0.001),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.0001, 0.0001),
-                 (0.0001, 0.00032),
-                 (0.00032, 0.001),
-                 (0.001, 0.01),
-                 (0.0032, 0.01),
-                 (0.0032, 0.01)),
-                ((0.001, 0.001),
-                 (0.0032, 0.0032),
-                 (0.0032, 0.0032),
-                 (0.0032, 0.01),
-                 (0.0032, 0.032),
-                 (0.01, 0.032))),
- 'scm4 poly': (((1e-06, 3.2e-05),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-06, 3.2e-05),
-                (3.2e-05, 0.00032),
-                (0.00032, 0.001),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.0001, 0.0001),
-                (0.0001, 0.00032),
-                (0.00032, 0.001),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.001, 0.001),
-                (0.0032, 0.0032),
-                (0.0032, 0.0032),
-                (None, None),
-                (None, None),
-                (None, None))),
- 'scm5 auto': (((1e-08, 3.2e-07),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-07, 1e-06),
-                (3.2e-06, 3.2e-05),
-                (3.2e-06, 3.2e-05),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-06, 3.2e-06),
-                (3.2e-06, 3.2e-05),
-                (3.2e-05, 0.00032),
-                (0.0001, 0.001),
-                (0.00032, 0.0032),
-                (0.00032, 0.0032)),
-               ((0.0001, 0.0001),
-                (0.0001, 0.0001),
-                (0.0001, 0.001),
-                (0.001, 0.0032),
-                (0.0032, 0.01),
-                (0.0032, 0.01))),
- 'scm5 gauss': (((1e-08, 3.2e-07),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-07, 1e-06),
-                 (3.2e-06, 3.2e-05),
-                 (3.2e-06, 3.2e-05),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-06, 3.2e-06),
-                 (3.2e-06, 3.2e-05),
-                 (3.2e-05, 0.00032),
-                 (0.0001, 0.001),
-                 (0.00032, 0.0032),
-                 (0.00032, 0.0032)),
-                ((0.0001, 0.0001),
-                 (0.0001, 0.0001),
-                 (0.0001, 0.001),
-                 (0.001, 0.0032),
-                 (0.0032, 0.01),
-                 (0.0032, 0.01))),
- 'scm5 poly': (((1e-08, 3.2e-07),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-07, 1e-06),
-                (3.2e-06, 3.2e-05),
-                (3.2e-06, 3.2e-05),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-06, 3.2e-06),
-                (3.2e-06, 3.2e-05),
-                (3.2e-05, 0.00032),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.0001, 0.0001),
-                (0.0001, 0.0001),
-                (0.0001, 0.001),
-                (None, None),
-                (None, None),
-                (None, None))),
- 'scm6 gauss': (((1e-10, 3.2e-08),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-09, 1e-07),
-                 (1e-07, 1e-06),
-                 (1e-06, 3.2e-06),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-08, 3.2e-07),
-                 (1e-06, 1e-05),
-                 (3.2e-06, 3.2e-05),
-                 (1e-05, 0.0001),
-                 (1e-05, 0.0001),
-                 (3.2e-05, 0.0001)),
-                ((1e-06, 3.2e-06),
-                 (3.2e-06, 3.2e-05),
-                 (3.2e-05, 0.00032),
-                 (0.00032, 0.001),
-                 (0.00032, 0.0032),
-                 (0.001, 0.0032))),
- 'scm6 poly': (((3.2e-10, 3.2e-08),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-09, 1e-07),
-                (1e-07, 1e-06),
-                (1e-06, 3.2e-06),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-08, 3.2e-07),
-                (1e-06, 1e-05),
-                (3.2e-06, 3.2e-05),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-06, 3.2e-06),
-                (3.2e-06, 3.2e-05),
-                (3.2e-05, 0.00032),
-                (None, None),
-                (None, None),
-                (None, None)))}
-# CLAIMS-END
 
 
 # -- scenes ----------------------------------------------------------------------------------
@@ -450,116 +88,7 @@ def finger(alpha: float, direction_deg: float) -> Scene:
 SCENES = {"cantilever": cantilever, "finger": finger}
 
 
-# -- what a result claims ----------------------------------------------------------------------
-
-@dataclass
-class Claim:
-    pose: float                   # claimed bound on the pose error
-    comp: float                   # claimed bound on the compliance error
-    beta: float                   # largest bend (rad)
-    margin: float                 # smallest eigenvalue of K / that of hess U
-    out_of_range: bool            # a kernel past its valid (poly) or certified (gauss) range
-    switched: bool                # an auto kernel moved from poly to gauss
-    warnings: list = field(default_factory=list)   # validity warnings (added to solve's)
-    uncalibrated: bool = False    # one of those warnings: no error class for this bend
-
-
-def bend(model, q) -> float:
-    """max |phi(s)| of one flexure at coordinates q."""
-    q = np.asarray(q, dtype=float)
-    kind = getattr(model, "kind", "")
-    if kind == "scm":
-        from flexgen.models.scm import angle_basis
-        return float(np.max(np.abs(angle_basis(len(q), np.linspace(0.0, 1.0, 65)) @ q)))
-    if kind == "fem":
-        return float(np.max(np.abs(np.cumsum(q)), initial=0.0))
-    return float(np.max(np.abs(q), initial=0.0))
-
-
-def _band_index(beta: float, lam: float) -> tuple[int, int] | None:
-    i = next((k for k, e in enumerate(LOAD_BANDS) if lam <= e * (1 + 1e-12)), None)
-    j = next((k for k, e in enumerate(BANDS) if beta <= e + 1e-12), None)
-    return None if i is None or j is None else (i, j)
-
-
-def load_level(scene: Scene) -> float:
-    """lambda = max over flexures of L^2/EI x (sum of |force| of the loads + 2 x sum of tendon
-    tensions): a bound of the nondimensional force through any flexure (alpha for a cantilever
-    with one tip force)."""
-    total = sum(math.hypot(*ld.force) for ld in scene.loads) + 2 * sum(
-        t.tension for t in scene.tendons)
-    return max(f.length ** 2 / f.EI for f in scene.flexures) * total
-
-
-def prb_load_case(scene: Scene) -> bool:
-    """The case the PRB constants are fitted for: one flexure, loads only at its tip, no moment,
-    no tendon."""
-    if len(scene.flexures) != 1 or scene.tendons:
-        return False
-    tip = f"{scene.flexures[0].name}.tip"
-    return all(ld.point == tip and ld.moment == 0.0 for ld in scene.loads)
-
-
-def assess(scene: Scene, result, models: dict, label: str) -> Claim:
-    """The claim and the validity warnings of a converged ``solve`` result whose flexure models
-    are ``models`` (the dict passed to solve)."""
-    from flexgen.chain import Chain
-    from flexgen.solve import System
-    warnings: list[str] = []
-    beta, oor, switched = 0.0, False, False
-    for name, m in models.items():
-        q = np.asarray(result.q[name], dtype=float)
-        b = bend(m, q)
-        beta = max(beta, b)
-        if m.kind == "scm":
-            switched |= bool(getattr(m, "switched", False))
-            poly_only = m.gauss is None
-            if poly_only and not m.poly.in_range(q):
-                oor = True
-                warnings.append(f"{name}: polynomial kernel past its range (max |phi| = "
-                                f"{math.degrees(b):.0f} deg > {math.degrees(m.poly.PHI_MAX):.0f});"
-                                " the answer is not reliable")
-            elif not poly_only and not m.kernel_at(q).in_range(q):
-                oor = True
-                warnings.append(f"{name}: past the certified range of the Gauss kernel "
-                                f"(max |phi| = {math.degrees(b):.0f} deg)")
-        if m.kind == "prb" and b > PRB_LIMIT:
-            warnings.append(f"{name}: prb past its validity (pin rotation "
-                            f"{math.degrees(b):.0f} deg > 64 deg)")
-    if any(m.kind == "prb" for m in models.values()) and not prb_load_case(scene):
-        warnings.append("prb is calibrated for a force at the tip of a single flexure (no end "
-                        "moment, link lever arm or tendon): no accuracy is claimed")
-    if beta > BANDS[-1]:
-        warnings.append(f"bent past {math.degrees(BANDS[-1]):.0f} deg (max |phi| = "
-                        f"{math.degrees(beta):.0f} deg): no accuracy is claimed")
-    # stiffness margin at the answer
-    chain = Chain(scene, models)
-    st = System(chain).state(chain.pack(result.q), 1.0)
-    KU = chain.energy_hessian(st.q)
-    lam_k = float(np.linalg.eigvalsh(st.K)[0])
-    lam_u = float(np.linalg.eigvalsh(KU)[0])
-    margin = lam_k / lam_u if lam_u > 0 else math.nan
-    if margin < NEAR_SINGULAR:
-        warnings.append(f"near a critical load: smallest stiffness eigenvalue is {margin:.1%} "
-                        "of the unloaded one; compliance is sensitive to any model error")
-    lam = load_level(scene)
-    if lam > LOAD_BANDS[-1]:
-        warnings.append(f"load level {lam:.3g} (force L^2/EI) beyond the calibrated "
-                        f"{LOAD_BANDS[-1]:g}: no accuracy is claimed")
-    idx = _band_index(beta, lam)
-    pose = comp = math.inf
-    uncalibrated = False
-    if idx is not None:
-        table = CLAIMS.get(label)
-        pose, comp = (None, None) if table is None else table[idx[0]][idx[1]]
-        uncalibrated = pose is None
-        if uncalibrated:
-            warnings.append(f"{label} has no calibrated error class at {math.degrees(beta):.0f} "
-                            f"deg of bend and load level {lam:.3g}: no accuracy is claimed")
-    pose = math.inf if pose is None else pose
-    comp = math.inf if comp is None else comp / max(min(margin, 1.0), 1e-300)
-    return Claim(pose, comp, beta, margin, oor, switched, warnings, uncalibrated)
-
+# -- solve and assess ---------------------------------------------------------------------
 
 def solve_assessed(scene: Scene, md: ModelDef):
     """solve() with fresh models, and assess() of the result (None if not converged)."""
@@ -701,7 +230,7 @@ def calibrate(points: list[Point], factor: float = 3.0) -> dict:
             for j in range(len(BANDS)):
                 sel = [p for p in points if p.model == m and p.reference and p.converged
                        and (not p.warned or p.uncalibrated)
-                       and _band_index(p.beta, p.load) == (i, j)]
+                       and band_index(p.beta, p.load) == (i, j)]
                 if not sel:
                     row.append((None, None))
                     continue
@@ -917,7 +446,7 @@ def render_markdown(data: StabilityData) -> str:
                                               for b in BANDS) + " |",
          "|---|---|" + "---|" * len(BANDS)]
     for m in data.models:
-        table = CLAIMS.get(m)
+        table = V.CLAIMS.get(m)
         for i, lb in enumerate(LOAD_BANDS):
             cells = ["none"] * len(BANDS) if table is None else [
                 "none" if pe is None else f"{_e(pe)} / {_e(ce)}" for pe, ce in table[i]]
@@ -966,8 +495,9 @@ def render_markdown(data: StabilityData) -> str:
     return "\n".join(L)
 
 
-def write_claims(claims: dict, path: Path = Path(__file__)) -> None:
-    """Rewrite the CLAIMS block of this module."""
+def write_claims(claims: dict, path: Path | None = None) -> None:
+    """Rewrite the CLAIMS block of flexgen/validity.py (or of ``path``)."""
+    path = Path(V.__file__) if path is None else Path(path)
     import pprint
     text = path.read_text()
     a = text.index("# CLAIMS-BEGIN\n") + len("# CLAIMS-BEGIN\n")
@@ -990,7 +520,7 @@ def main(argv=None) -> int:
         if f"scm{n} gauss" in claims:
             claims[f"scm{n} auto"] = claims[f"scm{n} gauss"]
     write_claims(claims)
-    print(f"wrote CLAIMS for {len(claims)} models into {__file__}", file=sys.stderr)
+    print(f"wrote CLAIMS for {len(claims)} models into {V.__file__}", file=sys.stderr)
     return 0
 
 

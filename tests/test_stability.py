@@ -7,6 +7,7 @@ import math
 import pytest
 
 from flexgen import stability as S
+from flexgen import validity as V
 from flexgen.bench import model_def
 
 MODELS = ("cc", "prb", "scm3 poly", "scm3 gauss", "scm4 gauss", "fem8")
@@ -40,7 +41,7 @@ def test_the_rule_is_exercised(points):
 def test_rule_detects_a_silent_failure(points, monkeypatch):
     """With claims far too tight the same answers count as silent failures: the check can fail."""
     tight = {m: tuple(((1e-14, 1e-14),) * len(S.BANDS) for _ in S.LOAD_BANDS) for m in MODELS}
-    monkeypatch.setattr(S, "CLAIMS", tight)
+    monkeypatch.setattr(V, "CLAIMS", tight)
     pts = S.sweep(("cantilever",), [model_def("scm3 gauss")], (1.5,), (45.0,), progress=False)
     assert pts[0].silent and pts[0].category == "SILENT"
 

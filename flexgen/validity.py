@@ -1,0 +1,668 @@
+"""What a model's answer may claim, and the warnings when it is past that.
+
+One job: given a converged ``solve`` result and the flexure models that produced it, say how
+accurate the answer is claimed to be (the *indicative error class*) and warn wherever the answer
+is past what its model may claim. ``flexgen.api.solve_scene`` (the path of ``flexgen solve`` and
+``flexgen.solve``) appends these warnings to every chain-model result; ``flexgen.stability``
+checks on load sweeps that no answer is silently wrong with them (tests/test_stability.py).
+
+The indicative error class
+--------------------------
+Without a requested tolerance no model estimates its own error a posteriori. Every result instead
+carries an indicative error class: an upper bound of its pose error (relative to the flexure
+length, as in ``flexgen.bench``) and of its compliance error (relative, spectral norm), by model,
+by load level lambda (``load_level``) and by bend beta = max |phi(s)| over every flexure (the
+angle relative to the flexure's root frame). The classes are ``CLAIMS`` below, calibrated on the
+sweep of ``flexgen stability`` (``python -m flexgen.stability --calibrate`` rewrites the block):
+3x the worst unwarned error per band, rounded up to a half decade, monotone in beta and lambda.
+A model without its own row borrows a calibrated neighbour that is no more accurate (``scmN
+auto`` -> ``scmN gauss``; scm with more modes -> the largest calibrated N below; fem with other
+element counts -> the largest calibrated count below). The Python API exposes the class as
+``result.error_class = {"pose": p, "compliance": c}`` (inf where nothing is claimed); it is not
+part of the JSON contract.
+
+The warnings (``validity_warnings``)
+------------------------------------
+* prb past 64 deg of pin rotation (Howell's validity limit), or used outside its one-flexure
+  tip-force case (no end moment, link lever arm or tendon);
+* a polynomial scm kernel past its range (the answer is an interpolant outside its interval);
+  with kernel "auto" the solver switches to the Gauss kernel and already says so, so nothing is
+  added here;
+* a Gauss kernel past its certified range (|phi| > 180 deg);
+* any model bent past 180 deg (the error classes end there);
+* the stiffness near singular: the smallest eigenvalue of K at the equilibrium below 5 % of that of
+  the elastic Hessian (near a critical load the compliance error is amplified by 1/margin; the
+  compliance class is divided by the margin);
+* a load level above 30 (the classes end there);
+* a band in which the model has no calibrated class (nothing is claimed).
+
+With a requested tolerance (``flexgen.select``) the claim is the a-posteriori ``error_estimate``
+instead: the calibration-table warnings (load level, bands) are then not given, the others are.
+``exact`` is the reference and is not assessed; a result that did not converge already says so.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field, replace
+from functools import lru_cache
+from typing import Mapping
+
+import numpy as np
+
+from flexgen.scene import Scene
+
+PRB_LIMIT = math.radians(64.0)
+NEAR_SINGULAR = 0.05
+BANDS = (math.radians(30), math.radians(60), math.radians(90), math.radians(120),
+         math.radians(150), math.pi)
+LOAD_BANDS = (1.0, 3.0, 10.0, 30.0)     # load level lambda (see load_level)
+
+# label -> table[load band][bend band] = (pose bound, compliance bound) or (None, None) where
+# nothing is claimed. Calibrated (``flexgen.stability.calibrate``) on the full sweep of
+# `flexgen stability`; the block between the markers is rewritten by
+# `python -m flexgen.stability --calibrate`.
+# CLAIMS-BEGIN
+CLAIMS: dict = {'cc': (((0.32, 1.0), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
+        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
+        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None))),
+ 'fem16': (((0.001, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
+           ((0.0032, 0.01), (0.0032, 0.01), (0.01, 0.01), (None, None), (None, None), (None, None)),
+           ((0.0032, 0.01),
+            (0.01, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01)),
+           ((0.01, 0.01),
+            (0.01, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.01),
+            (0.032, 0.032))),
+ 'fem32': (((0.00032, 0.001), (None, None), (None, None), (None, None), (None, None), (None, None)),
+           ((0.001, 0.0032),
+            (0.001, 0.0032),
+            (0.0032, 0.0032),
+            (None, None),
+            (None, None),
+            (None, None)),
+           ((0.001, 0.0032),
+            (0.0032, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032)),
+           ((0.001, 0.0032),
+            (0.0032, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032),
+            (0.01, 0.0032))),
+ 'fem4': (((0.032, 0.1), (None, None), (None, None), (None, None), (None, None), (None, None)),
+          ((0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (None, None), (None, None), (None, None)),
+          ((0.1, 0.1), (0.1, 0.1), (0.32, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32)),
+          ((0.1, 0.32), (0.1, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32))),
+ 'fem64': (((0.0001, 0.00032),
+            (None, None),
+            (None, None),
+            (None, None),
+            (None, None),
+            (None, None)),
+           ((0.00032, 0.00032),
+            (0.00032, 0.00032),
+            (0.00032, 0.001),
+            (None, None),
+            (None, None),
+            (None, None)),
+           ((0.00032, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001)),
+           ((0.00032, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001),
+            (0.001, 0.001))),
+ 'fem8': (((0.01, 0.032), (None, None), (None, None), (None, None), (None, None), (None, None)),
+          ((0.032, 0.032),
+           (0.032, 0.032),
+           (0.032, 0.032),
+           (None, None),
+           (None, None),
+           (None, None)),
+          ((0.032, 0.032), (0.032, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032)),
+          ((0.032, 0.1), (0.032, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1))),
+ 'prb': (((1.0, 0.32), (None, None), (None, None), (None, None), (None, None), (None, None)),
+         ((1.0, 0.32), (3.2, 1.0), (3.2, 1.0), (None, None), (None, None), (None, None)),
+         ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None)),
+         ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None))),
+ 'scm2 gauss': (((0.0032, 0.01),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.032, 0.032),
+                 (0.032, 0.1),
+                 (0.032, 0.1),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32)),
+                ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32), (1.0, 0.32), (1.0, 1.0))),
+ 'scm2 poly': (((0.0032, 0.01),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.032, 0.032),
+                (0.032, 0.1),
+                (0.032, 0.1),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (None, None), (None, None), (None, None)),
+               ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (None, None), (None, None), (None, None))),
+ 'scm3 auto': (((3.2e-05, 0.00032),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.001, 0.0032),
+                (0.001, 0.0032),
+                (0.0032, 0.01),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.0032, 0.0032),
+                (0.0032, 0.01),
+                (0.0032, 0.01),
+                (0.01, 0.032),
+                (0.01, 0.032),
+                (0.032, 0.032)),
+               ((0.032, 0.032),
+                (0.032, 0.032),
+                (0.032, 0.032),
+                (0.032, 0.1),
+                (0.032, 0.1),
+                (0.032, 0.1))),
+ 'scm3 gauss': (((3.2e-05, 0.00032),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.001, 0.0032),
+                 (0.001, 0.0032),
+                 (0.0032, 0.01),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.0032, 0.0032),
+                 (0.0032, 0.01),
+                 (0.0032, 0.01),
+                 (0.01, 0.032),
+                 (0.01, 0.032),
+                 (0.032, 0.032)),
+                ((0.032, 0.032),
+                 (0.032, 0.032),
+                 (0.032, 0.032),
+                 (0.032, 0.1),
+                 (0.032, 0.1),
+                 (0.032, 0.1))),
+ 'scm3 poly': (((3.2e-05, 0.00032),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.001, 0.0032),
+                (0.001, 0.0032),
+                (0.0032, 0.01),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.0032, 0.0032),
+                (0.0032, 0.01),
+                (0.0032, 0.01),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.032, 0.032),
+                (0.032, 0.032),
+                (0.032, 0.032),
+                (None, None),
+                (None, None),
+                (None, None))),
+ 'scm4 gauss': (((1e-06, 3.2e-05),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-06, 3.2e-05),
+                 (3.2e-05, 0.00032),
+                 (0.00032, 0.001),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((0.0001, 0.0001),
+                 (0.0001, 0.00032),
+                 (0.00032, 0.001),
+                 (0.001, 0.01),
+                 (0.0032, 0.01),
+                 (0.0032, 0.01)),
+                ((0.001, 0.001),
+                 (0.0032, 0.0032),
+                 (0.0032, 0.0032),
+                 (0.0032, 0.01),
+                 (0.0032, 0.032),
+                 (0.01, 0.032))),
+ 'scm4 poly': (((1e-06, 3.2e-05),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-06, 3.2e-05),
+                (3.2e-05, 0.00032),
+                (0.00032, 0.001),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.0001, 0.0001),
+                (0.0001, 0.00032),
+                (0.00032, 0.001),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.001, 0.001),
+                (0.0032, 0.0032),
+                (0.0032, 0.0032),
+                (None, None),
+                (None, None),
+                (None, None))),
+ 'scm5 auto': (((1e-08, 3.2e-07),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-07, 1e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-06, 3.2e-05),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-06, 3.2e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-05, 0.00032),
+                (0.0001, 0.001),
+                (0.00032, 0.0032),
+                (0.00032, 0.0032)),
+               ((0.0001, 0.0001),
+                (0.0001, 0.0001),
+                (0.0001, 0.001),
+                (0.001, 0.0032),
+                (0.0032, 0.01),
+                (0.0032, 0.01))),
+ 'scm5 gauss': (((1e-08, 3.2e-07),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-07, 1e-06),
+                 (3.2e-06, 3.2e-05),
+                 (3.2e-06, 3.2e-05),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-06, 3.2e-06),
+                 (3.2e-06, 3.2e-05),
+                 (3.2e-05, 0.00032),
+                 (0.0001, 0.001),
+                 (0.00032, 0.0032),
+                 (0.00032, 0.0032)),
+                ((0.0001, 0.0001),
+                 (0.0001, 0.0001),
+                 (0.0001, 0.001),
+                 (0.001, 0.0032),
+                 (0.0032, 0.01),
+                 (0.0032, 0.01))),
+ 'scm5 poly': (((1e-08, 3.2e-07),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-07, 1e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-06, 3.2e-05),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-06, 3.2e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-05, 0.00032),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((0.0001, 0.0001),
+                (0.0001, 0.0001),
+                (0.0001, 0.001),
+                (None, None),
+                (None, None),
+                (None, None))),
+ 'scm6 gauss': (((1e-10, 3.2e-08),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-09, 1e-07),
+                 (1e-07, 1e-06),
+                 (1e-06, 3.2e-06),
+                 (None, None),
+                 (None, None),
+                 (None, None)),
+                ((1e-08, 3.2e-07),
+                 (1e-06, 1e-05),
+                 (3.2e-06, 3.2e-05),
+                 (1e-05, 0.0001),
+                 (1e-05, 0.0001),
+                 (3.2e-05, 0.0001)),
+                ((1e-06, 3.2e-06),
+                 (3.2e-06, 3.2e-05),
+                 (3.2e-05, 0.00032),
+                 (0.00032, 0.001),
+                 (0.00032, 0.0032),
+                 (0.001, 0.0032))),
+ 'scm6 poly': (((3.2e-10, 3.2e-08),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-09, 1e-07),
+                (1e-07, 1e-06),
+                (1e-06, 3.2e-06),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-08, 3.2e-07),
+                (1e-06, 1e-05),
+                (3.2e-06, 3.2e-05),
+                (None, None),
+                (None, None),
+                (None, None)),
+               ((1e-06, 3.2e-06),
+                (3.2e-06, 3.2e-05),
+                (3.2e-05, 0.00032),
+                (None, None),
+                (None, None),
+                (None, None)))}
+# CLAIMS-END
+
+
+# -- what a result claims ----------------------------------------------------------------------
+
+@dataclass
+class Claim:
+    pose: float                   # claimed bound on the pose error (inf: nothing claimed)
+    comp: float                   # claimed bound on the compliance error (inf: nothing claimed)
+    beta: float                   # largest bend (rad)
+    margin: float                 # smallest eigenvalue of K / that of hess U
+    out_of_range: bool            # a kernel past its valid (poly) or certified (gauss) range
+    switched: bool                # an auto kernel moved from poly to gauss
+    warnings: list = field(default_factory=list)   # validity warnings (added to solve's)
+    uncalibrated: bool = False    # one of those warnings: no error class for this bend and load
+
+    @property
+    def error_class(self) -> dict[str, float]:
+        return {"pose": self.pose, "compliance": self.comp}
+
+
+@lru_cache(maxsize=None)
+def _angle_samples(modes: int) -> np.ndarray:
+    from flexgen.models.scm import angle_basis
+    return angle_basis(modes, np.linspace(0.0, 1.0, 65))
+
+
+def bend(model, q) -> float:
+    """max |phi(s)| of one flexure at coordinates q (relative to its root frame)."""
+    q = np.asarray(q, dtype=float)
+    kind = getattr(model, "kind", "")
+    if kind == "scm":
+        return float(np.max(np.abs(_angle_samples(len(q)) @ q)))
+    if kind == "fem":
+        return float(np.max(np.abs(np.cumsum(q)), initial=0.0))
+    return float(np.max(np.abs(q), initial=0.0))
+
+
+def band_index(beta: float, lam: float) -> tuple[int, int] | None:
+    """(load band, bend band) of an answer, None past the last of either."""
+    i = next((k for k, e in enumerate(LOAD_BANDS) if lam <= e * (1 + 1e-12)), None)
+    j = next((k for k, e in enumerate(BANDS) if beta <= e + 1e-12), None)
+    return None if i is None or j is None else (i, j)
+
+
+def load_level(scene: Scene) -> float:
+    """lambda = max over flexures of L^2/EI x (sum of |force| of the loads + 2 x sum of tendon
+    tensions): a bound of the nondimensional force through any flexure (alpha for a cantilever
+    with one tip force)."""
+    total = sum(math.hypot(*ld.force) for ld in scene.loads) + 2 * sum(
+        t.tension for t in scene.tendons)
+    return max(f.length ** 2 / f.EI for f in scene.flexures) * total
+
+
+def prb_load_case(scene: Scene) -> bool:
+    """The case the PRB constants are fitted for: one flexure, loads only at its tip, no moment,
+    no tendon."""
+    return _prb_case_problem(scene) is None
+
+
+def _prb_case_problem(scene: Scene) -> str | None:
+    if len(scene.flexures) != 1:
+        return f"{len(scene.flexures)} flexures"
+    if scene.tendons:
+        return "a tendon"
+    tip = f"{scene.flexures[0].name}.tip"
+    for ld in scene.loads:
+        if ld.moment != 0.0:
+            return f"a moment at {ld.point!r}"
+        if ld.point != tip:
+            return f"a load at {ld.point!r}, not at the tip"
+    return None
+
+
+def model_label(model) -> str:
+    """The CLAIMS label of a flexure model: "cc", "prb", "scm3 auto", "fem16", ..."""
+    kind = getattr(model, "kind", "?")
+    if kind == "scm":
+        n = int(model.n_dof)
+        return "cc" if n == 1 else f"scm{n} {model.kernel}"
+    if kind == "fem":
+        return f"fem{int(model.n_dof)}"
+    return str(getattr(model, "label", kind))
+
+
+def claim_table(label: str) -> tuple[tuple | None, str | None]:
+    """(table, the label it was calibrated for) for a model label: its own row of CLAIMS or a
+    calibrated neighbour that is no more accurate (see the module docstring); (None, None) if
+    there is none."""
+    if label in CLAIMS:
+        return CLAIMS[label], label
+    m = re.fullmatch(r"scm(\d+) (auto|poly|gauss)", label)
+    if m:
+        n, kernel = int(m[1]), m[2]
+        for k in range(n, 1, -1):
+            for cand in ((f"scm{k} auto", f"scm{k} gauss") if kernel == "auto"
+                         else (f"scm{k} {kernel}",)):
+                if cand in CLAIMS:
+                    return CLAIMS[cand], cand
+        return None, None
+    m = re.fullmatch(r"fem(\d+)", label)
+    if m:
+        calibrated = sorted((int(k[3:]) for k in CLAIMS if re.fullmatch(r"fem\d+", k)),
+                            reverse=True)
+        e = next((e for e in calibrated if e <= int(m[1])), None)
+        if e is not None:
+            return CLAIMS[f"fem{e}"], f"fem{e}"
+    return None, None
+
+
+def _deg(x: float) -> str:
+    return f"{math.degrees(x):.0f} deg"
+
+
+def _names(names) -> str:
+    names = list(names)
+    return (f"flexure {names[0]!r}" if len(names) == 1
+            else "flexures " + ", ".join(repr(n) for n in names))
+
+
+def stiffness_margin(scene: Scene, models: Mapping, q: Mapping) -> float:
+    """Smallest eigenvalue of the stiffness K at the equilibrium q (full load) over that of the
+    elastic Hessian: 1 unloaded, 0 at a critical load, < 0 unstable (nan if hess U is not
+    positive definite)."""
+    from flexgen.chain import Chain
+    from flexgen.solve import System
+    chain = Chain(scene, models)
+    st = System(chain).state(chain.pack(q), 1.0)
+    lam_k = float(np.linalg.eigvalsh(st.K)[0])
+    lam_u = float(np.linalg.eigvalsh(chain.energy_hessian(st.q))[0])
+    return lam_k / lam_u if lam_u > 0 else math.nan
+
+
+def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str] | None = None,
+           calibrated: bool = True) -> Claim:
+    """The claim and the validity warnings of a converged ``solve`` result whose flexure models
+    are ``models`` ({flexure: model}, as passed to solve). ``label``: the CLAIMS label of every
+    flexure's model (a str for all, or {flexure: label}; default ``model_label`` of each).
+    ``calibrated=False`` (a tolerance was requested: the claim is the error estimate) leaves out
+    the warnings that only say the calibration table ends (load level, bands) and claims nothing
+    from the table."""
+    labels = {name: (label if isinstance(label, str) else
+                     (label or {}).get(name) or model_label(m)) for name, m in models.items()}
+    warnings: list[str] = []
+    beta, beta_at, oor, switched = 0.0, None, False, False
+    prb = []
+    for name, m in models.items():
+        q = np.asarray(result.q[name], dtype=float)
+        b = bend(m, q)
+        if beta_at is None or b > beta:
+            beta, beta_at = b, name
+        kind = getattr(m, "kind", "")
+        if kind == "scm":
+            switched |= bool(getattr(m, "switched", False))
+            if m.gauss is None:
+                if not m.poly.in_range(q):
+                    oor = True
+                    warnings.append(
+                        f"flexure {name!r} ({labels[name]}): bend {_deg(b)} is past the "
+                        f"{math.degrees(m.poly.PHI_MAX):.0f} deg range of the polynomial kernel "
+                        f"scm{m.n_dof}; the answer may be wrong by any amount")
+            elif not m.kernel_at(q).in_range(q):
+                oor = True
+                warnings.append(
+                    f"flexure {name!r} ({labels[name]}): bend {_deg(b)} is past the certified "
+                    f"range of the Gauss kernel {m.gauss_name} "
+                    f"({math.degrees(m.gauss.PHI_MAX):.0f} deg); its error bound does not hold")
+        elif kind == "prb":
+            prb.append(name)
+            if b > PRB_LIMIT:
+                warnings.append(
+                    f"flexure {name!r} (prb): pin rotation {_deg(b)} is past the pseudo-rigid-"
+                    f"body model's {_deg(PRB_LIMIT)} validity; no accuracy is claimed for it")
+    if prb:
+        why = _prb_case_problem(scene)
+        if why is not None:
+            warnings.append(
+                f"{_names(prb)} (prb): the pseudo-rigid-body constants are fitted for a force at "
+                f"the tip of a single flexure, and this scene has {why}; no accuracy is claimed")
+    if beta > BANDS[-1]:
+        warnings.append(
+            f"flexure {beta_at!r} ({labels[beta_at]}): bent {_deg(beta)}, past the "
+            f"{_deg(BANDS[-1])} the error classes cover; no accuracy is claimed")
+    margin = stiffness_margin(scene, models, result.q)
+    if margin < NEAR_SINGULAR and getattr(result, "stable", True):
+        pts = ", ".join(repr(p) for p in getattr(result, "points", {})) or "the output points"
+        warnings.append(
+            f"near a critical load: the smallest stiffness eigenvalue is {margin:.1%} of the "
+            f"unloaded one (below {NEAR_SINGULAR:.0%}), so the compliance at {pts} amplifies "
+            f"any model error by about {1 / max(margin, 1e-300):.3g}x")
+    lam = load_level(scene)
+    if calibrated and lam > LOAD_BANDS[-1]:
+        warnings.append(
+            f"load level {lam:.3g} (largest force x L^2/EI over the flexures) is above the "
+            f"calibrated {LOAD_BANDS[-1]:g}; no accuracy is claimed")
+    pose = comp = math.inf
+    uncalibrated = False
+    idx = band_index(beta, lam)
+    if calibrated and idx is not None:
+        pose = comp = 0.0
+        by_label: dict[str, list[str]] = {}
+        for name, lab in labels.items():
+            by_label.setdefault(lab, []).append(name)
+        for lab, names in by_label.items():
+            table, _ = claim_table(lab)
+            pe, ce = (None, None) if table is None else table[idx[0]][idx[1]]
+            if pe is None:
+                uncalibrated = True
+                pose = comp = math.inf
+                warnings.append(
+                    f"{_names(names)} ({lab}): no calibrated error class at {_deg(beta)} of "
+                    f"bend and load level {lam:.3g}; no accuracy is claimed")
+            else:
+                pose, comp = max(pose, pe), max(comp, ce)
+    if math.isfinite(comp):
+        comp = comp / max(min(margin, 1.0), 1e-300)
+    return Claim(pose, comp, beta, margin, oor, switched, warnings, uncalibrated)
+
+
+def validity_warnings(scene: Scene, models: Mapping, result) -> list[str]:
+    """The validity warnings of a converged result (``assess``); [] if it did not converge."""
+    if not result.converged:
+        return []
+    return assess(scene, result, models, calibrated=result.tolerance is None).warnings
+
+
+def models_of(scene: Scene, result, models: Mapping | None = None, model_factory=None) -> dict:
+    """The flexure models a chain-model ``result`` of ``scene`` was solved with, rebuilt:
+    ``models``/``model_factory`` as given to solve, else each flexure's ModelSpec with the modes
+    and kernel the result reports (a tolerance chooses them per flexure)."""
+    from flexgen.models.registry import build_model, build_models
+    if models is not None or model_factory is not None:
+        return build_models(scene, models, model_factory)
+
+    def factory(f):
+        info = result.model.get(f.name, {})
+        changes = {k: info[k] for k in ("kind", "modes", "elements", "kernel") if k in info}
+        return build_model(replace(f, model=replace(f.model, **changes)))
+    return build_models(scene, None, factory)
+
+
+def check(scene: Scene, result, models: Mapping | None = None, model_factory=None):
+    """Append the validity warnings of a converged chain-model ``result`` to
+    ``result.warnings`` (no duplicates) and set ``result.error_class`` ({"pose", "compliance"}:
+    the indicative error class, inf where nothing is claimed; None when a tolerance was
+    requested, whose ``error_estimate`` is then the claim). Returns the Claim (None if the
+    result did not converge)."""
+    if not result.converged or not result.q:
+        result.error_class = None
+        return None
+    ms = models_of(scene, result, models, model_factory)
+    claim = assess(scene, result, ms, calibrated=result.tolerance is None)
+    for w in claim.warnings:
+        if w not in result.warnings:
+            result.warnings.append(w)
+    result.error_class = claim.error_class if result.tolerance is None else None
+    return claim
