@@ -120,7 +120,7 @@ class Point:
     claim_comp: float
     beta: float
     reference: bool                # exact converged (stable, no snap) at this point
-    margin: float = math.nan       # smallest eigenvalue of K / that of hess U
+    margin: float = math.nan       # margin to a critical load (validity.stiffness_margin)
     uncalibrated: bool = False     # the only warning may be "no calibrated class" (calibration)
     load: float = math.nan         # load level lambda of the scene
 
@@ -430,16 +430,23 @@ def render_markdown(data: StabilityData) -> str:
          "carries an indicative error class -- a bound on its pose error (relative to the "
          "flexure length) and on its compliance error (relative, spectral norm) -- by model and "
          "by bend band (beta = max |phi| over the flexures), and a warning wherever the load "
-         "pushes it past its validity (see `flexgen/stability.py`): prb past 64 deg, a "
-         "polynomial kernel past 90 deg, a Gauss kernel past 180 deg, any model bent past 180 "
-         "deg, the stiffness within 5 % of singular (compliance claim divided by the margin), and "
-         "every warning of `solve` itself (buckling, snap-through, unstable, kernel switch). "
+         "pushes it past its validity (`flexgen/validity.py`): prb past 64 deg or outside its "
+         "one-flexure tip-force case, a polynomial kernel past 90 deg, a Gauss kernel past 180 "
+         "deg, any model bent past 180 deg, the stiffness within 5 % of singular (margin = "
+         "smallest generalized eigenvalue of K against the elastic Hessian, 1 - P/P_cr on an "
+         "axial load; the compliance claim is divided by it), a load level above "
+         f"{LOAD_BANDS[-1]:g}, a band without a class; and every warning of `solve` itself "
+         "(buckling, snap-through, unstable, kernel switch). `flexgen solve` and "
+         "`flexgen.solve` append the same validity warnings to every chain-model result, and "
+         "the Python API exposes the class as `result.error_class` (not in the JSON). "
          "The bands: bend beta and load level lambda = max_f L_f^2/EI_f x (sum |force| + 2 sum "
-         f"tension) (alpha for the cantilever; above {LOAD_BANDS[-1]:g} nothing is claimed). The "
-         "classes are calibrated on this sweep (`python -m flexgen.stability --calibrate`: 3x the "
-         "worst unwarned error per band, rounded up to a half decade, monotone in beta and "
-         "lambda; `none` = no unwarned point in the band, so nothing is claimed and the result "
-         "warns); `scmN auto` uses the classes of `scmN gauss`. The test sweep "
+         "tension) + max_f L_f/EI_f x sum |moment| (alpha for the cantilever). The "
+         "classes are calibrated on this sweep (`python -m flexgen.stability --calibrate`, which "
+         "rewrites the table in `flexgen/validity.py`: 3x the worst unwarned error per band, "
+         "rounded up to a half decade, monotone in beta and lambda; `none` = no unwarned point "
+         "in the band, so nothing is claimed and the result warns); `scmN auto` uses the "
+         "classes of `scmN gauss`, a model without a row those of a calibrated neighbour that "
+         "is no more accurate (fewer modes or elements). The test sweep "
          "(tests/test_stability.py) uses loads and directions off this grid. Classes "
          "(pose / compliance bound):", "",
          "| model | load level | " + " | ".join(f"beta <= {math.degrees(b):.0f} deg"

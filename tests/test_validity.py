@@ -1,0 +1,160 @@
+"""flexgen.validity: every solve result (``flexgen solve``, ``flexgen.solve``) carries the
+validity warnings of its models, and the indicative error class for the Python API."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import flexgen
+from flexgen import stability as S
+from flexgen import validity as V
+
+ROOT = Path(__file__).resolve().parents[1]
+FINGER = ROOT / "examples" / "two_link_finger.toml"
+CONTRACT_KEYS = {"scene", "converged", "stable", "iterations", "model", "q", "points", "warnings"}
+
+
+def cantilever_toml(tmp_path: Path, fx: float, fy: float, kind: str = "scm",
+                    kernel: str = "auto") -> Path:
+    p = tmp_path / f"cantilever_{kind}.toml"
+    p.write_text(f"""name = "cantilever"
+[model]
+kind = "{kind}"
+kernel = "{kernel}"
+[[flexure]]
+name = "beam"
+length = 1.0
+EI = 1.0
+[[load]]
+point = "beam.tip"
+force = [{fx!r}, {fy!r}]
+[output]
+points = ["beam.tip"]
+""")
+    return p
+
+
+def solve_json(path: Path, *extra: str) -> dict:
+    out = subprocess.run([sys.executable, "-m", "flexgen", "solve", str(path), "--json", *extra],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def test_prb_past_64_deg_warns_in_solve_json(tmp_path):
+    """A prb cantilever under a tip force of 8 EI/L^2 turns its pin past 64 deg."""
+    data = solve_json(cantilever_toml(tmp_path, 0.0, -8.0, kind="prb"))
+    assert set(data) == CONTRACT_KEYS          # the JSON contract is unchanged
+    assert data["converged"]
+    assert abs(data["q"]["beam"][0]) > math.radians(64)
+    hits = [w for w in data["warnings"] if "64 deg" in w]
+    assert len(hits) == 1
+    assert "'beam'" in hits[0] and "prb" in hits[0] and "pseudo-rigid-body" in hits[0]
+
+
+def test_prb_within_its_validity_has_no_warning(tmp_path):
+    r = flexgen.solve(cantilever_toml(tmp_path, 0.0, -2.0, kind="prb"))
+    assert r.converged and abs(r.q["beam"][0]) < math.radians(64)
+    assert r.warnings == []
+    assert math.isfinite(r.error_class["pose"])
+
+
+def test_finger_inside_every_band_has_no_warning():
+    r = flexgen.solve(FINGER)
+    assert r.converged and r.stable
+    assert r.warnings == []
+    # the indicative class, for the Python API only
+    assert set(r.error_class) == {"pose", "compliance"}
+    assert 0 < r.error_class["pose"] < 0.1 and 0 < r.error_class["compliance"] < 0.1
+    data = solve_json(FINGER)
+    assert data["warnings"] == [] and set(data) == CONTRACT_KEYS
+    assert "error_class" not in r.to_json()
+
+
+def test_prb_outside_its_load_case_warns():
+    r = flexgen.solve(FINGER, model="prb")
+    assert r.converged
+    hits = [w for w in r.warnings if "pseudo-rigid-body" in w]
+    assert len(hits) == 1 and "'proximal'" in hits[0] and "'distal'" in hits[0]
+    assert r.error_class == {"pose": math.inf, "compliance": math.inf}
+
+
+def test_poly_past_range_with_auto_warns_once(tmp_path):
+    """kernel auto: the solver's switch warning says it; validity adds no second message."""
+    path = cantilever_toml(tmp_path, -8.0, -8.0)       # bends the tip far past 90 deg
+    r = flexgen.solve(path)
+    assert r.converged
+    assert V.bend(type("M", (), {"kind": "scm"})(), r.q["beam"]) > math.pi / 2
+    poly = [w for w in r.warnings if "polynomial kernel" in w]
+    assert len(poly) == 1 and "switched to the Gauss kernel" in poly[0]
+    assert not [w for w in r.warnings if "Gauss kernel" in w and "certified" in w]
+
+
+def test_near_buckling_warns(tmp_path):
+    """An axial load at 97 % of the Euler load: straight, stable, 3 % from singular."""
+    P = math.pi ** 2 / 4
+    for kind in ("scm", "fem"):
+        r = flexgen.solve(cantilever_toml(tmp_path, -0.97 * P, 0.0, kind=kind))
+        assert r.converged and r.stable
+        hits = [w for w in r.warnings if "near a critical load" in w]
+        assert len(hits) == 1 and "'beam.tip'" in hits[0] and "5%" in hits[0]
+        assert r.error_class["compliance"] > 10 * r.error_class["pose"]
+    r = flexgen.solve(cantilever_toml(tmp_path, -0.5 * P, 0.0))
+    assert not [w for w in r.warnings if "near a critical load" in w]
+
+
+def test_margin_is_one_minus_load_over_critical(tmp_path):
+    P = math.pi ** 2 / 4
+    scene = flexgen.load_scene(cantilever_toml(tmp_path, -0.6 * P, 0.0))
+    r = flexgen.solve(scene, modes=5)
+    m = V.stiffness_margin(scene, V.models_of(scene, r), r.q)
+    assert m == pytest.approx(0.4, abs=1e-6)
+
+
+def test_load_level_above_calibration_warns(tmp_path):
+    r = flexgen.solve(cantilever_toml(tmp_path, 40.0, 5.0))   # mostly tension: converges
+    assert r.converged
+    assert any("load level" in w and "30" in w for w in r.warnings)
+    assert r.error_class["pose"] == math.inf
+
+
+def test_tolerance_result_keeps_its_estimate_as_the_claim():
+    r = flexgen.solve(FINGER, tolerance=1e-4)
+    assert r.converged and r.error_class is None and r.error_estimate is not None
+    assert r.warnings == []
+
+
+def test_models_passed_to_solve_are_assessed(tmp_path):
+    from flexgen.models.prb import PRBModel
+    path = cantilever_toml(tmp_path, 0.0, -8.0)
+    r = flexgen.solve(path, models={"beam": PRBModel(1.0, 1.0)})
+    assert any("64 deg" in w for w in r.warnings)
+
+
+def test_exact_and_unconverged_results_are_not_assessed(tmp_path):
+    r = flexgen.solve(FINGER, model="exact")
+    assert r.warnings == [] and getattr(r, "error_class", None) is None
+    # poly alone past its range: no equilibrium (converged false says so)
+    r = flexgen.solve(cantilever_toml(tmp_path, -8.0, -8.0, kernel="poly"))
+    assert not r.converged and r.error_class is None
+
+
+def test_stability_uses_validity():
+    """One implementation: the sweep assesses with flexgen.validity."""
+    assert S.assess is V.assess and S.load_level is V.load_level and S.bend is V.bend
+    scene = S.cantilever(15.0, 135.0)
+    r, claim = S.solve_assessed(scene, S.model_def("prb"))
+    assert r.converged and any("64 deg" in w for w in claim.warnings)
+
+
+def test_claim_table_neighbours():
+    assert V.claim_table("scm4 auto")[1] == "scm4 gauss"
+    assert V.claim_table("scm3 auto")[1] == "scm3 auto"
+    assert V.claim_table("scm8 poly")[1] == "scm6 poly"
+    assert V.claim_table("fem20")[1] == "fem16"
+    assert V.claim_table("fem2") == (None, None)
