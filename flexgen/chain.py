@@ -22,6 +22,7 @@ and its exact gradient and Hessian follow from the points' Jacobians and Hessian
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
@@ -52,34 +53,55 @@ def _rot(th: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-def _compose(parent: PointKinematics, v: np.ndarray, phi: float = 0.0,
-             dv: np.ndarray | None = None, d2v: np.ndarray | None = None) -> PointKinematics:
+def _compose(parent: PointKinematics, v, phi: float = 0.0, tip=None,
+             sl: slice | None = None) -> PointKinematics:
     """Parent frame composed with the local transform (translation v, rotation phi).
 
-    ``dv`` (3, ndof) and ``d2v`` (3, ndof, ndof) are the local transform's derivatives (rows x, y,
-    angle), or None for a constant transform.
+    ``tip`` (a TipKinematics with J (3, k), H (3, k, k)) gives the local transform's derivatives
+    in the coordinates ``sl`` of the packed q (rows x, y, angle; zero outside ``sl``), or None for
+    a constant transform. Written out per row on the (few) nonzero blocks: the arrays are tiny and
+    numpy's per-call overhead dominates.
     """
-    R = _rot(parent.pose[2])
-    w = R @ v
-    Sw = _S @ w
-    Jth = parent.J[2]
-    Hth = parent.H[2]
-    pose = np.empty(3)
-    pose[:2] = parent.pose[:2] + w
-    pose[2] = parent.pose[2] + phi
+    pp = parent.pose
+    th = float(pp[2])
+    c, s = math.cos(th), math.sin(th)
+    v0, v1 = float(v[0]), float(v[1])
+    wx, wy = c * v0 - s * v1, s * v0 + c * v1          # w = R v; S w = (-wy, wx)
+    pose = np.array([pp[0] + wx, pp[1] + wy, th + phi])
     J = parent.J.copy()
     H = parent.H.copy()
-    J[:2] += np.outer(Sw, Jth)
-    H[:2] += (Sw[:, None, None] * Hth[None] - w[:, None, None] * np.outer(Jth, Jth)[None])
-    if dv is not None:
-        RJ = R @ dv[:2]                      # (2, ndof)
-        SRJ = _S @ RJ
-        J[:2] += RJ
-        J[2] += dv[2]
-        cross = SRJ[:, :, None] * Jth[None, None, :]
-        H[:2] += cross + cross.transpose(0, 2, 1)
-        H[:2] += np.einsum("ab,bij->aij", R, d2v[:2])
-        H[2] += d2v[2]
+    Jth, Hth = parent.J[2], parent.H[2]
+    moving = bool(Jth.any())                          # the parent's angle depends on q
+    curved = bool(Hth.any())
+    if moving:
+        J[0] -= wy * Jth
+        J[1] += wx * Jth
+    if moving and curved:
+        JJ = np.multiply.outer(Jth, Jth)
+        H[0] += -wy * Hth - wx * JJ
+        H[1] += wx * Hth - wy * JJ
+    elif moving:
+        JJ = np.multiply.outer(Jth, Jth)
+        H[0] -= wx * JJ
+        H[1] -= wy * JJ
+    elif curved:
+        H[0] -= wy * Hth
+        H[1] += wx * Hth
+    if tip is not None:
+        tJ, tH = np.asarray(tip.J, dtype=float), np.asarray(tip.H, dtype=float)
+        RJ0 = c * tJ[0] - s * tJ[1]                   # R dv (rows x, y) on the block sl
+        RJ1 = s * tJ[0] + c * tJ[1]
+        J[0, sl] += RJ0
+        J[1, sl] += RJ1
+        J[2, sl] += tJ[2]
+        if moving:                                    # S R dv dth^T + its transpose
+            for a, row in ((0, -RJ1), (1, RJ0)):
+                X = np.multiply.outer(row, Jth)       # (k, n)
+                H[a, sl, :] += X
+                H[a, :, sl] += X.T
+        H[0, sl, sl] += c * tH[0] - s * tH[1]
+        H[1, sl, sl] += s * tH[0] + c * tH[1]
+        H[2, sl, sl] += tH[2]
     return PointKinematics(pose, J, H)
 
 
@@ -116,6 +138,8 @@ class Chain:
         self._cache_key: bytes | None = None
         self._cache: dict[str, PointKinematics] = {}
         self._roots: dict[str, PointKinematics] = {}
+        self._points: dict[str, PointKinematics] = {}       # points at the cached q
+        self._resolved: dict[str, tuple[str, tuple[float, float]]] = {}
 
     # ---- scene structure ------------------------------------------------------------------
 
@@ -215,17 +239,14 @@ class Chain:
                 continue
             flex = self.flexures[body]
             ax, ay, ath = (float(v) for v in flex.at)
-            root = _compose(parent, np.array([ax, ay]), ath)
+            root = _compose(parent, (ax, ay), ath)
             roots[body] = root
             sl = self.slices[body]
             tk = self.models[body].tip(q[sl])
-            dv = np.zeros((3, n))
-            d2v = np.zeros((3, n, n))
-            dv[:, sl] = tk.J
-            d2v[:, sl, sl] = tk.H
             tp = np.asarray(tk.pose, dtype=float)
-            frames[body] = _compose(root, tp[:2], float(tp[2]), dv, d2v)
+            frames[body] = _compose(root, (tp[0], tp[1]), float(tp[2]), tk, sl)
         self._cache_key, self._cache, self._roots = key, frames, roots
+        self._points = {}
         return frames
 
     def root_frame(self, name: str, q) -> PointKinematics:
@@ -233,13 +254,24 @@ class Chain:
         self.frames(q)
         return self._roots[name]
 
+    def _resolve(self, ref: str) -> tuple[str, tuple[float, float]]:
+        got = self._resolved.get(ref)
+        if got is None:
+            body, xy = self.resolve_point(ref)
+            got = self._resolved[ref] = (body, (float(xy[0]), float(xy[1])))
+        return got
+
     def point(self, ref: str, q) -> PointKinematics:
-        """World pose ``(x, y, body angle)``, J (3, ndof), H (3, ndof, ndof) of ``"<body>.<point>"``."""
-        body, xy = self.resolve_point(ref)
+        """World pose ``(x, y, body angle)``, J (3, ndof), H (3, ndof, ndof) of ``"<body>.<point>"``
+        (cached per ``q``: treat the arrays as read-only)."""
+        body, xy = self._resolve(ref)
         frame = self.frames(q)[body]
         if xy == (0.0, 0.0):
             return frame
-        return _compose(frame, np.array(xy))
+        pk = self._points.get(ref)
+        if pk is None:
+            pk = self._points[ref] = _compose(frame, xy)
+        return pk
 
     def pose(self, ref: str, q) -> np.ndarray:
         return self.point(ref, q).pose.copy()
@@ -274,17 +306,20 @@ class Chain:
         length, grad, hess = 0.0, np.zeros(n), np.zeros((n, n))
         for k in range(len(pts) - 1):
             a, b = pts[k], pts[k + 1]
-            d = b.pose[:2] - a.pose[:2]
-            rho = float(np.hypot(d[0], d[1]))
+            dx = float(b.pose[0] - a.pose[0])
+            dy = float(b.pose[1] - a.pose[1])
+            rho = math.hypot(dx, dy)
             if rho == 0.0:
                 raise ChainError(f"tendon segment {route[k]!r} -> {route[k + 1]!r} has zero length")
-            u = d / rho
-            Jd = b.J[:2] - a.J[:2]
-            Hd = b.H[:2] - a.H[:2]
+            ux, uy = dx / rho, dy / rho
+            Jx = b.J[0] - a.J[0]
+            Jy = b.J[1] - a.J[1]
             length += rho
-            grad += u @ Jd
-            P = (np.eye(2) - np.outer(u, u)) / rho
-            hess += Jd.T @ P @ Jd + np.einsum("a,aij->ij", u, Hd)
+            grad += ux * Jx + uy * Jy
+            # (I - u u^T) / rho = n n^T / rho with n = (-uy, ux) the unit normal
+            m = ux * Jy - uy * Jx
+            hess += np.multiply.outer(m, m / rho)
+            hess += ux * (b.H[0] - a.H[0]) + uy * (b.H[1] - a.H[1])
         return length, grad, hess
 
     def tendon_potential(self, q, scale: float = 1.0) -> tuple[float, np.ndarray, np.ndarray]:

@@ -104,7 +104,7 @@ class System:
 
     def state(self, q, lam: float) -> State:
         ch = self.chain
-        q = np.asarray(q, dtype=float)
+        q = np.array(q, dtype=float)        # a private copy (State.q)
         n = ch.ndof
         U = ch.energy(q)
         gU = ch.energy_gradient(q)
@@ -113,10 +113,14 @@ class System:
         reach = np.zeros(n)     # largest generalized force the loads could exert on each q_i
         for ref, F in self.loads:
             pk = ch.point(ref, q)
+            f0, f1, f2 = float(F[0]), float(F[1]), float(F[2])
+            J, H = pk.J, pk.H
             W += float(F @ pk.pose)
-            QL += F @ pk.J
-            GL += np.einsum("a,aij->ij", F, pk.H)
-            reach += np.hypot(F[0], F[1]) * np.linalg.norm(pk.J[:2], axis=0) + abs(F[2]) * np.abs(pk.J[2])
+            QL += F @ J
+            for fa, a in ((f0, 0), (f1, 1), (f2, 2)):
+                if fa != 0.0:
+                    GL += fa * H[a]
+            reach += math.hypot(f0, f1) * np.sqrt(J[0] * J[0] + J[1] * J[1]) + abs(f2) * np.abs(J[2])
         V, QT, GT = 0.0, np.zeros(n), np.zeros((n, n))
         for T, route in self.tendons:
             if T == 0.0:
@@ -125,15 +129,19 @@ class System:
             V += T * l
             QT += T * gl
             GT += T * hl
-            J = [ch.point(ref, q).J[:2] for ref in route]
-            reach += abs(T) * sum(np.linalg.norm(J[k + 1] - J[k], axis=0) for k in range(len(J) - 1))
+            J = [ch.point(ref, q).J for ref in route]
+            for k in range(len(J) - 1):
+                dx = J[k + 1][0] - J[k][0]
+                dy = J[k + 1][1] - J[k][1]
+                reach += abs(T) * np.sqrt(dx * dx + dy * dy)
         r = gU - lam * QL + lam * QT
-        K = KU - lam * GL + lam * GT
+        G = lam * (GT - GL)
+        K = KU + G
         K = 0.5 * (K + K.T)
         scale = max(float(np.max(np.abs(gU), initial=0.0)),
                     abs(lam) * float(np.max(reach, initial=0.0)))
-        kg = float(np.linalg.norm(lam * (GT - GL)))
-        return State(q.copy(), float(lam), U - lam * W + lam * V, U, r, K, QL - QT, scale, kg)
+        kg = float(np.linalg.norm(G))
+        return State(q, float(lam), U - lam * W + lam * V, U, r, K, QL - QT, scale, kg)
 
 
 def _cholesky_ok(K: np.ndarray) -> bool:

@@ -87,7 +87,12 @@ class SCMModel:
     # -- the FlexureModel protocol ---------------------------------------------------------
     def tip(self, q) -> TipKinematics:
         q = np.asarray(q, dtype=float)
-        pose, J, H = self.kernel_at(q).evaluate(q)
+        kernel = self.kernel_at(q)
+        if q.shape == (self.n_dof,):
+            fast = _single_point(kernel)
+            if fast is not None:
+                return fast(q, self.length)
+        pose, J, H = kernel.evaluate(q)
         scale = np.array([self.length, self.length, 1.0])
         return TipKinematics(pose * scale, J * scale[:, None], H * scale[:, None, None])
 
@@ -115,3 +120,46 @@ class SCMModel:
         pts = np.zeros((num, 2))
         pts[1:, 0], pts[1:, 1] = np.cumsum(dx), np.cumsum(dy)
         return pts * self.length
+
+
+_FAST: dict[int, object] = {}
+
+
+def _single_point(kernel):
+    """The generated kernel's evaluate() for one q, without the block loop and reshapes (its
+    per-call overhead dominates for one row): the same node angles, trig interpolants and
+    weight contractions, so the same numbers to rounding. None if the kernel module does not
+    have the nodal form (then evaluate() is used)."""
+    key = id(kernel)
+    fast = _FAST.get(key)
+    if fast is not None or key in _FAST:
+        return fast
+    names = ("NODE_BASIS", "POSE_WEIGHTS", "JACOBIAN_WEIGHTS", "HESSIAN_WEIGHTS", "_trig", "N")
+    if not all(hasattr(kernel, a) for a in names):
+        _FAST[key] = None
+        return None
+    B = np.ascontiguousarray(kernel.NODE_BASIS, dtype=float)
+    PW = np.ascontiguousarray(kernel.POSE_WEIGHTS, dtype=float)
+    JW = np.ascontiguousarray(kernel.JACOBIAN_WEIGHTS, dtype=float)
+    HW = np.ascontiguousarray(kernel.HESSIAN_WEIGHTS, dtype=float)
+    trig = kernel._trig
+    N = int(kernel.N)
+
+    def fast(q: np.ndarray, length: float) -> TipKinematics:
+        c, dc, ddc, s, ds, dds = trig(B @ q)
+        pose = np.array([float(c @ PW) * length, float(s @ PW) * length, float(q[0])])
+        J = np.empty((3, N))
+        J[0] = dc @ JW
+        J[1] = ds @ JW
+        J[:2] *= length
+        J[2] = 0.0
+        J[2, 0] = 1.0
+        H = np.empty((3, N, N))
+        H[0] = (ddc @ HW).reshape(N, N)
+        H[1] = (dds @ HW).reshape(N, N)
+        H[:2] *= length
+        H[2] = 0.0
+        return TipKinematics(pose, J, H)
+
+    _FAST[key] = fast
+    return fast
