@@ -179,11 +179,13 @@ class _Solver:
             return None
         return st
 
-    def newton(self, q0, lam, descent=False, max_iterations=None) -> State | None:
-        """Newton from q0 at load factor lam. ``descent`` makes every step a descent direction of
-        Pi (eigenvalues of K replaced by their magnitudes) so it ends at a stable equilibrium."""
+    def newton(self, q0, lam, descent=False, max_iterations=None,
+               start: State | None = None) -> State | None:
+        """Newton from q0 at load factor lam (or from the already evaluated ``start``).
+        ``descent`` makes every step a descent direction of Pi (eigenvalues of K replaced by their
+        magnitudes) so it ends at a stable equilibrium."""
         max_it = self.max_iterations if max_iterations is None else max_iterations
-        st = self.evaluate(q0, lam)
+        st = start if start is not None else self.evaluate(q0, lam)
         if st is None:
             return None
         history = []
@@ -344,6 +346,7 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     if q0 is not None:
         warm = _warm_start(sol, chain, q0, max_dq)
         if warm is not None:
+            warm = _polish(sol, warm)
             warnings.extend(_kernel_warnings(models, chain, warm.q))
             return _result(scene, chain, system, warm, outputs, info, sol.iterations, warnings,
                            critical)
@@ -351,6 +354,12 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     st = sol.newton(chain.zeros(), 0.0)
     if st is None:
         return fail(f"no equilibrium of the unloaded scene: {sol.last_error}", 0.0)
+    direct = _direct_solve(sol, st, models, max_dq) if max_steps >= 1 else None
+    if direct is not None:
+        direct = _polish(sol, direct)
+        warnings.extend(_kernel_warnings(models, chain, direct.q))
+        return _result(scene, chain, system, direct, outputs, info, sol.iterations, warnings,
+                       critical)
     lam, dlam, steps = 0.0, float(initial_step), 0
     while lam < 1.0:
         steps += 1
@@ -391,8 +400,112 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
         st, lam = new, lam_n
         sol.model_error = None
 
+    st = _polish(sol, st)
     warnings.extend(_kernel_warnings(models, chain, st.q))
     return _result(scene, chain, system, st, outputs, info, sol.iterations, warnings, critical)
+
+
+def _direct_solve(sol: _Solver, st0: State, models, max_dq: float,
+                  samples=(0.25, 0.5, 0.75), max_iterations: int = 12) -> State | None:
+    """The full load in one step, when that provably-enough lands where the continuation would.
+
+    Newton at load factor 1 straight from the unloaded equilibrium ``st0``; the answer is accepted
+    only if every check below passes, else None (the caller runs the continuation; the model
+    state is restored as if this had not been tried):
+
+    * K(q0, 1) is positive definite. K(q0, lam) is linear in lam, so it is then positive definite
+      for every lam in [0, 1]: the unloaded configuration is stable under every fraction of the
+      load, so no bifurcation from it (e.g. Euler buckling under an axial load, where Newton would
+      stay on the straight, unstable branch) is possible.
+    * Newton converges (relative residual <= tol) within ``max_iterations`` (and the solve's
+      own limit); the end state and the
+      sampled path states below are within every switching model's polynomial range (trial
+      steps of the line search that went past it do not count and leave no warning).
+    * The end state is stable (K positive definite).
+    * The path in between is checked at ``samples`` load factors t: on the cubic Hermite curve
+      through (0, q0) and (1, q1) with the path tangents dq/dlam = K^-1 Q at both ends, K(q(t), t)
+      must be positive definite and the Newton correction |K^-1 r|_inf at q(t) at most
+      0.2 max_dq (a continuation step may move q by up to max_dq; its predictors miss by about
+      this much): an equilibrium path stable at both ends, close to a smooth curve and stable
+      where sampled. A limit point (snap-through) or a jump to another branch between the ends
+      makes the Hermite curve miss the equilibria (large correction) or pass through unstable
+      states, and then the continuation (which locates and reports these) runs instead.
+
+    A rejected attempt leaves no trace in the result (its Newton iterations are not counted).
+    """
+    if not _cholesky_ok(st0.K):
+        return None
+    flags = {name: getattr(m, "switched", None) for name, m in models.items()}
+    it0, err0, merr0 = sol.iterations, sol.last_error, sol.model_error
+
+    def reject():
+        for name, m in models.items():
+            if flags[name] is not None:
+                m.switched = flags[name]
+        sol.iterations, sol.last_error, sol.model_error = it0, err0, merr0
+        return None
+
+    s1 = sol.evaluate(st0.q, 1.0)
+    if s1 is None or not _cholesky_ok(s1.K):
+        return reject()
+    end = sol.newton(None, 1.0, max_iterations=min(max_iterations, sol.max_iterations), start=s1)
+    if end is None:
+        return reject()
+    try:
+        L1 = np.linalg.cholesky(end.K)
+        t1 = scipy.linalg.cho_solve((L1, True), end.Q)
+        t0 = np.linalg.solve(st0.K, st0.Q)
+    except (np.linalg.LinAlgError, ValueError):
+        return reject()
+    q0, q1 = st0.q, end.q
+    visited = [q1]
+    for t in samples:
+        h00, h10 = 2 * t ** 3 - 3 * t ** 2 + 1, t ** 3 - 2 * t ** 2 + t
+        h01, h11 = -2 * t ** 3 + 3 * t ** 2, t ** 3 - t ** 2
+        qt = h00 * q0 + h10 * t0 + h01 * q1 + h11 * t1
+        s = sol.evaluate(qt, t)
+        if s is None:
+            return reject()
+        try:
+            L = np.linalg.cholesky(s.K)
+        except np.linalg.LinAlgError:
+            return reject()
+        corr = scipy.linalg.cho_solve((L, True), s.r)
+        if not float(np.max(np.abs(corr), initial=0.0)) <= 0.2 * max_dq:
+            return reject()
+        visited.append(qt)
+    # Newton's trial steps may have gone past a kernel's range (an error, or a kernel switch,
+    # that the line search stepped back from): that is no part of the path. The path itself must
+    # stay in range (else the continuation reports the switch as it always did).
+    for name, m in models.items():
+        if flags[name] is None:
+            continue
+        m.switched = flags[name]
+        sl = sol.sys.chain.slices[name]
+        if not all(m.in_range(q[sl]) for q in visited):
+            return reject()
+    sol.last_error, sol.model_error = err0, merr0
+    return end
+
+
+def _polish(sol: _Solver, st: State, target: float = 1e-14, steps: int = 3) -> State:
+    """Plain Newton steps on an accepted equilibrium while they lower the relative residual
+    below ``target``: an answer accepted at rel <= tol (1e-12) can still carry an error of
+    ~1e-11 in q (K's conditioning), which depends on the path Newton came by; polished, the
+    reported equilibrium is the same to rounding whichever way the solve reached it."""
+    for _ in range(steps):
+        if st.rel <= target:
+            break
+        try:
+            d = np.linalg.solve(st.K, st.r)
+        except np.linalg.LinAlgError:
+            break
+        trial = sol.evaluate(st.q - d, st.lam)
+        if trial is None or not trial.rel < st.rel:
+            break
+        sol.iterations += 1
+        st = trial
+    return st
 
 
 def _warm_start(sol: _Solver, chain: Chain, q0, max_dq: float) -> State | None:
