@@ -719,14 +719,14 @@ def render_markdown(info: dict, cfg: Config, c_rows: list[dict], np_res: dict,
     L += ["## 4. Which kernel should the runtime prefer", "",
           (f"Every kernel's measured double pose error meets {TARGET_ERROR:g}" if all_ok else
            f"Not every kernel meets {TARGET_ERROR:g} (see section 1)")
-          + f"; the fastest per N among those that do (C, double):", ""]
+          + "; the fastest per N among those that do (C, double):", ""]
     L += lines + [""] + [" ".join(policy)]
     if np_res:
         b0, b = cfg.numpy_batches[0], cfg.numpy_batches[-1]
         pairs = [(f["poly"], f["gauss"]) for N, f in sorted(facts.items())
                  if f.get("poly") in np_res and f.get("gauss") in np_res]
         if pairs:
-            L += ["", f"NumPy modules, poly/gauss throughput ratio (> 1: poly faster):", "",
+            L += ["", "NumPy modules, poly/gauss throughput ratio (> 1: poly faster):", "",
                   f"| pair | batch {b0:g} | batch {b:g} |", "|---|---|---|"]
             L += [f"| `{p}` / `{g}` | {np_res[p][b0] / np_res[g][b0]:.2f} | "
                   f"{np_res[p][b] / np_res[g][b]:.2f} |" for p, g in pairs]

@@ -21,7 +21,6 @@ over the points.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 

@@ -29,7 +29,7 @@ sys.path.insert(0, str(REPO))
 from flexgen.models.fem import FEMModel          # noqa: E402
 from flexgen.models.scm import SCMModel          # noqa: E402
 from flexgen.scene import load_scene             # noqa: E402
-from flexgen.solve import System, solve          # noqa: E402
+from flexgen.equilibrium import System, solve          # noqa: E402
 
 
 def scm3(f):

@@ -10,9 +10,6 @@ See docs/solve.md and docs/scene.md.
 """
 from __future__ import annotations
 
-# Load the submodule ``flexgen.solve`` first, then bind the name ``solve`` to the API function:
-# importing a submodule sets the package attribute only when it is first loaded.
-from . import solve as _solve_module  # noqa: F401
 from .api import solve
 from .scene import SceneError, load_scene, scene_from_dict
 

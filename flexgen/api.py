@@ -6,7 +6,7 @@
 - ``model`` / ``modes`` / ``elements``: override every flexure's ``kind`` / ``modes`` /
   ``elements`` (they beat the scene's ``[model]`` and per-flexure keys; ``modes`` also clears a
   ``tolerance``, since the modes are then given);
-- ``options``: passed to ``flexgen.solve.solve`` (``tol``, ``max_steps``, ...); ignored by the
+- ``options``: passed to ``flexgen.equilibrium.solve`` (``tol``, ``max_steps``, ...); ignored by the
   exact solver.
 
 Kind ``"exact"`` must apply to every flexure (the elastica solver solves the whole scene at once);
@@ -86,7 +86,7 @@ def solve_scene(scene: Scene, **options):
     if uses_exact(scene):
         from . import exact_result
         return exact_result.solve(scene)
-    from .solve import solve as chain_solve
+    from .equilibrium import solve as chain_solve
     from .validity import check
     result = chain_solve(scene, **options)
     check(scene, result, options.get("models"), options.get("model_factory"))

@@ -9,7 +9,7 @@ with every model and compares each answer with the exact elastica (``models.exac
   its length);
 * compliance error of every output point: ||C - C_exact||_2 / ||C_exact||_2 (2x2 position block);
 * time per solve (equilibrium + compliance of the output points) in the Python runtime: median of
-  repeated ``flexgen.solve.solve`` calls (``solve_exact`` for exact);
+  repeated ``flexgen.equilibrium.solve`` calls (``solve_exact`` for exact);
 * ns per kernel call in C for the scm kernels, from ``benchmarks/kernels.py``'s harness.
 
 A scene's error is the largest over its output points; a model's error is the median over the
@@ -179,7 +179,7 @@ def random_scenes(count: int, seed: int = SEED) -> list[tuple[str, Scene]]:
     over every flexure, by an scm6 solve) is U(15, 86) degrees. Scenes that buckle, snap, lose
     stability or on which scm6 and exact disagree by more than 1e-3 are redrawn."""
     from flexgen.models.exact import solve_exact
-    from flexgen.solve import solve
+    from flexgen.equilibrium import solve
     ref = ModelDef("scm6", "scm-gauss", "scm", modes=6, kernel="gauss").factory()
     rng = np.random.default_rng(seed)
     out: list[tuple[str, Scene]] = []
@@ -260,7 +260,7 @@ def answer(scene: Scene, md: ModelDef) -> Answer:
         return Answer(ex.converged, ex.stable, {k: np.asarray(v) for k, v in ex.poses.items()},
                       {k: np.asarray(v) for k, v in ex.compliance.items()}, list(ex.warnings),
                       crit, ex)
-    from flexgen.solve import solve
+    from flexgen.equilibrium import solve
     r = solve(scene, model_factory=md.factory())
     return Answer(r.converged, r.stable, {k: np.asarray(p.pose) for k, p in r.points.items()},
                   {k: np.asarray(p.compliance) for k, p in r.points.items()}, list(r.warnings),
@@ -429,7 +429,7 @@ def chart_points(data: BenchData, which: str = "pose") -> tuple[list[str], list[
 
 
 def compute_targets(data: BenchData, finger_repeats: int) -> dict:
-    from flexgen.solve import solve
+    from flexgen.equilibrium import solve
     tg: dict = {}
     scenes = dict(example_scenes())
     finger = scenes[FINGER_SCENE]
@@ -567,7 +567,7 @@ def render_markdown(data: BenchData) -> str:
          "L_p = total flexure length between the base and the point; per scene the worst point.",
          "- **compliance error**: ||C - C_exact||_2 / ||C_exact||_2 of the 2x2 position "
          "compliance of each output point; per scene the worst point.",
-         "- **time**: median of repeated `flexgen.solve.solve(scene, model_factory=...)` calls "
+         "- **time**: median of repeated `flexgen.equilibrium.solve(scene, model_factory=...)` calls "
          "(continuation from the unloaded state, equilibrium + compliance of the output points, "
          "models built inside the call); `exact` is `models.exact.solve_exact` (shooting). Per "
          "model the median over the suite.",

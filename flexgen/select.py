@@ -176,7 +176,7 @@ class _Problem:
                 for i, (f, N) in enumerate(zip(self.flex, modes))}
 
     def solve(self, modes: Sequence[int], q0=None) -> Solved:
-        from .solve import solve
+        from .equilibrium import solve
         modes = tuple(int(n) for n in modes)
         if modes in self.cache:
             return self.cache[modes]
@@ -516,10 +516,10 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
 def select_models(scene, tolerance: float, /, **solve_kwargs) -> Selection:
     """Choose the fewest modes per flexure that meet ``tolerance`` (see the module docstring).
 
-    ``scene``: a Scene (or a path/dict, as ``flexgen.solve.solve`` takes); ``solve_kwargs`` go to
+    ``scene``: a Scene (or a path/dict, as ``flexgen.equilibrium.solve`` takes); ``solve_kwargs`` go to
     every chain solve (``tol`` there is the residual tolerance of the equilibrium, not this one).
     Raises SelectionError for tolerance <= 0 or a flexure that is not "scm"."""
-    from .solve import _load_scene
+    from .equilibrium import _load_scene
     tol = check_tolerance(tolerance)
     scene = _load_scene(scene)
     t0 = time.perf_counter()
@@ -537,7 +537,7 @@ def solve_to_tolerance(scene, tolerance: float, /, **solve_kwargs) -> Result:
     ``model[flexure]`` has ``modes``, ``kernel`` and ``error_estimate`` and whose
     ``error_estimate`` covers the whole answer (``to_json`` then includes them). If ``tol`` is
     out of reach the Result has the best estimate and a warning saying so. ``solve_kwargs`` go
-    to every chain solve (``flexgen.solve.solve``: ``tol``, ``max_steps``, ...)."""
+    to every chain solve (``flexgen.equilibrium.solve``: ``tol``, ``max_steps``, ...)."""
     return select_models(scene, tolerance, **solve_kwargs).result
 
 
@@ -561,7 +561,7 @@ def time_per_solve(scene: Scene, modes: Mapping[str, int], repeat: int = 5,
                    **solve_kwargs) -> float:
     """Seconds per solve (equilibrium + compliance, continuation from the unloaded state) with
     the given modes, the best of ``repeat``."""
-    from .solve import solve
+    from .equilibrium import solve
     pb = _Problem(scene, solve_kwargs)
     best = math.inf
     for _ in range(max(1, repeat)):

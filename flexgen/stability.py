@@ -43,8 +43,7 @@ import numpy as np
 from flexgen.bench import (EXAMPLES, ModelDef, Progress, answer, errors, model_def, model_defs)
 from flexgen import validity as V
 from flexgen.scene import Scene, load_scene, scene_from_dict
-from flexgen.validity import (BANDS, LOAD_BANDS, NEAR_SINGULAR, PRB_LIMIT, Claim,  # noqa: F401
-                              assess, band_index, bend, load_level, prb_load_case)
+from flexgen.validity import BANDS, LOAD_BANDS, assess, band_index, load_level
 
 FINGER = EXAMPLES / "two_link_finger.toml"
 
@@ -93,7 +92,7 @@ SCENES = {"cantilever": cantilever, "finger": finger}
 def solve_assessed(scene: Scene, md: ModelDef):
     """solve() with fresh models, and assess() of the result (None if not converged)."""
     from flexgen.models.registry import build_models
-    from flexgen.solve import solve
+    from flexgen.equilibrium import solve
     models = build_models(scene, None, md.factory())
     r = solve(scene, models=models)
     claim = assess(scene, r, models, md.label) if r.converged else None
@@ -278,7 +277,7 @@ def euler(k: int) -> float:
 def buckling_table(modes=range(3, 9)) -> list[dict]:
     """Per N: the three critical loads, their relative errors, and solve's first critical load
     along an axial ramp to 1.2 x the first (cross-check)."""
-    from flexgen.solve import solve
+    from flexgen.equilibrium import solve
     rows = []
     for n in modes:
         P = buckling_loads(n)

@@ -540,7 +540,7 @@ def stiffness_margin(scene: Scene, models: Mapping, q: Mapping) -> float:
     1 unloaded, 1 - P/P_cr on an axial load below buckling, 0 at a critical load, < 0 unstable
     (nan if hess U is not positive definite). Independent of the model's coordinates."""
     from flexgen.chain import Chain
-    from flexgen.solve import System
+    from flexgen.equilibrium import System
     chain = Chain(scene, models)
     st = System(chain).state(chain.pack(q), 1.0)
     KU = chain.energy_hessian(st.q)

@@ -18,7 +18,7 @@ from flexgen.chain import Chain
 from flexgen.models.base import TipKinematics
 from flexgen.result import ellipse
 from flexgen.scene import Flexure, Link, Load, ModelSpec, Scene, Tendon
-from flexgen.solve import solve
+from flexgen.equilibrium import solve
 
 
 class LegendreModel:
@@ -349,7 +349,7 @@ def test_shapes_end_at_the_flexure_tips():
 
 def test_potential_residual_and_stiffness_are_consistent():
     """r = grad Pi and K = hess Pi (moments on the angle rows, tendon, several loads)."""
-    from flexgen.solve import System
+    from flexgen.equilibrium import System
     sc = _compliance_scene()
     chain = Chain(sc, models_for(sc, 3))
     system = System(chain)

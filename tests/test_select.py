@@ -14,7 +14,7 @@ import pytest
 from flexgen import select
 from flexgen.cli import main
 from flexgen.scene import SceneError, load_scene, scene_from_dict
-from flexgen.solve import solve
+from flexgen.equilibrium import solve
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 TOLS = (1e-2, 1e-4, 1e-6, 1e-8)
