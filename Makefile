@@ -1,7 +1,7 @@
 # flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
 PYTHON ?= python3
 
-.PHONY: setup test regen check-generated bench bench-kernels bench-models demo
+.PHONY: setup test regen check-generated bench bench-kernels bench-growth bench-models demo
 
 setup:
 	$(PYTHON) -m pip install --quiet -e ".[test]"
@@ -16,7 +16,8 @@ regen:
 check-generated:
 	$(PYTHON) -m flexgen generate --out generated --check
 
-bench: bench-kernels bench-models
+# Every benchmark page under docs/ (about 8 minutes on 2 cores).
+bench: bench-kernels bench-growth bench-models
 
 # flexgen bench (accuracy vs speed) and flexgen stability (where models fail) into docs/
 bench-models:
@@ -25,6 +26,9 @@ bench-models:
 
 bench-kernels:
 	$(PYTHON) benchmarks/kernels.py --out docs/benchmarks.md
+
+bench-growth:
+	$(PYTHON) benchmarks/expression_growth.py --out docs/expression-growth.md
 
 demo:
 	$(PYTHON) examples/demo.py
