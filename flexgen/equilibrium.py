@@ -55,7 +55,7 @@ from typing import Callable, Mapping
 import numpy as np
 import scipy.linalg
 
-from .chain import Chain
+from .chain import Chain, ChainError
 from .models.base import FlexureModel
 from .result import PointResult, Result, ellipse
 from .scene import Flexure, Scene
@@ -109,33 +109,47 @@ class System:
         U = ch.energy(q)
         gU = ch.energy_gradient(q)
         KU = ch.energy_hessian(q)
-        W, QL, GL = 0.0, np.zeros(n), np.zeros((n, n))
+        W, QL = 0.0, np.zeros(n)
+        coeffs = []             # Hessian row coefficients per point: -F for loads, T u for tendons
         reach = np.zeros(n)     # largest generalized force the loads could exert on each q_i
         for ref, F in self.loads:
-            pk = ch.point(ref, q)
+            pose, J = ch.point_j(ref, q)
             f0, f1, f2 = float(F[0]), float(F[1]), float(F[2])
-            J, H = pk.J, pk.H
-            W += float(F @ pk.pose)
+            W += float(F @ pose)
             QL += F @ J
-            for fa, a in ((f0, 0), (f1, 1), (f2, 2)):
-                if fa != 0.0:
-                    GL += fa * H[a]
+            coeffs.append((ref, (-f0, -f1, -f2)))
             reach += math.hypot(f0, f1) * np.sqrt(J[0] * J[0] + J[1] * J[1]) + abs(f2) * np.abs(J[2])
         V, QT, GT = 0.0, np.zeros(n), np.zeros((n, n))
         for T, route in self.tendons:
             if T == 0.0:
                 continue
-            l, gl, hl = ch.tendon_length(route, q)
+            # length l = sum of segment lengths; grad l and the rank-one part of hess l here,
+            # the points' Hessians through the contraction (chain.tendon_length's terms)
+            pts = [ch.point_j(ref, q) for ref in route]
+            l, gl, hl = 0.0, np.zeros(n), np.zeros((n, n))
+            for k in range(len(pts) - 1):
+                (pa, Ja), (pb, Jb) = pts[k], pts[k + 1]
+                dx = float(pb[0] - pa[0])
+                dy = float(pb[1] - pa[1])
+                rho = math.hypot(dx, dy)
+                if rho == 0.0:
+                    raise ChainError(f"tendon segment {route[k]!r} -> {route[k + 1]!r} has zero "
+                                     f"length")
+                ux, uy = dx / rho, dy / rho
+                Jx = Jb[0] - Ja[0]
+                Jy = Jb[1] - Ja[1]
+                l += rho
+                gl += ux * Jx + uy * Jy
+                m = ux * Jy - uy * Jx
+                hl += np.multiply.outer(m, m / rho)
+                coeffs.append((route[k + 1], (T * ux, T * uy, 0.0)))
+                coeffs.append((route[k], (-T * ux, -T * uy, 0.0)))
+                reach += abs(T) * np.sqrt(Jx * Jx + Jy * Jy)
             V += T * l
             QT += T * gl
             GT += T * hl
-            J = [ch.point(ref, q).J for ref in route]
-            for k in range(len(J) - 1):
-                dx = J[k + 1][0] - J[k][0]
-                dy = J[k + 1][1] - J[k][1]
-                reach += abs(T) * np.sqrt(dx * dx + dy * dy)
         r = gU - lam * QL + lam * QT
-        G = lam * (GT - GL)
+        G = lam * (GT + ch.hessian_sum(q, coeffs))
         K = KU + G
         K = 0.5 * (K + K.T)
         scale = max(float(np.max(np.abs(gU), initial=0.0)),
@@ -622,7 +636,7 @@ def _cross_bifurcation(sol: _Solver, a: State, b: State, outputs, chain: Chain,
             def mean_row(s, row):
                 if not outputs:
                     return 0.0
-                return float(np.mean([chain.point(ref, s.q).pose[row] for ref in outputs]))
+                return float(np.mean([chain.point_j(ref, s.q)[0][row] for ref in outputs]))
             y1, y2 = mean_row(s1, 1), mean_row(s2, 1)
             if abs(y1 - y2) > 1e-9 * max(abs(y1), abs(y2), 1e-300):
                 choice = s1 if y1 > y2 else s2
@@ -640,7 +654,7 @@ def _cross_bifurcation(sol: _Solver, a: State, b: State, outputs, chain: Chain,
 def compliance(system: System, st: State, ref: str) -> np.ndarray:
     """3x3 compliance d(x, y, angle)/d(fx, fy, moment) of point ``ref`` at state ``st``:
     J K^-1 J^T with the full stiffness (geometric stiffness of every load included)."""
-    J = system.chain.point(ref, st.q).J
+    J = system.chain.point_j(ref, st.q)[1]
     try:
         X = scipy.linalg.solve(st.K, J.T, assume_a="sym")
     except (np.linalg.LinAlgError, scipy.linalg.LinAlgError):
@@ -655,7 +669,7 @@ def _result(scene, chain, system, st: State, outputs, info, iterations, warnings
         warnings.append("the equilibrium is unstable: the stiffness matrix is not positive definite")
     points = {}
     for ref in outputs:
-        pose = chain.point(ref, st.q).pose
+        pose = chain.point_j(ref, st.q)[0]
         C3 = compliance(system, st, ref)
         if not np.all(np.isfinite(C3)):
             warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")

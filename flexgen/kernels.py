@@ -30,7 +30,20 @@ def available(folder: Path = GENERATED) -> list[str]:
 
 
 def gauss_kernel_name(modes: int, folder: Path = GENERATED) -> str:
-    """The Gauss kernel for this many modes with the most nodes (the most accurate)."""
+    """The Gauss kernel for this many modes with the most nodes (the most accurate).
+
+    The folder is scanned once per (folder, its modification time): a kernel generated into it
+    later (``flexgen generate`` writes the file, which updates the folder's mtime) is seen."""
+    numpy_dir = Path(folder) / "numpy"
+    try:
+        stamp = numpy_dir.stat().st_mtime_ns
+    except OSError:
+        stamp = None
+    return _gauss_kernel_name(int(modes), Path(folder), stamp)
+
+
+@lru_cache(maxsize=256)
+def _gauss_kernel_name(modes: int, folder: Path, stamp) -> str:
     found = [n for n in available(folder) if _NAME.match(n)[1] == str(modes) and "_gauss" in n]
     if not found:
         raise KernelNotFound(f"no Gauss kernel for {modes} modes in {folder}/numpy; run "

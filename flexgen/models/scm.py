@@ -142,7 +142,7 @@ def _single_point(kernel):
     PW = np.ascontiguousarray(kernel.POSE_WEIGHTS, dtype=float)
     JW = np.ascontiguousarray(kernel.JACOBIAN_WEIGHTS, dtype=float)
     HW = np.ascontiguousarray(kernel.HESSIAN_WEIGHTS, dtype=float)
-    trig = kernel._trig
+    trig = _stacked_trig(kernel._trig, B) or kernel._trig
     N = int(kernel.N)
 
     def fast(q: np.ndarray, length: float) -> TipKinematics:
@@ -163,3 +163,55 @@ def _single_point(kernel):
 
     _FAST[key] = fast
     return fast
+
+
+def _stacked_trig(trig, basis: np.ndarray):
+    """The generated polynomial ``_trig`` (six Horner polynomials in u = phi^2, the odd ones
+    times phi) evaluated as one stacked Horner scheme on a (6, nodes) array: the same
+    coefficients, operations and order, so the same numbers bit for bit, in a dozen array
+    operations instead of sixty. The coefficients are read by running ``trig`` on a
+    ``numpy.polynomial.Polynomial`` (exact: Horner with a monomial only shifts them); the
+    result is checked bit for bit against ``trig`` on sample angles. None if anything differs
+    or ``trig`` is not of that form (e.g. the Gauss kernels' np.cos/np.sin)."""
+    from numpy.polynomial import Polynomial
+    try:
+        polys = trig(Polynomial([0.0, 1.0]))
+        coefs = [np.asarray(p.coef, dtype=float) for p in polys]
+    except Exception:          # not a polynomial form
+        return None
+    if len(coefs) != 6:
+        return None
+    odd = []
+    rows = []
+    for c in coefs:
+        is_odd = c.size > 1 and not np.any(c[0::2])
+        part = c[1::2] if is_odd else c[0::2]
+        if np.any(c[0::2] if is_odd else c[1::2]):
+            return None        # neither even nor odd in phi
+        odd.append(is_odd)
+        rows.append(part)
+    deg = max(len(r) for r in rows)
+    C = np.zeros((6, deg))      # C[f, k] multiplies u^(deg-1-k): highest first, zero-padded
+    for f, r in enumerate(rows):
+        C[f, deg - len(r):] = r[::-1]
+    first = C[:, :1].copy()
+    rest = [C[:, k:k + 1].copy() for k in range(1, deg)]
+    oddmask = np.array(odd)[:, None]
+
+    def stacked(phi):
+        u0 = phi * phi
+        acc = first * u0
+        acc += rest[0]
+        for ck in rest[1:]:
+            acc *= u0
+            acc += ck
+        acc *= np.where(oddmask, phi, 1.0)
+        return acc[0], acc[1], acc[2], acc[3], acc[4], acc[5]
+
+    rng = np.random.default_rng(0)
+    for scale in (0.1, 1.0, 2.0):
+        phi = rng.uniform(-scale, scale, size=(basis.shape[0],))
+        want, got = trig(phi), stacked(phi)
+        if not all(np.array_equal(a, b) for a, b in zip(want, got)):
+            return None
+    return stacked
