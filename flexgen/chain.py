@@ -146,10 +146,14 @@ class Chain:
             parent = self.body_parent(body)
             self._frame_of[body] = body if body in self.flexures else self._frame_of[parent]
         self._flex_order = [b for b in self._order if b in self.flexures]
+        self._flex_plan = [(b, self._frame_of[self.flexures[b].parent],
+                            *(float(v) for v in self.flexures[b].at), self.slices[b],
+                            self.models[b]) for b in self._flex_order]
         self._light_key: bytes | None = None
         self._light: dict[str, tuple] = {}
         self._light_data: dict[str, tuple] = {}
         self._light_points: dict[str, tuple] = {}
+        self._KU: np.ndarray | None = None
 
     # ---- scene structure ------------------------------------------------------------------
 
@@ -299,10 +303,8 @@ class Chain:
         n = self.ndof
         frames = {BASE: (np.zeros(3), np.zeros((3, n)), False)}
         data: dict[str, tuple] = {}
-        for body in self._flex_order:
-            pp, PJ, moving = frames[self._frame_of[self.flexures[body].parent]]
-            flex = self.flexures[body]
-            ax, ay, ath = (float(v) for v in flex.at)
+        for body, parent, ax, ay, ath, sl, model in self._flex_plan:
+            pp, PJ, moving = frames[parent]
             # root = parent composed with the constant (at)
             th = float(pp[2])
             c, s = math.cos(th), math.sin(th)
@@ -314,8 +316,7 @@ class Chain:
                 RJ[0] -= awy * Jth
                 RJ[1] += awx * Jth
             # tip = root composed with the flexure's tip transform
-            sl = self.slices[body]
-            tk = self.models[body].tip(q[sl])
+            tk = model.tip(q[sl])
             tp = np.asarray(tk.pose, dtype=float)
             tJ, tH = np.asarray(tk.J, dtype=float), np.asarray(tk.H, dtype=float)
             th = float(rpose[2])
@@ -342,12 +343,16 @@ class Chain:
     def point_j(self, ref: str, q) -> tuple[np.ndarray, np.ndarray]:
         """World pose (3,) and Jacobian (3, ndof) of ``"<body>.<point>"`` (the same numbers as
         ``point``, without the Hessian; cached per q: treat as read-only)."""
-        body, xy = self._resolve(ref)
-        frames = self._light_frames(q)
+        self._light_frames(q)
+        return self._pj(ref)
+
+    def _pj(self, ref: str) -> tuple[np.ndarray, np.ndarray]:
+        """point_j at the q of the last ``_light_frames`` call."""
         got = self._light_points.get(ref)
         if got is not None:
             return got
-        pp, PJ, moving = frames[self._frame_of[body]]
+        body, xy = self._resolve(ref)
+        pp, PJ, moving = self._light[self._frame_of[body]]
         if xy == (0.0, 0.0):
             got = (pp, PJ)
         else:
@@ -407,7 +412,9 @@ class Chain:
                 Jth = frames[body][1][2]
                 G -= k * np.multiply.outer(Jth, Jth)
             moving, Jr, awx, awy, c, s, wx, wy, RJ0, RJ1, tH, sl = data[body]
-            G[sl, sl] += (c * c0 + s * c1) * tH[0] + (c * c1 - s * c0) * tH[1] + c2 * tH[2]
+            k = tH.shape[1]
+            G[sl, sl] += (np.array([c * c0 + s * c1, c * c1 - s * c0, c2])
+                          @ tH.reshape(3, k * k)).reshape(k, k)
             parent = self._frame_of[self.flexures[body].parent]
             if parent == BASE or not (c0 or c1 or c2):
                 continue
@@ -428,6 +435,25 @@ class Chain:
         return G
 
     # ---- energy ---------------------------------------------------------------------------
+
+    def energy_terms(self, q) -> tuple[float, np.ndarray, np.ndarray]:
+        """(energy, energy_gradient, energy_hessian) at q in one pass; the Hessian is built once
+        and copied when every model declares it constant (``CONSTANT_HESSIAN``: quadratic
+        energies)."""
+        U, g = 0.0, np.zeros(self.ndof)
+        for n, sl in self.slices.items():
+            m = self.models[n]
+            qs = q[sl]
+            U += m.energy(qs)
+            g[sl] = m.energy_gradient(qs)
+        K = self._KU
+        if K is None:
+            K = self.energy_hessian(q)
+            if all(getattr(m, "CONSTANT_HESSIAN", False) for m in self.models.values()):
+                self._KU = K.copy()
+        else:
+            K = K.copy()
+        return float(U), g, K
 
     def energy(self, q) -> float:
         q = self._check_q(q)

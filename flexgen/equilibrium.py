@@ -47,9 +47,10 @@ models).
 """
 from __future__ import annotations
 
+import functools
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 import numpy as np
@@ -76,9 +77,12 @@ class State:
     Q: np.ndarray     # external generalized force at lam = 1 (loads minus tendons)
     scale: float      # force scale of the relative residual
     kg: float = 0.0   # norm of the load (geometric) part of K
+    parts: tuple | None = field(default=None, repr=False, compare=False)
+    # the load-independent pieces (System.at_lambda re-scales them to another load factor)
 
-    @property
+    @functools.cached_property
     def rel(self) -> float:
+        """Relative residual (computed once: a State is not modified after it is built)."""
         rn = float(np.max(np.abs(self.r))) if self.r.size else 0.0
         if rn == 0.0:
             return 0.0
@@ -106,14 +110,13 @@ class System:
         ch = self.chain
         q = np.array(q, dtype=float)        # a private copy (State.q)
         n = ch.ndof
-        U = ch.energy(q)
-        gU = ch.energy_gradient(q)
-        KU = ch.energy_hessian(q)
+        U, gU, KU = ch.energy_terms(q)
+        ch._light_frames(q)                 # the points' poses and Jacobians at q (ch._pj)
         W, QL = 0.0, np.zeros(n)
         coeffs = []             # Hessian row coefficients per point: -F for loads, T u for tendons
         reach = np.zeros(n)     # largest generalized force the loads could exert on each q_i
         for ref, F in self.loads:
-            pose, J = ch.point_j(ref, q)
+            pose, J = ch._pj(ref)
             f0, f1, f2 = float(F[0]), float(F[1]), float(F[2])
             W += float(F @ pose)
             QL += F @ J
@@ -125,7 +128,7 @@ class System:
                 continue
             # length l = sum of segment lengths; grad l and the rank-one part of hess l here,
             # the points' Hessians through the contraction (chain.tendon_length's terms)
-            pts = [ch.point_j(ref, q) for ref in route]
+            pts = [ch._pj(ref) for ref in route]
             l, gl, hl = 0.0, np.zeros(n), np.zeros((n, n))
             for k in range(len(pts) - 1):
                 (pa, Ja), (pb, Jb) = pts[k], pts[k + 1]
@@ -148,14 +151,27 @@ class System:
             V += T * l
             QT += T * gl
             GT += T * hl
+        parts = (U, W, V, gU, KU, QL, QT, GT + ch.hessian_sum(q, coeffs),
+                 float(np.max(np.abs(gU), initial=0.0)), float(np.max(reach, initial=0.0)))
+        return self._at(q, lam, parts)
+
+    @staticmethod
+    def _at(q, lam: float, parts) -> State:
+        U, W, V, gU, KU, QL, QT, S, gmax, rmax = parts
         r = gU - lam * QL + lam * QT
-        G = lam * (GT + ch.hessian_sum(q, coeffs))
+        G = lam * S
         K = KU + G
         K = 0.5 * (K + K.T)
-        scale = max(float(np.max(np.abs(gU), initial=0.0)),
-                    abs(lam) * float(np.max(reach, initial=0.0)))
+        scale = max(gmax, abs(lam) * rmax)
         kg = float(np.linalg.norm(G))
-        return State(q, float(lam), U - lam * W + lam * V, U, r, K, QL - QT, scale, kg)
+        return State(q, float(lam), U - lam * W + lam * V, U, r, K, QL - QT, scale, kg, parts)
+
+    def at_lambda(self, st: State, lam: float) -> State:
+        """``state(st.q, lam)`` without evaluating the chain again: every term is linear in the
+        load factor, so the same numbers (bit for bit) from ``st``'s load-independent parts."""
+        if st.parts is None:
+            return self.state(st.q, lam)
+        return self._at(st.q, lam, st.parts)
 
 
 def _cholesky_ok(K: np.ndarray) -> bool:
@@ -192,6 +208,18 @@ class _Solver:
             self.last_error = "a model returned a non-finite value"
             return None
         return st
+
+    def at_lambda(self, st: State, lam: float) -> State | None:
+        """``evaluate(st.q, lam)``, from st's parts (no chain evaluation)."""
+        try:
+            new = self.sys.at_lambda(st, lam)
+        except _EVAL_ERRORS as exc:
+            self.last_error = self.model_error = str(exc)
+            return None
+        if not (np.isfinite(new.Pi) and np.all(np.isfinite(new.r)) and np.all(np.isfinite(new.K))):
+            self.last_error = "a model returned a non-finite value"
+            return None
+        return new
 
     def newton(self, q0, lam, descent=False, max_iterations=None,
                start: State | None = None) -> State | None:
@@ -459,15 +487,15 @@ def _direct_solve(sol: _Solver, st0: State, models, max_dq: float,
         sol.iterations, sol.last_error, sol.model_error = it0, err0, merr0
         return None
 
-    s1 = sol.evaluate(st0.q, 1.0)
+    s1 = sol.at_lambda(st0, 1.0)
     if s1 is None or not _cholesky_ok(s1.K):
         return reject()
     end = sol.newton(None, 1.0, max_iterations=min(max_iterations, sol.max_iterations), start=s1)
     if end is None:
         return reject()
     try:
-        L1 = np.linalg.cholesky(end.K)
-        t1 = scipy.linalg.cho_solve((L1, True), end.Q)
+        np.linalg.cholesky(end.K)                    # positive definite (else reject)
+        t1 = np.linalg.solve(end.K, end.Q)
         t0 = np.linalg.solve(st0.K, st0.Q)
     except (np.linalg.LinAlgError, ValueError):
         return reject()
@@ -481,10 +509,10 @@ def _direct_solve(sol: _Solver, st0: State, models, max_dq: float,
         if s is None:
             return reject()
         try:
-            L = np.linalg.cholesky(s.K)
+            np.linalg.cholesky(s.K)
+            corr = np.linalg.solve(s.K, s.r)
         except np.linalg.LinAlgError:
             return reject()
-        corr = scipy.linalg.cho_solve((L, True), s.r)
         if not float(np.max(np.abs(corr), initial=0.0)) <= 0.2 * max_dq:
             return reject()
         visited.append(qt)
@@ -677,9 +705,12 @@ def _result(scene, chain, system, st: State, outputs, info, iterations, warnings
         points[ref] = PointResult(pose=[float(x) for x in pose], compliance=C2.tolist(),
                                   ellipse=ellipse(C2), compliance3=C3.tolist())
     q = {name: [float(x) for x in v] for name, v in chain.split(st.q).items()}
-    return Result(scene=scene.name, converged=True, stable=stable, iterations=iterations,
-                  model=info, q=q, points=points, warnings=warnings, reason=None,
-                  critical_load_factors=critical, load_factor=1.0, energy=st.U, residual=st.rel)
+    res = Result(scene=scene.name, converged=True, stable=stable, iterations=iterations,
+                 model=info, q=q, points=points, warnings=warnings, reason=None,
+                 critical_load_factors=critical, load_factor=1.0, energy=st.U, residual=st.rel)
+    # the chain and final state, for the validity check to reuse (not a Result field)
+    res._final = (chain, system, st)
+    return res
 
 
 __all__ = ["solve", "System", "State", "compliance"]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import os
 import re
 import subprocess
 from functools import lru_cache
@@ -34,12 +35,17 @@ def gauss_kernel_name(modes: int, folder: Path = GENERATED) -> str:
 
     The folder is scanned once per (folder, its modification time): a kernel generated into it
     later (``flexgen generate`` writes the file, which updates the folder's mtime) is seen."""
-    numpy_dir = Path(folder) / "numpy"
+    numpy_dir = _NUMPY_DIRS.get(folder)
+    if numpy_dir is None:
+        numpy_dir = _NUMPY_DIRS[folder] = os.path.join(os.fspath(folder), "numpy")
     try:
-        stamp = numpy_dir.stat().st_mtime_ns
+        stamp = os.stat(numpy_dir).st_mtime_ns
     except OSError:
         stamp = None
-    return _gauss_kernel_name(int(modes), Path(folder), stamp)
+    return _gauss_kernel_name(modes, folder, stamp)
+
+
+_NUMPY_DIRS: dict = {}
 
 
 @lru_cache(maxsize=256)

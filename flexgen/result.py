@@ -68,6 +68,13 @@ class Result:
     tolerance: float | None = None
     error_estimate: float | None = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickle and deepcopy without ``_final`` (the solve's chain and final state, set by
+        ``flexgen.equilibrium`` for the validity check to reuse; not part of the result)."""
+        state = dict(self.__dict__)
+        state.pop("_final", None)
+        return state
+
     def to_dict(self) -> dict[str, Any]:
         """Every field, as plain Python data."""
         return asdict(self)

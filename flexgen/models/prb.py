@@ -16,6 +16,7 @@ from .base import TipKinematics
 
 class PRBModel:
     kind = "prb"
+    CONSTANT_HESSIAN = True     # quadratic energy: energy_hessian does not depend on q
     label = "prb"
     n_dof = 1
 

@@ -33,6 +33,7 @@ def angle_basis(modes: int, sigma: np.ndarray) -> np.ndarray:
 
 class SCMModel:
     kind = "scm"
+    CONSTANT_HESSIAN = True     # quadratic energy: energy_hessian does not depend on q
 
     def __init__(self, length: float, EI: float, modes: int = 3, kernel: str = "auto",
                  name: str = "?"):
@@ -145,21 +146,42 @@ def _single_point(kernel):
     trig = _stacked_trig(kernel._trig, B) or kernel._trig
     N = int(kernel.N)
 
-    def fast(q: np.ndarray, length: float) -> TipKinematics:
-        c, dc, ddc, s, ds, dds = trig(B @ q)
-        pose = np.array([float(c @ PW) * length, float(s @ PW) * length, float(q[0])])
-        J = np.empty((3, N))
-        J[0] = dc @ JW
-        J[1] = ds @ JW
-        J[:2] *= length
-        J[2] = 0.0
-        J[2, 0] = 1.0
-        H = np.empty((3, N, N))
-        H[0] = (ddc @ HW).reshape(N, N)
-        H[1] = (dds @ HW).reshape(N, N)
-        H[:2] *= length
-        H[2] = 0.0
-        return TipKinematics(pose, J, H)
+    stacked = trig is not kernel._trig
+    if stacked:
+        # one product for all six rows: rows (c, s) need POSE_WEIGHTS, (c', s') the Jacobian
+        # weights, (c'', s'') the Hessian weights; W holds all three side by side
+        W = np.ascontiguousarray(np.hstack([PW[:, None], JW, HW]))
+        order = [0, 3, 1, 4, 2, 5]
+        nn = N * N
+
+        def fast(q: np.ndarray, length: float) -> TipKinematics:
+            acc = trig(B @ q, rows=True)
+            pose = np.empty(3)
+            J = np.zeros((3, N))
+            H = np.zeros((3, N, N))
+            prod = acc[order] @ W * length       # (6, 1 + N + N^2)
+            pose[:2] = prod[0:2, 0]
+            pose[2] = q[0]
+            J[:2] = prod[2:4, 1:1 + N]
+            J[2, 0] = 1.0
+            H[:2] = prod[4:6, 1 + N:1 + N + nn].reshape(2, N, N)
+            return TipKinematics(pose, J, H)
+    else:
+        def fast(q: np.ndarray, length: float) -> TipKinematics:
+            c, dc, ddc, s, ds, dds = trig(B @ q)
+            pose = np.array([float(c @ PW) * length, float(s @ PW) * length, float(q[0])])
+            J = np.empty((3, N))
+            J[0] = dc @ JW
+            J[1] = ds @ JW
+            J[:2] *= length
+            J[2] = 0.0
+            J[2, 0] = 1.0
+            H = np.empty((3, N, N))
+            H[0] = (ddc @ HW).reshape(N, N)
+            H[1] = (dds @ HW).reshape(N, N)
+            H[:2] *= length
+            H[2] = 0.0
+            return TipKinematics(pose, J, H)
 
     _FAST[key] = fast
     return fast
@@ -198,7 +220,7 @@ def _stacked_trig(trig, basis: np.ndarray):
     rest = [C[:, k:k + 1].copy() for k in range(1, deg)]
     oddmask = np.array(odd)[:, None]
 
-    def stacked(phi):
+    def stacked(phi, rows=False):
         u0 = phi * phi
         acc = first * u0
         acc += rest[0]
@@ -206,6 +228,8 @@ def _stacked_trig(trig, basis: np.ndarray):
             acc *= u0
             acc += ck
         acc *= np.where(oddmask, phi, 1.0)
+        if rows:
+            return acc
         return acc[0], acc[1], acc[2], acc[3], acc[4], acc[5]
 
     rng = np.random.default_rng(0)
