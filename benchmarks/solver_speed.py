@@ -3,9 +3,10 @@
     python benchmarks/solver_speed.py [--repeats N] [--json OUT]
 
 Cases: the two-flexure finger (examples/two_link_finger.toml) with scm3 (auto kernel, as
-``flexgen bench`` times it), fem16, fem64 and exact (``models.exact.solve_exact``); the
-90-degree arc (scm3) and the rectangular elastica (scm3; buckling: the path crosses the
-bifurcation and ends on the post-buckled branch). Reported: median milliseconds per solve over
+``flexgen bench`` times it), the same through ``flexgen.solve`` (the scene's own scm3 model,
+plus the validity check every API solve runs), fem16, fem64 and exact
+(``models.exact.solve_exact``); the 90-degree arc (scm3) and the rectangular elastica (scm3;
+buckling: the path crosses the bifurcation and ends on the post-buckled branch). Reported: median milliseconds per solve over
 ``repeats`` calls after one warm-up call, plus the Newton iterations and the state evaluations
 per solve. Single-threaded BLAS is recommended (OPENBLAS_NUM_THREADS=1), as in ``flexgen bench``.
 """
@@ -50,8 +51,13 @@ def cases():
         from flexgen.models.exact import solve_exact
         return lambda: solve_exact(scene)
 
+    def api(scene):
+        import flexgen
+        return lambda: flexgen.solve(scene)
+
     return [
         ("finger scm3", lambda: solve(finger, model_factory=scm3), 200),
+        ("finger scm3 API+validity", api(finger), 200),
         ("finger fem16", lambda: solve(finger, model_factory=fem(16)), 100),
         ("finger fem64", lambda: solve(finger, model_factory=fem(64)), 30),
         ("finger exact", exact(finger), 5),
@@ -102,7 +108,7 @@ def main(argv=None) -> int:
         ms = median_ms(fn, max(3, int(reps * args.repeats)), args.budget)
         res = fn()
         iters = getattr(res, "iterations", None)
-        states = count_states(fn) if "exact" not in name else None
+        states = count_states(fn) if "exact" not in name else None   # API: incl. validity
         out[name] = {"ms": ms, "iterations": iters, "states": states}
         print(f"{name:<28} {ms:>9.3f} {'' if iters is None else iters:>6} "
               f"{'' if states is None else states:>7}")

@@ -340,6 +340,13 @@ class Chain:
         self._light_points = {}
         return frames
 
+    def light_snapshot(self) -> tuple:
+        """The light path's cache (for the last q); ``light_restore`` makes it current again."""
+        return (self._light_key, self._light, self._light_data, self._light_points)
+
+    def light_restore(self, snap) -> None:
+        self._light_key, self._light, self._light_data, self._light_points = snap
+
     def point_j(self, ref: str, q) -> tuple[np.ndarray, np.ndarray]:
         """World pose (3,) and Jacobian (3, ndof) of ``"<body>.<point>"`` (the same numbers as
         ``point``, without the Hessian; cached per q: treat as read-only)."""

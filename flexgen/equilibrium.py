@@ -152,12 +152,13 @@ class System:
             QT += T * gl
             GT += T * hl
         parts = (U, W, V, gU, KU, QL, QT, GT + ch.hessian_sum(q, coeffs),
-                 float(np.max(np.abs(gU), initial=0.0)), float(np.max(reach, initial=0.0)))
+                 float(np.max(np.abs(gU), initial=0.0)), float(np.max(reach, initial=0.0)),
+                 ch.light_snapshot())
         return self._at(q, lam, parts)
 
     @staticmethod
     def _at(q, lam: float, parts) -> State:
-        U, W, V, gU, KU, QL, QT, S, gmax, rmax = parts
+        U, W, V, gU, KU, QL, QT, S, gmax, rmax, _ = parts
         r = gU - lam * QL + lam * QT
         G = lam * S
         K = KU + G
@@ -682,6 +683,7 @@ def _cross_bifurcation(sol: _Solver, a: State, b: State, outputs, chain: Chain,
 def compliance(system: System, st: State, ref: str) -> np.ndarray:
     """3x3 compliance d(x, y, angle)/d(fx, fy, moment) of point ``ref`` at state ``st``:
     J K^-1 J^T with the full stiffness (geometric stiffness of every load included)."""
+    _restore_kinematics(system.chain, st)
     J = system.chain.point_j(ref, st.q)[1]
     try:
         X = scipy.linalg.solve(st.K, J.T, assume_a="sym")
@@ -691,7 +693,17 @@ def compliance(system: System, st: State, ref: str) -> np.ndarray:
     return 0.5 * (C + C.T)
 
 
+def _restore_kinematics(chain: Chain, st: State) -> None:
+    """Make the chain's cached poses and Jacobians those of ``st`` (saved when it was
+    evaluated; the same numbers as evaluating st.q again), if they are not current."""
+    if st.parts is not None and chain._light_key != st.parts[-1][0]:
+        snap = st.parts[-1]
+        if snap[0] == st.q.tobytes():
+            chain.light_restore(snap)
+
+
 def _result(scene, chain, system, st: State, outputs, info, iterations, warnings, critical) -> Result:
+    _restore_kinematics(chain, st)
     stable = _cholesky_ok(st.K)
     if not stable:
         warnings.append("the equilibrium is unstable: the stiffness matrix is not positive definite")
