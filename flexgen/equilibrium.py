@@ -121,7 +121,13 @@ class System:
             W += float(F @ pose)
             QL += F @ J
             coeffs.append((ref, (-f0, -f1, -f2)))
-            reach += math.hypot(f0, f1) * np.sqrt(J[0] * J[0] + J[1] * J[1]) + abs(f2) * np.abs(J[2])
+            h = math.hypot(f0, f1)
+            if f2 == 0.0:           # the same sum: a zero term adds 0.0
+                reach += h * np.sqrt(J[0] * J[0] + J[1] * J[1])
+            elif h == 0.0:
+                reach += abs(f2) * np.abs(J[2])
+            else:
+                reach += h * np.sqrt(J[0] * J[0] + J[1] * J[1]) + abs(f2) * np.abs(J[2])
         V, QT, GT = 0.0, np.zeros(n), np.zeros((n, n))
         for T, route in self.tendons:
             if T == 0.0:
