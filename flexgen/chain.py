@@ -154,6 +154,7 @@ class Chain:
         self._light_data: dict[str, tuple] = {}
         self._light_points: dict[str, tuple] = {}
         self._KU: np.ndarray | None = None
+        self._light_base: tuple | None = None
 
     # ---- scene structure ------------------------------------------------------------------
 
@@ -301,7 +302,12 @@ class Chain:
         if key == self._light_key:
             return self._light
         n = self.ndof
-        frames = {BASE: (np.zeros(3), np.zeros((3, n)), False)}
+        base = self._light_base
+        if base is None:
+            z3, zJ = np.zeros(3), np.zeros((3, n))
+            z3.flags.writeable = zJ.flags.writeable = False     # shared by every q
+            base = self._light_base = (z3, zJ, False)
+        frames = {BASE: base}
         data: dict[str, tuple] = {}
         for body, parent, ax, ay, ath, sl, model in self._flex_plan:
             pp, PJ, moving = frames[parent]

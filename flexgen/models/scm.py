@@ -51,7 +51,10 @@ class SCMModel:
     # -- kernels -------------------------------------------------------------------------
     def in_range(self, q) -> bool:
         """Is the polynomial kernel valid at q (or, for "gauss", the Gauss bound certified)?"""
-        return bool((self.poly or self.gauss).in_range(np.asarray(q, dtype=float)))
+        q = np.asarray(q, dtype=float)
+        if self.poly is not None:
+            return self._poly_in_range(q)
+        return bool(self.gauss.in_range(q))
 
     def kernel_at(self, q):
         if self.poly is not None and self.gauss is None:
