@@ -222,3 +222,14 @@ def test_generate_gauss_on_request(tmp_path):
     m = kernels.load_numpy("scm2_gauss12", tmp_path)
     q = np.array([2.5, 1.0])
     np.testing.assert_allclose(m.evaluate(q)[0][:2], reference.tip(q)[0], atol=m.ERROR_BOUND)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_one_q_path_matches_the_block_path(name):
+    """evaluate(q) for one q (stacked Horner, one product) equals the block path for a batch."""
+    m = kernels.load_numpy(name)
+    q = reference.near_edge(m.N, m.PHI_MAX, 20, seed=8)
+    batch = m.evaluate(q)
+    for k, row in enumerate(q):
+        for got, want in zip(m.evaluate(row), batch):
+            np.testing.assert_allclose(got, want[k], rtol=0, atol=1e-14)

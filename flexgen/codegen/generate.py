@@ -58,24 +58,45 @@ def _common(kernel: FlexureKernel) -> dict:
     }
 
 
+TRIG_ROWS = ("c", "dc", "ddc", "s", "ds", "dds")     # the row order of _trig's stacked result
+
+
+def trig_coefficients(kernel: FlexureKernel) -> tuple[list[list[float]], list[bool]]:
+    """The six polynomials c, c', c'', s, s', s'' of a poly kernel as rows of coefficients of
+    u = phi^2, highest power first (zero-padded to one length), and which rows are odd in phi
+    (those are multiplied by phi after the Horner steps in u)."""
+    rows, odd = [], []
+    for name, coeffs in (("c", kernel.trig.cos), ("s", kernel.trig.sin)):
+        poly = [mpmath.mpf(c) for c in coeffs]
+        for _ in range(3):                                  # value, first, second derivative
+            parity = next(k for k, c in enumerate(poly) if c != 0) % 2
+            rows.append([float(c) for c in poly[parity::2]][::-1])
+            odd.append(bool(parity))
+            poly = [k * poly[k] for k in range(1, len(poly))]
+    width = max(len(r) for r in rows)
+    return [[0.0] * (width - len(r)) + r for r in rows], odd
+
+
 def numpy_files(kernel: FlexureKernel) -> dict[str, str]:
     N, G = kernel.modes, kernel.nodes
-    printer = NumPyPrinter()
-    phi = sp.Symbol("phi")
-    trig = kernel.trig_polynomials(phi)
-    keys = ["c", "dc", "ddc", "s", "ds", "dds"]
-    temps, reduced = sp.cse([trig[k] for k in keys], symbols=sp.numbered_symbols("u"), order="none")
-    lines = [f"{sym} = {printer.doprint(expr)}" for sym, expr in temps]
-    lines += [f"{k} = {printer.doprint(e)}" for k, e in zip(keys, reduced)]
-    lines.append(f"return {', '.join(keys)}")
-    node_ops = count_ops([e for _, e in temps] + list(reduced))
     with mpmath.workdps(40):
         w, b = kernel.weights, kernel.node_basis
         jw = [[float(w[g] * b[g][i]) for i in range(N)] for g in range(G)]
         hw = [[float(w[g] * b[g][i] * b[g][j]) for i in range(N) for j in range(N)]
               for g in range(G)]
     S, m = kernel.range_check
+    # the six polynomials as printed Horner forms sharing phi^2 (CSE): fastest on blocks of rows
+    printer = NumPyPrinter()
+    phi = sp.Symbol("phi")
+    trig = kernel.trig_polynomials(phi)
+    temps, reduced = sp.cse([trig[k] for k in TRIG_ROWS], symbols=sp.numbered_symbols("u"),
+                            order="none")
+    lines = [f"{sym} = {printer.doprint(expr)}" for sym, expr in temps]
+    lines += [f"{k} = {printer.doprint(e)}" for k, e in zip(TRIG_ROWS, reduced)]
+    lines.append(f"return {', '.join(TRIG_ROWS)}")
     context = _common(kernel) | {
+        "trig_lines": lines,
+        "node_ops": str(count_ops([e for _, e in temps] + list(reduced))),
         "energy_weights": numpy_array([float(x) for x in kernel.energy_weights]),
         "node_basis": numpy_array([[float(v) for v in row] for row in b]),
         "weights": numpy_array([float(x) for x in w]),
@@ -83,12 +104,12 @@ def numpy_files(kernel: FlexureKernel) -> dict[str, str]:
         "hessian_weights": numpy_array(hw),
         "range_samples_matrix": numpy_array(S),
         "range_margin": numpy_array(m),
-        "trig_lines": lines,
-        "trig_doc": "c, c', c'', s, s', s'' at the node angles phi: "
-                    + ("Chebyshev interpolants of cos, sin and their derivatives."
-                       if kernel.spec.family == "poly" else "cos, sin and their derivatives."),
-        "node_ops": str(node_ops),
     }
+    if kernel.spec.family == "poly":
+        coeffs, odd = trig_coefficients(kernel)
+        context |= {"trig_coeffs": numpy_array(coeffs),
+                    "trig_odd": "[" + ", ".join(str(x) for x in odd) + "]",
+                    "horner_steps": len(coeffs[0]) - 1}
     folder = BACKENDS["numpy"].folder
     return {f"{folder}/{kernel.name}.py": render("numpy/kernel.py.jinja", context)}
 

@@ -101,14 +101,11 @@ class SCMModel:
     # -- the FlexureModel protocol ---------------------------------------------------------
     def tip(self, q) -> TipKinematics:
         q = np.asarray(q, dtype=float)
-        kernel = self.kernel_at(q)
-        if q.shape == (self.n_dof,):
-            fast = _single_point(kernel)
-            if fast is not None:
-                return fast(q, self.length)
-        pose, J, H = kernel.evaluate(q)
-        scale = np.array([self.length, self.length, 1.0])
-        return TipKinematics(pose * scale, J * scale[:, None], H * scale[:, None, None])
+        pose, J, H = self.kernel_at(q).evaluate(q)
+        pose[..., :2] *= self.length
+        J[..., :2, :] *= self.length
+        H[..., :2, :, :] *= self.length
+        return TipKinematics(pose, J, H)
 
     def energy(self, q) -> float:
         q = np.asarray(q, dtype=float)
@@ -136,7 +133,6 @@ class SCMModel:
         return pts * self.length
 
 
-_FAST: dict[int, object] = {}
 _BOUND: dict[int, object] = {}
 
 
@@ -154,118 +150,3 @@ def _range_bound(kernel):
             b = np.max(np.abs(np.asarray(R, dtype=float)), axis=0) + np.asarray(m, dtype=float)
             _BOUND[key] = (np.ascontiguousarray(b), float(phi_max) * (1.0 - 1e-9))
     return _BOUND[key]
-
-
-def _single_point(kernel):
-    """The generated kernel's evaluate() for one q, without the block loop and reshapes (its
-    per-call overhead dominates for one row): the same node angles, trig interpolants and
-    weight contractions, so the same numbers to rounding. None if the kernel module does not
-    have the nodal form (then evaluate() is used)."""
-    key = id(kernel)
-    fast = _FAST.get(key)
-    if fast is not None or key in _FAST:
-        return fast
-    names = ("NODE_BASIS", "POSE_WEIGHTS", "JACOBIAN_WEIGHTS", "HESSIAN_WEIGHTS", "_trig", "N")
-    if not all(hasattr(kernel, a) for a in names):
-        _FAST[key] = None
-        return None
-    B = np.ascontiguousarray(kernel.NODE_BASIS, dtype=float)
-    PW = np.ascontiguousarray(kernel.POSE_WEIGHTS, dtype=float)
-    JW = np.ascontiguousarray(kernel.JACOBIAN_WEIGHTS, dtype=float)
-    HW = np.ascontiguousarray(kernel.HESSIAN_WEIGHTS, dtype=float)
-    trig = _stacked_trig(kernel._trig, B) or kernel._trig
-    N = int(kernel.N)
-
-    stacked = trig is not kernel._trig
-    if stacked:
-        # one product for all six rows: rows (c, s) need POSE_WEIGHTS, (c', s') the Jacobian
-        # weights, (c'', s'') the Hessian weights; W holds all three side by side
-        W = np.ascontiguousarray(np.hstack([PW[:, None], JW, HW]))
-        order = [0, 3, 1, 4, 2, 5]
-        nn = N * N
-
-        def fast(q: np.ndarray, length: float) -> TipKinematics:
-            acc = trig(B @ q, rows=True)
-            pose = np.empty(3)
-            J = np.zeros((3, N))
-            H = np.zeros((3, N, N))
-            prod = acc[order] @ W * length       # (6, 1 + N + N^2)
-            pose[:2] = prod[0:2, 0]
-            pose[2] = q[0]
-            J[:2] = prod[2:4, 1:1 + N]
-            J[2, 0] = 1.0
-            H[:2] = prod[4:6, 1 + N:1 + N + nn].reshape(2, N, N)
-            return TipKinematics(pose, J, H)
-    else:
-        def fast(q: np.ndarray, length: float) -> TipKinematics:
-            c, dc, ddc, s, ds, dds = trig(B @ q)
-            pose = np.array([float(c @ PW) * length, float(s @ PW) * length, float(q[0])])
-            J = np.empty((3, N))
-            J[0] = dc @ JW
-            J[1] = ds @ JW
-            J[:2] *= length
-            J[2] = 0.0
-            J[2, 0] = 1.0
-            H = np.empty((3, N, N))
-            H[0] = (ddc @ HW).reshape(N, N)
-            H[1] = (dds @ HW).reshape(N, N)
-            H[:2] *= length
-            H[2] = 0.0
-            return TipKinematics(pose, J, H)
-
-    _FAST[key] = fast
-    return fast
-
-
-def _stacked_trig(trig, basis: np.ndarray):
-    """The generated polynomial ``_trig`` (six Horner polynomials in u = phi^2, the odd ones
-    times phi) evaluated as one stacked Horner scheme on a (6, nodes) array: the same
-    coefficients, operations and order, so the same numbers bit for bit, in a dozen array
-    operations instead of sixty. The coefficients are read by running ``trig`` on a
-    ``numpy.polynomial.Polynomial`` (exact: Horner with a monomial only shifts them); the
-    result is checked bit for bit against ``trig`` on sample angles. None if anything differs
-    or ``trig`` is not of that form (e.g. the Gauss kernels' np.cos/np.sin)."""
-    from numpy.polynomial import Polynomial
-    try:
-        polys = trig(Polynomial([0.0, 1.0]))
-        coefs = [np.asarray(p.coef, dtype=float) for p in polys]
-    except Exception:          # not a polynomial form
-        return None
-    if len(coefs) != 6:
-        return None
-    odd = []
-    rows = []
-    for c in coefs:
-        is_odd = c.size > 1 and not np.any(c[0::2])
-        part = c[1::2] if is_odd else c[0::2]
-        if np.any(c[0::2] if is_odd else c[1::2]):
-            return None        # neither even nor odd in phi
-        odd.append(is_odd)
-        rows.append(part)
-    deg = max(len(r) for r in rows)
-    C = np.zeros((6, deg))      # C[f, k] multiplies u^(deg-1-k): highest first, zero-padded
-    for f, r in enumerate(rows):
-        C[f, deg - len(r):] = r[::-1]
-    first = C[:, :1].copy()
-    rest = [C[:, k:k + 1].copy() for k in range(1, deg)]
-    oddmask = np.array(odd)[:, None]
-
-    def stacked(phi, rows=False):
-        u0 = phi * phi
-        acc = first * u0
-        acc += rest[0]
-        for ck in rest[1:]:
-            acc *= u0
-            acc += ck
-        acc *= np.where(oddmask, phi, 1.0)
-        if rows:
-            return acc
-        return acc[0], acc[1], acc[2], acc[3], acc[4], acc[5]
-
-    rng = np.random.default_rng(0)
-    for scale in (0.1, 1.0, 2.0):
-        phi = rng.uniform(-scale, scale, size=(basis.shape[0],))
-        want, got = trig(phi), stacked(phi)
-        if not all(np.array_equal(a, b) for a, b in zip(want, got)):
-            return None
-    return stacked

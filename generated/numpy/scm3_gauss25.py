@@ -9,8 +9,7 @@ evaluate(q): q (..., 3) -> pose (..., 3) = (x/L, y/L, theta), J (..., 3, 3),
 H (..., 3, 3, 3); leading axes broadcast. Lengths are in units of the flexure length L.
 Error bounds (certified on |phi| <= PHI_MAX along the flexure): pose 2.13e-11,
 J 4e-11, H 8.93e-11 (units of L).
-Evaluation structure: 25 nodes x (2 ops (0 add, 0 mul, 2 cos/sin)), then small matrix products, in
-blocks of CHUNK rows.
+Evaluation structure: phi at 25 nodes (one product), cos and sin, then small matrix products; batches in blocks of CHUNK rows.
 """
 import numpy as np
 
@@ -149,7 +148,7 @@ CHUNK = 1024
 
 
 def _trig(phi):
-    """c, c', c'', s, s', s'' at the node angles phi: cos, sin and their derivatives."""
+    """c, c', c'', s, s', s'' at the node angles phi (rows, NODES): cos, sin and their derivatives."""
     u0 = np.cos(phi)
     u1 = np.sin(phi)
     u2 = -u1
@@ -162,11 +161,26 @@ def _trig(phi):
     return c, dc, ddc, s, ds, dds
 
 
+def _trig_stacked(phi):
+    """_trig for one q's node angles phi (NODES,), stacked as rows (6, NODES) in one pass:
+    cos and sin once each.
+    """
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([c, -s, -c, s, c, -s])
+
+
+# one product gives pose, J and H for one q: the rows of _trig against all weights side by side
+ALL_WEIGHTS = np.hstack([POSE_WEIGHTS[:, None], JACOBIAN_WEIGHTS, HESSIAN_WEIGHTS])
+ROW_ORDER = [0, 3, 1, 4, 2, 5]        # c, s | c', s' | c'', s''
+
+
 def evaluate(q):
     """Tip pose, Jacobian and Hessian of the 3-mode flexure at q (..., 3)."""
     q = np.asarray(q, dtype=float)
     if q.shape[-1:] != (N,):
         raise ValueError(f"q must have shape (..., {N}), got {q.shape}")
+    if q.ndim == 1:
+        return _evaluate_one(q)
     lead = q.shape[:-1]
     flat = q.reshape(-1, N)
     rows = flat.shape[0]
@@ -185,6 +199,18 @@ def evaluate(q):
     pose[:, 2] = flat[:, 0]
     J[:, 2, 0] = 1.0
     return pose.reshape(lead + (3,)), J.reshape(lead + (3, N)), H.reshape(lead + (3, N, N))
+
+
+def _evaluate_one(q):
+    """evaluate() for one q of shape (N,): no blocks, one product for every output."""
+    product = _trig_stacked(NODE_BASIS @ q)[ROW_ORDER] @ ALL_WEIGHTS
+    pose = np.array([product[0, 0], product[1, 0], q[0]])
+    J = np.zeros((3, N))
+    J[:2] = product[2:4, 1:1 + N]
+    J[2, 0] = 1.0
+    H = np.zeros((3, N, N))
+    H[:2] = product[4:6, 1 + N:].reshape(2, N, N)
+    return pose, J, H
 
 
 def in_range(q):
