@@ -542,7 +542,8 @@ def plot(data: BenchData, path: Path) -> None:
     plt.close(fig)
 
 
-def _e(x: float) -> str:
+def format_error(x: float) -> str:
+    """An error for the tables: 1.2e-05, "0", "inf", or "-" when there is none."""
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "-"
     if math.isinf(x):
@@ -585,8 +586,8 @@ def render_markdown(data: BenchData) -> str:
         s = data.summary[md.label]
         cns = s["c_ns"]
         L.append(f"| {'**' + md.label + '**' if md.label in front else md.label} | "
-                 f"{_e(s['pose'])} | {_e(s['pose_max'])} | {_e(s['comp'])} | "
-                 f"{_e(s['comp_max'])} | {s['time'] * 1e3:.2f} | {s['failures']} | "
+                 f"{format_error(s['pose'])} | {format_error(s['pose_max'])} | {format_error(s['comp'])} | "
+                 f"{format_error(s['comp_max'])} | {s['time'] * 1e3:.2f} | {s['failures']} | "
                  f"{'-' if cns is None else f'{cns:.0f}'} |")
     L += ["", "Bold: on the Pareto front of (time, median pose error).", "",
           "## Per scene (pose error / time in ms)", "",
@@ -594,14 +595,14 @@ def render_markdown(data: BenchData) -> str:
           "|---|" + "---|" * len(data.models)]
     for s in data.scenes:
         L.append(f"| `{s}` | " + " | ".join(
-            f"{_e(data.pose_err[md.label, s])} / {data.times[md.label, s] * 1e3:.1f}"
+            f"{format_error(data.pose_err[md.label, s])} / {data.times[md.label, s] * 1e3:.1f}"
             for md in data.models) + " |")
     fe = tg.get("finger_scm3_error", (math.nan, math.nan))
     L += ["", "## Targets (measured in this run)", "",
           "| target | measured | met? |", "|---|---|---|",
           f"| two-flexure finger, equilibrium + compliance with scm3, <= 2 ms per solve | "
-          f"{tg['finger_scm3_s'] * 1e3:.2f} ms (pose error {_e(fe[0])}, compliance error "
-          f"{_e(fe[1])}) | {'yes' if tg['finger_scm3_s'] <= 2e-3 else 'NO'} |",
+          f"{tg['finger_scm3_s'] * 1e3:.2f} ms (pose error {format_error(fe[0])}, compliance error "
+          f"{format_error(fe[1])}) | {'yes' if tg['finger_scm3_s'] <= 2e-3 else 'NO'} |",
           f"| exact >= 100x slower than scm3 on the finger | exact {tg['finger_exact_s'] * 1e3:.0f}"
           f" ms, ratio {tg['exact_ratio']:.0f}x | {'yes' if tg['exact_ratio'] >= 100 else 'NO'} |"]
     for key, what in (("smooth", f"smooth cantilever (`{SMOOTH_SCENE}`)"),

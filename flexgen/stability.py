@@ -40,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from flexgen.bench import (EXAMPLES, ModelDef, Progress, answer, errors, model_def, model_defs)
+from flexgen.bench import (EXAMPLES, ModelDef, Progress, answer, errors, format_error, model_def,
+                           model_defs)
 from flexgen import validity as V
 from flexgen.scene import Scene, load_scene, scene_from_dict
 from flexgen.validity import BANDS, LOAD_BANDS, assess, band_index, load_level
@@ -366,14 +367,6 @@ def plot(data: StabilityData, path: Path) -> None:
     plt.close(fig)
 
 
-def _e(x: float) -> str:
-    if x is None or (isinstance(x, float) and math.isnan(x)):
-        return "-"
-    if math.isinf(x):
-        return "inf"
-    return f"{x:.1e}"
-
-
 def _ratio(x: float) -> str:
     return "-" if math.isnan(x) else f"{x:.2f}"
 
@@ -455,7 +448,7 @@ def render_markdown(data: StabilityData) -> str:
         table = V.CLAIMS.get(m)
         for i, lb in enumerate(LOAD_BANDS):
             cells = ["none"] * len(BANDS) if table is None else [
-                "none" if pe is None else f"{_e(pe)} / {_e(ce)}" for pe, ce in table[i]]
+                "none" if pe is None else f"{format_error(pe)} / {format_error(ce)}" for pe, ce in table[i]]
             L.append(f"| {m} | <= {lb:g} | " + " | ".join(cells) + " |")
     L += ["", "## The rule: no answer is silently wrong", "",
           (f"**{len(silent)} silent failures** (error above the claim, converged, no warning)."
@@ -463,8 +456,8 @@ def render_markdown(data: StabilityData) -> str:
            "the result is not converged or carries a warning."), ""]
     for p in silent[:20]:
         L.append(f"- {p.model} / {p.scene} alpha={p.alpha:g} dir={p.direction:g}: pose "
-                 f"{_e(p.pose_err)} (claim {_e(p.claim_pose)}), compliance {_e(p.comp_err)} "
-                 f"(claim {_e(p.claim_comp)})")
+                 f"{format_error(p.pose_err)} (claim {format_error(p.claim_pose)}), compliance {format_error(p.comp_err)} "
+                 f"(claim {format_error(p.claim_comp)})")
     L += ["", "## Per model and scene", "",
           "Counts over the grid points. `warned`: converged with a warning (solve's or a "
           "validity warning); `out of range`: a kernel past its range; `switched`: an auto "
@@ -479,7 +472,7 @@ def render_markdown(data: StabilityData) -> str:
                  f"{r['converged']} | {r['stable']} | {r['buckled']} | {r['out_of_range']} | "
                  f"{r['switched']} | {r['warned']} | {r['within']} | {r['silent']} | "
                  f"{_ratio(r['worst_quiet_ratio'])} | "
-                 f"{_e(r['max_pose_quiet'])} | {_e(r['max_pose_warned'])} |")
+                 f"{format_error(r['max_pose_quiet'])} | {format_error(r['max_pose_warned'])} |")
     L += ["", "## Buckling: critical axial loads of scm N", "",
           "Stiffness at the straight state under an axial compressive tip load P (EI = L = 1): "
           "K(P) = hess U - P hess x_tip(0); the loads where its eigenvalues cross zero are the "
@@ -492,9 +485,9 @@ def render_markdown(data: StabilityData) -> str:
           "|---|---|---|---|---|---|---|---|"]
     for r in data.buckling:
         P, rel = r["loads"], r["rel"]
-        cells = " | ".join(f"{P[k]:.8g} | {_e(rel[k])}" if math.isfinite(P[k]) else "- | -"
+        cells = " | ".join(f"{P[k]:.8g} | {format_error(rel[k])}" if math.isfinite(P[k]) else "- | -"
                            for k in range(3))
-        L.append(f"| {r['modes']} | {cells} | {r['solve_first']:.9g} ({_e(r['solve_rel'])}) |")
+        L.append(f"| {r['modes']} | {cells} | {r['solve_first']:.9g} ({format_error(r['solve_rel'])}) |")
     L += ["", "Each further load needs more modes: the third is within 3 % from N = 5 and 0.3 % from N = 6; "
           "the first is spectrally accurate (model-notes: 8.6e-9 for N = "
           "5).", ""]
