@@ -448,7 +448,8 @@ def render_markdown(data: StabilityData) -> str:
         table = V.CLAIMS.get(m)
         for i, lb in enumerate(LOAD_BANDS):
             cells = ["none"] * len(BANDS) if table is None else [
-                "none" if pe is None else f"{format_error(pe)} / {format_error(ce)}" for pe, ce in table[i]]
+                "none" if pe is None else f"{format_error(pe)} / {format_error(ce)}"
+                for pe, ce in table[i]]
             L.append(f"| {m} | <= {lb:g} | " + " | ".join(cells) + " |")
     L += ["", "## The rule: no answer is silently wrong", "",
           (f"**{len(silent)} silent failures** (error above the claim, converged, no warning)."
