@@ -105,13 +105,6 @@ def _compose(parent: PointKinematics, v, phi: float = 0.0, tip=None,
     return PointKinematics(pose, J, H)
 
 
-def _split_ref(ref: str) -> tuple[str, str]:
-    if not isinstance(ref, str) or "." not in ref:
-        raise ChainError(f"point reference {ref!r} is not of the form '<body>.<point>'")
-    body, point = ref.rsplit(".", 1)
-    return body, point
-
-
 class Chain:
     """Kinematics and potential energy of a scene's tree of flexures and links.
 
@@ -190,25 +183,9 @@ class Chain:
         return order
 
     def resolve_point(self, ref: str) -> tuple[str, tuple[float, float]]:
-        """``"<body>.<point>"`` -> (body, point coordinates in the body's frame)."""
-        resolve = getattr(self.scene, "resolve_point", None)
-        if resolve is not None:         # the scene's own resolver (one-line SceneError messages)
-            return resolve(ref)
-        body, point = _split_ref(ref)
-        if body == BASE:
-            pts = self.scene.base_points
-        elif body in self.flexures:
-            if point == "tip":
-                return body, (0.0, 0.0)
-            raise ChainError(f"flexure {body!r} has only the point 'tip', not {point!r} (in {ref!r})")
-        elif body in self.links:
-            pts = self.links[body].points
-        else:
-            raise ChainError(f"point {ref!r} names unknown body {body!r}")
-        if point not in pts:
-            raise ChainError(f"body {body!r} has no point {point!r} (in {ref!r})")
-        x, y = pts[point]
-        return body, (float(x), float(y))
+        """``"<body>.<point>"`` -> (body, point coordinates in the body's frame); the scene's
+        resolver, so unknown points raise its one-line SceneError."""
+        return self.scene.resolve_point(ref)
 
     def children(self, body: str) -> list[str]:
         return [b for b in self._order if self.body_parent(b) == body]
