@@ -42,8 +42,15 @@ class SCMModel:
         self.length, self.EI, self.n_dof, self.kernel = float(length), float(EI), modes, kernel
         self.label = "cc" if modes == 1 else f"scm{modes}"
         self.poly = kernels.load_numpy(f"scm{modes}") if kernel != "gauss" else None
-        self.gauss_name = kernels.gauss_kernel_name(modes) if kernel != "poly" else None
-        self.gauss = kernels.load_numpy(self.gauss_name) if self.gauss_name else None
+        self.gauss_name = self.gauss = self.no_gauss = None
+        if kernel != "poly":
+            try:
+                self.gauss_name = kernels.gauss_kernel_name(modes)
+                self.gauss = kernels.load_numpy(self.gauss_name)
+            except kernels.KernelNotFound as missing:
+                if kernel == "gauss":
+                    raise
+                self.no_gauss = str(missing)   # "auto": fine while the polynomial is in range
         self.weights = (self.poly or self.gauss).ENERGY_WEIGHTS
         self.switched = False
         self.name = name
@@ -58,11 +65,13 @@ class SCMModel:
 
     def kernel_at(self, q):
         if self.poly is not None and self.gauss is None:
-            if not self.poly.in_range(q):
+            if not self._poly_in_range(q):
+                why = (f"and {self.no_gauss}" if self.no_gauss else
+                       "kernel 'poly' was asked for, 'auto' switches to the Gauss kernel")
                 raise ValueError(
                     f"flexure {self.name!r}: bent past the range of the polynomial kernel "
                     f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the "
-                    f"flexure; kernel 'poly' was asked for, 'auto' switches to the Gauss kernel)")
+                    f"flexure; {why})")
             return self.poly
         if self.poly is not None and self._poly_in_range(q):
             return self.poly
