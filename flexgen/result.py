@@ -61,7 +61,7 @@ class Result:
     critical_load_factors: list[float] = field(default_factory=list)
     load_factor: float = 1.0          # load factor of the reported state (1 when converged)
     energy: float | None = None       # elastic energy at equilibrium
-    residual: float | None = None     # relative residual at equilibrium (see solve.py)
+    residual: float | None = None     # relative residual at equilibrium (see equilibrium.py)
     # set only when a tolerance was requested (flexgen.select): the requested tolerance and the
     # a-posteriori error estimate of the whole answer; model[flexure] then also carries
     # "kernel" and "error_estimate"
