@@ -60,12 +60,12 @@ class SCMModel:
         """Is the polynomial kernel valid at q (or, for "gauss", the Gauss bound certified)?"""
         q = np.asarray(q, dtype=float)
         if self.poly is not None:
-            return self._poly_in_range(q)
+            return bool(self.poly.in_range(q))
         return bool(self.gauss.in_range(q))
 
     def kernel_at(self, q):
         if self.poly is not None and self.gauss is None:
-            if not self._poly_in_range(q):
+            if not self.poly.in_range(q):
                 why = (f"and {self.no_gauss}" if self.no_gauss else
                        "kernel 'poly' was asked for, 'auto' switches to the Gauss kernel")
                 raise ValueError(
@@ -73,20 +73,10 @@ class SCMModel:
                     f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the "
                     f"flexure; {why})")
             return self.poly
-        if self.poly is not None and self._poly_in_range(q):
+        if self.poly is not None and self.poly.in_range(q):
             return self.poly
         self.switched = self.switched or self.poly is not None
         return self.gauss
-
-    def _poly_in_range(self, q) -> bool:
-        """``poly.in_range(q)``, answered without it when a cheaper bound already proves it:
-        max_k |sum_n q_n R_kn| + |q| . m <= |q| . (max_k |R_kn| + m), R the kernel's range
-        samples and m its margin; a bound below PHI_MAX (less a 1e-9 relative allowance for
-        rounding) means in_range is True. Otherwise in_range decides, so the answer is its."""
-        bound = _range_bound(self.poly)
-        if bound is not None and float(np.abs(q) @ bound[0]) <= bound[1]:
-            return True
-        return bool(self.poly.in_range(q))
 
     def switch_warning(self, q=None) -> str | None:
         """The warning for a solve in which this flexure left the polynomial kernel's range
@@ -140,22 +130,3 @@ class SCMModel:
         pts = np.zeros((num, 2))
         pts[1:, 0], pts[1:, 1] = np.cumsum(dx), np.cumsum(dy)
         return pts * self.length
-
-
-_BOUND: dict[int, object] = {}
-
-
-def _range_bound(kernel):
-    """(max_k |RANGE_SAMPLES[k, n]| + RANGE_MARGIN[n], PHI_MAX (1 - 1e-9)) of a polynomial
-    kernel, None if it lacks them (cached per kernel module)."""
-    key = id(kernel)
-    if key not in _BOUND:
-        R = getattr(kernel, "RANGE_SAMPLES", None)
-        m = getattr(kernel, "RANGE_MARGIN", None)
-        phi_max = getattr(kernel, "PHI_MAX", None)
-        if R is None or m is None or phi_max is None:
-            _BOUND[key] = None
-        else:
-            b = np.max(np.abs(np.asarray(R, dtype=float)), axis=0) + np.asarray(m, dtype=float)
-            _BOUND[key] = (np.ascontiguousarray(b), float(phi_max) * (1.0 - 1e-9))
-    return _BOUND[key]
