@@ -62,6 +62,7 @@ from .result import PointResult, Result, ellipse
 from .scene import Flexure, Scene
 
 _EVAL_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
+BACKENDS = ("python", "c")
 
 
 @dataclass
@@ -343,7 +344,8 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
           tol: float = 1e-12, max_iterations: int = 50, max_steps: int = 500,
           initial_step: float = 0.1, max_step: float = 0.25, min_step: float = 1e-5,
           max_dq: float = 0.5, tolerance: float | None = None,
-          q0: Mapping[str, "np.ndarray | list[float]"] | None = None) -> Result:
+          q0: Mapping[str, "np.ndarray | list[float]"] | None = None,
+          backend: str = "python") -> Result:
     """Solve ``scene`` under its loads and tendons by load continuation from the unloaded state.
 
     ``models`` gives the FlexureModel of some or all flexures; the others are built by
@@ -360,7 +362,14 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     padded with zeros or truncated to each model's size) is a warm start: Newton at the full load
     from q0 first; if that converges to a stable equilibrium within ``max_dq`` of q0 it is the
     answer, otherwise the solve falls back to the continuation from the unloaded state.
+
+    ``backend`` = "c" solves with the compiled chain solver (``flexgen.compiled``) where it can:
+    the full load in one Newton solve under the same acceptance checks as the direct attempt
+    here; every case it hands back (buckling, snap-through, a kernel switch, a warm start, a
+    model without a C counterpart) runs the Python solver below.
     """
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
     scene = _load_scene(scene)
     if tolerance is None and models is None and model_factory is None:
         from .select import scene_tolerance
@@ -371,7 +380,8 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
         from .select import solve_to_tolerance
         return solve_to_tolerance(scene, tolerance, tol=tol, max_iterations=max_iterations,
                                   max_steps=max_steps, initial_step=initial_step,
-                                  max_step=max_step, min_step=min_step, max_dq=max_dq)
+                                  max_step=max_step, min_step=min_step, max_dq=max_dq,
+                                  backend=backend)
     from .models.registry import build_models
     models = build_models(scene, models, model_factory)
     chain = Chain(scene, models)
@@ -380,6 +390,12 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     for ref in outputs:
         chain.resolve_point(ref)
     info = {name: _model_info(m) for name, m in models.items()}
+    if backend == "c" and q0 is None and max_steps >= 1:
+        from .compiled.solver import solve_compiled
+        compiled = solve_compiled(scene, chain, system, outputs, info, tol=tol,
+                                  max_iterations=max_iterations, max_dq=max_dq)
+        if compiled is not None:
+            return compiled
     sol = _Solver(system, tol, max_iterations)
     warnings: list[str] = []
     critical: list[float] = []

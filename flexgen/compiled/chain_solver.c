@@ -1,0 +1,785 @@
+/* The compiled chain solver: equilibrium and compliance of a scene in one call.
+ *
+ * The same mathematics as flexgen/chain.py and flexgen/equilibrium.py (read their docstrings
+ * first), for the common case: Newton at the full load straight from the unloaded state, accepted
+ * only when every check of equilibrium._direct_solve passes (the stiffness at the unloaded state
+ * under the full load is positive definite, Newton converges, the end state is stable, the
+ * cubic Hermite path between the ends is stable and close to equilibrium where sampled, every
+ * "auto" flexure stays in its polynomial kernel's range along it). Anything else (buckling,
+ * snap-through, a kernel switch, a singular stiffness) returns FG_FALLBACK and the Python solver
+ * runs its load continuation, which handles and reports those cases.
+ *
+ * Flexure models: the generated smooth curvature kernels (scm{N}, scm{N}_gauss{G}: function
+ * pointers, so this file needs no header of theirs), the n-element chain ("fem", the same
+ * discretisation as flexgen/models/fem.py) and the pseudo-rigid body (flexgen/models/prb.py).
+ * Every elastic energy is quadratic with a diagonal Hessian (``stiffness``).
+ *
+ * C99, no heap, no globals: the caller provides the workspace (fg_work_size doubles and
+ * fg_iwork_size ints). Compiled with gcc -std=c99 -Wall -Wextra -Werror -pedantic.
+ */
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "chain_solver.h"
+
+/* ---- workspace ------------------------------------------------------------------------- */
+
+typedef struct {
+    double *q, *gU, *QL, *QT, *S;   /* load-independent parts (S: load Hessian at lam = 1) */
+    double *r, *K, *Q;              /* at the state's load factor */
+    double U, W, V, gmax, rmax, Pi, scale, rel, lam;
+} fg_state;
+
+typedef struct {
+    const fg_problem *p;
+    int n;
+    /* kinematics at the last evaluated q */
+    double *fpose, *fJ;     /* per flexure tip frame: pose (3), J (3 x n) */
+    double *fdata;          /* per flexure: moving_parent, awx, awy, c, s, wx, wy, moving */
+    double *tpose, *tJ, *tH, *RJ;   /* per flexure tip kinematics (root frame), R dv rows */
+    double *ppose, *pJ;     /* per point: pose (3), J (3 x n) */
+    double *acc;            /* per flexure: hessian_sum accumulators (4) */
+    double *scratch;        /* fem tip: 4 (kmax + 1) */
+    double *reach;          /* n */
+    double *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
+    double *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
+    int *piv;
+    fg_state st[4];
+} fg_ws;
+
+static size_t tip_size(const fg_problem *p)
+{
+    size_t s = 0;
+    int i;
+    for (i = 0; i < p->nflex; ++i) {
+        size_t k = (size_t)p->flex[i].ndof;
+        s += 3 + 3 * k + 3 * k * k + 2 * k;
+    }
+    return s;
+}
+
+static int kmax(const fg_problem *p)
+{
+    int i, m = 0;
+    for (i = 0; i < p->nflex; ++i)
+        if (p->flex[i].ndof > m)
+            m = p->flex[i].ndof;
+    return m;
+}
+
+size_t fg_work_size(const fg_problem *p)
+{
+    size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
+    size_t state = 6 * n + 2 * n * n;
+    return F * (3 + 3 * n) + 8 * F + tip_size(p) + P * (3 + 3 * n) + 4 * F
+        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 6 * n + 4 * state + 16;
+}
+
+size_t fg_iwork_size(const fg_problem *p)
+{
+    return (size_t)p->ndof + 1;
+}
+
+static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
+{
+    size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
+    double *x = work;
+    int i;
+    w->p = p;
+    w->n = p->ndof;
+    w->fpose = x; x += 3 * F;
+    w->fJ = x; x += 3 * n * F;
+    w->fdata = x; x += 8 * F;
+    w->tpose = x; x += 3 * F;
+    w->tJ = x;
+    w->tH = NULL;
+    w->RJ = NULL;
+    x += tip_size(p) - 3 * F;   /* tJ, tH, RJ blocks laid out per flexure (see tip_block) */
+    w->ppose = x; x += 3 * P;
+    w->pJ = x; x += 3 * n * P;
+    w->acc = x; x += 4 * F;
+    w->scratch = x; x += 4 * ((size_t)kmax(p) + 1);
+    w->reach = x; x += n;
+    w->la = x; x += n * n;
+    w->lb = x; x += n * n;
+    w->lc = x; x += n * n;
+    w->vec1 = x; x += n;
+    w->vec2 = x; x += n;
+    w->vec3 = x; x += n;
+    w->vec4 = x; x += n;
+    w->t0 = x; x += n;
+    w->t1 = x; x += n;
+    for (i = 0; i < 4; ++i) {
+        fg_state *s = &w->st[i];
+        s->q = x; x += n;
+        s->gU = x; x += n;
+        s->QL = x; x += n;
+        s->QT = x; x += n;
+        s->r = x; x += n;
+        s->Q = x; x += n;
+        s->S = x; x += n * n;
+        s->K = x; x += n * n;
+    }
+    w->piv = iwork;
+}
+
+/* the tip block of flexure i: J (3 k), H (3 k k), RJ (2 k), after the F tip poses */
+static double *tip_block(const fg_ws *w, int i)
+{
+    double *x = w->tJ;
+    int j;
+    for (j = 0; j < i; ++j) {
+        size_t k = (size_t)w->p->flex[j].ndof;
+        x += 3 * k + 3 * k * k + 2 * k;
+    }
+    return x;
+}
+
+/* ---- flexure models ------------------------------------------------------------------------ */
+
+/* pose (3), J (3 x k), H (3 x k x k) of the tip in the root frame, physical units; 0 if the
+ * model cannot be evaluated at q (a polynomial-only kernel past its range) */
+static int flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
+                       double *scratch)
+{
+    int k = f->ndof, i, j;
+    if (f->kind == FG_MODEL_KERNEL) {
+        fg_kernel kernel;
+        double L = f->length;
+        if (f->poly != NULL && (f->gauss == NULL || f->in_range(q)))
+            kernel = f->poly;
+        else if (f->gauss != NULL)
+            kernel = f->gauss;
+        else
+            return 0;
+        if (f->poly != NULL && f->gauss == NULL && !f->in_range(q))
+            return 0;
+        kernel(q, pose, J, H);
+        pose[0] *= L;
+        pose[1] *= L;
+        for (i = 0; i < 2 * k; ++i)
+            J[i] *= L;
+        for (i = 0; i < 2 * k * k; ++i)
+            H[i] *= L;
+        return 1;
+    }
+    if (f->kind == FG_MODEL_FEM) {
+        /* segments h/2, h, ..., h, h/2; phi_k = q_0 + ... + q_{k-1} */
+        double h = f->length / k;
+        double *lc = scratch, *ls = scratch + (k + 1), *tc = scratch + 2 * (k + 1),
+               *ts = scratch + 3 * (k + 1);
+        double phi = 0.0, sc = 0.0, ss = 0.0;
+        for (i = 0; i <= k; ++i) {
+            double seg = (i == 0 || i == k) ? 0.5 * h : h;
+            if (i > 0)
+                phi += q[i - 1];
+            lc[i] = seg * cos(phi);
+            ls[i] = seg * sin(phi);
+            sc += lc[i];
+            ss += ls[i];
+        }
+        /* tail sums: tc[i] = sum_{m > i} lc[m] for joint i */
+        tc[k] = 0.0;
+        ts[k] = 0.0;
+        for (i = k - 1; i >= 0; --i) {
+            tc[i] = tc[i + 1] + lc[i + 1];
+            ts[i] = ts[i + 1] + ls[i + 1];
+        }
+        pose[0] = sc;
+        pose[1] = ss;
+        pose[2] = phi;
+        for (i = 0; i < k; ++i) {
+            J[i] = -ts[i];
+            J[k + i] = tc[i];
+            J[2 * k + i] = 1.0;
+            for (j = 0; j < k; ++j) {
+                int m = i > j ? i : j;
+                H[i * k + j] = -tc[m];
+                H[k * k + i * k + j] = -ts[m];
+                H[2 * k * k + i * k + j] = 0.0;
+            }
+        }
+        return 1;
+    }
+    {   /* FG_MODEL_PRB: rigid (1 - gamma) L, pin, rigid gamma L */
+        double a = q[0], r = f->gamma * f->length, c = cos(a), s = sin(a);
+        pose[0] = (1.0 - f->gamma) * f->length + r * c;
+        pose[1] = r * s;
+        pose[2] = a;
+        J[0] = -r * s;
+        J[1] = r * c;
+        J[2] = 1.0;
+        H[0] = -r * c;
+        H[1] = -r * s;
+        H[2] = 0.0;
+        return 1;
+    }
+}
+
+/* ---- kinematics (chain.py: _light_frames, _pj) ------------------------------------------- */
+
+static int kinematics(fg_ws *w, const double *q)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, i, a, j;
+    for (i = 0; i < p->nflex; ++i) {
+        const fg_flexure *f = &p->flex[i];
+        int k = f->ndof, off = f->offset;
+        double *pose = w->fpose + 3 * i, *J = w->fJ + (size_t)3 * n * i, *d = w->fdata + 8 * i;
+        double *tp = w->tpose + 3 * i, *blk = tip_block(w, i);
+        double *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
+        double pp[3] = {0.0, 0.0, 0.0};
+        const double *PJ = NULL;
+        int moving = 0, tmoving = 0;
+        double th, c, s, awx, awy, rp[3], wx, wy;
+        if (f->parent >= 0) {
+            memcpy(pp, w->fpose + 3 * f->parent, sizeof pp);
+            PJ = w->fJ + (size_t)3 * n * f->parent;
+            moving = w->fdata[8 * f->parent + 7] != 0.0;
+        }
+        th = pp[2];
+        c = cos(th);
+        s = sin(th);
+        awx = c * f->at[0] - s * f->at[1];
+        awy = s * f->at[0] + c * f->at[1];
+        rp[0] = pp[0] + awx;
+        rp[1] = pp[1] + awy;
+        rp[2] = th + f->at[2];
+        /* J = root J (parent J with the offset's rotation) */
+        if (PJ != NULL)
+            memcpy(J, PJ, sizeof(double) * 3 * (size_t)n);
+        else
+            memset(J, 0, sizeof(double) * 3 * (size_t)n);
+        if (moving)
+            for (j = 0; j < n; ++j) {
+                J[j] -= awy * J[2 * n + j];
+                J[n + j] += awx * J[2 * n + j];
+            }
+        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch))
+            return 0;
+        th = rp[2];
+        c = cos(th);
+        s = sin(th);
+        wx = c * tp[0] - s * tp[1];
+        wy = s * tp[0] + c * tp[1];
+        pose[0] = rp[0] + wx;
+        pose[1] = rp[1] + wy;
+        pose[2] = th + tp[2];
+        if (moving)
+            for (j = 0; j < n; ++j) {
+                J[j] -= wy * J[2 * n + j];
+                J[n + j] += wx * J[2 * n + j];
+            }
+        for (a = 0; a < k; ++a) {
+            RJ[a] = c * tJ[a] - s * tJ[k + a];
+            RJ[k + a] = s * tJ[a] + c * tJ[k + a];
+            J[off + a] += RJ[a];
+            J[n + off + a] += RJ[k + a];
+            J[2 * n + off + a] += tJ[2 * k + a];
+            if (tJ[2 * k + a] != 0.0)
+                tmoving = 1;
+        }
+        d[0] = moving;
+        d[1] = awx;
+        d[2] = awy;
+        d[3] = c;
+        d[4] = s;
+        d[5] = wx;
+        d[6] = wy;
+        d[7] = moving || tmoving;
+    }
+    for (i = 0; i < p->npoints; ++i) {
+        const fg_point *pt = &p->points[i];
+        double *pose = w->ppose + 3 * i, *J = w->pJ + (size_t)3 * n * i;
+        if (pt->frame < 0) {
+            pose[0] = pt->x;
+            pose[1] = pt->y;
+            pose[2] = 0.0;
+            memset(J, 0, sizeof(double) * 3 * (size_t)n);
+            continue;
+        }
+        {
+            const double *fp = w->fpose + 3 * pt->frame, *FJ = w->fJ + (size_t)3 * n * pt->frame;
+            double c = cos(fp[2]), s = sin(fp[2]);
+            double wx = c * pt->x - s * pt->y, wy = s * pt->x + c * pt->y;
+            pose[0] = fp[0] + wx;
+            pose[1] = fp[1] + wy;
+            pose[2] = fp[2];
+            memcpy(J, FJ, sizeof(double) * 3 * (size_t)n);
+            if (w->fdata[8 * pt->frame + 7] != 0.0)
+                for (j = 0; j < n; ++j) {
+                    J[j] -= wy * FJ[2 * n + j];
+                    J[n + j] += wx * FJ[2 * n + j];
+                }
+        }
+    }
+    return 1;
+}
+
+/* G += sum_p c_p . H_p over the coefficients already in w->acc (chain.py: hessian_sum) */
+static void add_coefficient(fg_ws *w, int point, double c0, double c1, double c2)
+{
+    const fg_point *pt = &w->p->points[point];
+    double *a;
+    if (pt->frame < 0 || (c0 == 0.0 && c1 == 0.0 && c2 == 0.0))
+        return;
+    a = w->acc + 4 * pt->frame;
+    a[0] += c0;
+    a[1] += c1;
+    a[2] += c2;
+    if (pt->x != 0.0 || pt->y != 0.0) {
+        double th = w->fpose[3 * pt->frame + 2], c = cos(th), s = sin(th);
+        double wx = c * pt->x - s * pt->y, wy = s * pt->x + c * pt->y;
+        a[2] += c1 * wx - c0 * wy;
+        a[3] += c0 * wx + c1 * wy;
+    }
+}
+
+static void hessian_sum(fg_ws *w, double *G)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, i, a, b, j;
+    for (i = p->nflex - 1; i >= 0; --i) {
+        const fg_flexure *f = &p->flex[i];
+        int k = f->ndof, off = f->offset;
+        double *acc = w->acc + 4 * i, *d = w->fdata + 8 * i, *blk = tip_block(w, i);
+        double *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
+        double c0 = acc[0], c1 = acc[1], c2 = acc[2], kk = acc[3];
+        double c = d[3], s = d[4], e0, e1;
+        if (kk != 0.0) {
+            const double *Jth = w->fJ + (size_t)3 * n * i + 2 * (size_t)n;
+            for (a = 0; a < n; ++a)
+                for (b = 0; b < n; ++b)
+                    G[a * n + b] -= kk * Jth[a] * Jth[b];
+        }
+        e0 = c * c0 + s * c1;
+        e1 = c * c1 - s * c0;
+        for (a = 0; a < k; ++a)
+            for (b = 0; b < k; ++b)
+                G[(off + a) * n + off + b] += e0 * tH[a * k + b] + e1 * tH[k * k + a * k + b]
+                                              + c2 * tH[2 * k * k + a * k + b];
+        if (f->parent < 0 || (c0 == 0.0 && c1 == 0.0 && c2 == 0.0))
+            continue;
+        {
+            double wx = d[5], wy = d[6], awx = d[1], awy = d[2];
+            double r2 = c2 + c1 * wx - c0 * wy, kr = c0 * wx + c1 * wy;
+            double *pa = w->acc + 4 * f->parent;
+            if (d[0] != 0.0) {   /* the parent frame moves: cross terms with its angle */
+                const double *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
+                for (a = 0; a < k; ++a) {
+                    double m = c1 * RJ[a] - c0 * RJ[k + a];
+                    for (j = 0; j < n; ++j) {
+                        G[(off + a) * n + j] += m * Jr[j];
+                        G[j * n + off + a] += m * Jr[j];
+                    }
+                }
+            }
+            pa[0] += c0;
+            pa[1] += c1;
+            pa[2] += r2 + c1 * awx - c0 * awy;
+            pa[3] += kr + c0 * awx + c1 * awy;
+        }
+    }
+}
+
+/* ---- the potential: parts at q, then the state at a load factor -------------------------- */
+
+static int finite_all(const double *x, size_t m)
+{
+    size_t i;
+    for (i = 0; i < m; ++i)
+        if (!isfinite(x[i]))
+            return 0;
+    return 1;
+}
+
+static void at_lambda(const fg_ws *w, fg_state *st, double lam)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, i, j;
+    double rn = 0.0;
+    st->lam = lam;
+    for (i = 0; i < n; ++i) {
+        st->r[i] = st->gU[i] - lam * st->QL[i] + lam * st->QT[i];
+        st->Q[i] = st->QL[i] - st->QT[i];
+        if (fabs(st->r[i]) > rn)
+            rn = fabs(st->r[i]);
+    }
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < n; ++j) {
+            double kij = lam * st->S[i * n + j], kji = lam * st->S[j * n + i];
+            if (i == j) {
+                kij += p->stiffness[i];
+                kji += p->stiffness[i];
+            }
+            st->K[i * n + j] = 0.5 * (kij + kji);
+        }
+    st->Pi = st->U - lam * st->W + lam * st->V;
+    st->scale = st->gmax > fabs(lam) * st->rmax ? st->gmax : fabs(lam) * st->rmax;
+    if (rn == 0.0)
+        st->rel = 0.0;
+    else
+        st->rel = st->scale > 0.0 ? rn / st->scale : INFINITY;
+}
+
+/* the state at (q, lam); 0 if a model cannot be evaluated or a value is not finite */
+static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, i, j, t, a, b;
+    if (st->q != q)
+        memcpy(st->q, q, sizeof(double) * (size_t)n);
+    if (!kinematics(w, st->q))
+        return 0;
+    st->U = 0.0;
+    st->gmax = 0.0;
+    for (i = 0; i < n; ++i) {
+        st->U += 0.5 * p->stiffness[i] * st->q[i] * st->q[i];
+        st->gU[i] = p->stiffness[i] * st->q[i];
+        if (fabs(st->gU[i]) > st->gmax)
+            st->gmax = fabs(st->gU[i]);
+        st->QL[i] = st->QT[i] = w->reach[i] = 0.0;
+    }
+    memset(st->S, 0, sizeof(double) * (size_t)n * (size_t)n);
+    memset(w->acc, 0, sizeof(double) * 4 * (size_t)p->nflex);
+    st->W = st->V = 0.0;
+    for (t = 0; t < p->nloads; ++t) {
+        int pt = p->load_point[t];
+        const double *F = p->load + 3 * t;
+        const double *pose = w->ppose + 3 * pt, *J = w->pJ + (size_t)3 * n * pt;
+        double hf = hypot(F[0], F[1]), mf = fabs(F[2]);
+        st->W += F[0] * pose[0] + F[1] * pose[1] + F[2] * pose[2];
+        for (i = 0; i < n; ++i) {
+            st->QL[i] += F[0] * J[i] + F[1] * J[n + i] + F[2] * J[2 * n + i];
+            w->reach[i] += hf * sqrt(J[i] * J[i] + J[n + i] * J[n + i]) + mf * fabs(J[2 * n + i]);
+        }
+        add_coefficient(w, pt, -F[0], -F[1], -F[2]);
+    }
+    for (t = 0; t < p->ntendons; ++t) {
+        double T = p->tension[t], l = 0.0;
+        const int *route = p->route + p->route_start[t];
+        double *gl = w->vec1, *m = w->vec2;
+        if (T == 0.0)
+            continue;
+        memset(gl, 0, sizeof(double) * (size_t)n);
+        for (j = 0; j + 1 < p->route_len[t]; ++j) {
+            int pa = route[j], pb = route[j + 1];
+            const double *A = w->ppose + 3 * pa, *B = w->ppose + 3 * pb;
+            const double *JA = w->pJ + (size_t)3 * n * pa, *JB = w->pJ + (size_t)3 * n * pb;
+            double dx = B[0] - A[0], dy = B[1] - A[1], rho = hypot(dx, dy), ux, uy;
+            if (rho == 0.0)
+                return 0;
+            ux = dx / rho;
+            uy = dy / rho;
+            l += rho;
+            for (i = 0; i < n; ++i) {
+                double Jx = JB[i] - JA[i], Jy = JB[n + i] - JA[n + i];
+                gl[i] += ux * Jx + uy * Jy;
+                m[i] = ux * Jy - uy * Jx;
+                w->reach[i] += fabs(T) * sqrt(Jx * Jx + Jy * Jy);
+            }
+            for (a = 0; a < n; ++a)       /* T times the rank-one part of hess l */
+                if (m[a] != 0.0)
+                    for (b = 0; b < n; ++b)
+                        st->S[a * n + b] += T * m[a] * (m[b] / rho);
+            add_coefficient(w, pb, T * ux, T * uy, 0.0);
+            add_coefficient(w, pa, -T * ux, -T * uy, 0.0);
+        }
+        st->V += T * l;
+        for (i = 0; i < n; ++i)
+            st->QT[i] += T * gl[i];
+    }
+    hessian_sum(w, st->S);
+    st->rmax = 0.0;
+    for (i = 0; i < n; ++i)
+        if (w->reach[i] > st->rmax)
+            st->rmax = w->reach[i];
+    at_lambda(w, st, lam);
+    if (!isfinite(st->Pi) || !finite_all(st->r, (size_t)n)
+        || !finite_all(st->K, (size_t)n * (size_t)n))
+        return 0;
+    return 1;
+}
+
+/* ---- dense linear algebra (n is small: a few flexures' coordinates) ----------------------- */
+
+/* Cholesky factor L (lower, row-major) of the symmetric A in F; 0 if A is not positive definite */
+static int cholesky(const double *A, double *F, int n)
+{
+    int i, j, k;
+    for (i = 0; i < n; ++i)
+        for (j = 0; j <= i; ++j) {
+            double sum = A[i * n + j];
+            for (k = 0; k < j; ++k)
+                sum -= F[i * n + k] * F[j * n + k];
+            if (i == j) {
+                if (!(sum > 0.0))
+                    return 0;
+                F[i * n + i] = sqrt(sum);
+            } else {
+                F[i * n + j] = sum / F[j * n + j];
+            }
+        }
+    return 1;
+}
+
+static void cholesky_solve(const double *F, int n, const double *b, double *x)
+{
+    int i, k;
+    for (i = 0; i < n; ++i) {
+        double sum = b[i];
+        for (k = 0; k < i; ++k)
+            sum -= F[i * n + k] * x[k];
+        x[i] = sum / F[i * n + i];
+    }
+    for (i = n - 1; i >= 0; --i) {
+        double sum = x[i];
+        for (k = i + 1; k < n; ++k)
+            sum -= F[k * n + i] * x[k];
+        x[i] = sum / F[i * n + i];
+    }
+}
+
+/* x = A^-1 b by LU with partial pivoting (A copied into F); 0 if A is singular */
+static int lu_solve(const double *A, double *F, int *piv, int n, const double *b, double *x)
+{
+    int i, j, k;
+    memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+    for (k = 0; k < n; ++k) {
+        int pk = k;
+        double big = fabs(F[k * n + k]);
+        for (i = k + 1; i < n; ++i)
+            if (fabs(F[i * n + k]) > big) {
+                big = fabs(F[i * n + k]);
+                pk = i;
+            }
+        if (big == 0.0)
+            return 0;
+        piv[k] = pk;
+        if (pk != k)
+            for (j = 0; j < n; ++j) {
+                double t = F[k * n + j];
+                F[k * n + j] = F[pk * n + j];
+                F[pk * n + j] = t;
+            }
+        for (i = k + 1; i < n; ++i) {
+            double m = F[i * n + k] / F[k * n + k];
+            F[i * n + k] = m;
+            if (m != 0.0)
+                for (j = k + 1; j < n; ++j)
+                    F[i * n + j] -= m * F[k * n + j];
+        }
+    }
+    memcpy(x, b, sizeof(double) * (size_t)n);
+    for (k = 0; k < n; ++k) {
+        double t = x[piv[k]];
+        x[piv[k]] = x[k];
+        x[k] = t;
+    }
+    for (i = 0; i < n; ++i)
+        for (k = 0; k < i; ++k)
+            x[i] -= F[i * n + k] * x[k];
+    for (i = n - 1; i >= 0; --i) {
+        for (k = i + 1; k < n; ++k)
+            x[i] -= F[i * n + k] * x[k];
+        x[i] /= F[i * n + i];
+    }
+    return 1;
+}
+
+static double norm2(const double *x, int n)
+{
+    double s = 0.0;
+    int i;
+    for (i = 0; i < n; ++i)
+        s += x[i] * x[i];
+    return sqrt(s);
+}
+
+static double norm_inf(const double *x, int n)
+{
+    double s = 0.0;
+    int i;
+    for (i = 0; i < n; ++i)
+        if (fabs(x[i]) > s)
+            s = fabs(x[i]);
+    return s;
+}
+
+/* ---- Newton with a backtracking line search on |r| (equilibrium.py: _Solver.newton) ------ */
+
+/* Newton from *cur (evaluated) at its load factor, using *spare for trial states; on success
+ * *cur points at the converged state. */
+static int newton(fg_ws *w, fg_state **cur, fg_state **spare, int max_it, int *iterations)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, k, i, tries;
+    double history[64];
+    if (max_it > 64)
+        max_it = 64;
+    for (k = 0; k <= max_it; ++k) {
+        fg_state *st = *cur;
+        double rn, *d = w->vec3, *qt = w->vec4, alpha = 1.0;
+        int accepted = 0;
+        if (st->rel <= p->tol)
+            return 1;
+        if (k == max_it)
+            break;
+        history[k] = st->rel;
+        if (k >= 8 && st->rel > 0.5 * history[k - 6])
+            return 0;
+        ++*iterations;
+        if (!lu_solve(st->K, w->la, w->piv, n, st->r, d))
+            return 0;
+        rn = norm2(st->r, n);
+        for (tries = 0; tries < 30; ++tries) {
+            fg_state *trial = *spare;
+            for (i = 0; i < n; ++i)
+                qt[i] = st->q[i] - alpha * d[i];
+            if (evaluate(w, qt, st->lam, trial)
+                && norm2(trial->r, n) <= (1.0 - 1e-4 * alpha) * rn) {
+                *spare = st;
+                *cur = trial;
+                accepted = 1;
+                break;
+            }
+            alpha *= 0.5;
+        }
+        if (!accepted)
+            return 0;
+    }
+    return 0;
+}
+
+/* every "auto" flexure (polynomial and Gauss kernels) within its polynomial kernel's range */
+static int in_poly_range(const fg_problem *p, const double *q)
+{
+    int i;
+    for (i = 0; i < p->nflex; ++i) {
+        const fg_flexure *f = &p->flex[i];
+        if (f->kind == FG_MODEL_KERNEL && f->poly != NULL && f->gauss != NULL
+            && !f->in_range(q + f->offset))
+            return 0;
+    }
+    return 1;
+}
+
+/* ---- the solve ---------------------------------------------------------------------------- */
+
+int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
+{
+    fg_ws ws, *w = &ws;
+    fg_state *st0, *cur, *spare, *smp;
+    int n = p->ndof, i, j, a, iterations = 0;
+    double *t0, *t1;
+    const double samples[3] = {0.25, 0.5, 0.75};
+
+    bind(w, p, work, iwork);
+    st0 = &w->st[0];
+    cur = &w->st[1];
+    spare = &w->st[2];
+    smp = &w->st[3];
+    out->iterations = 0;
+    out->stable = 0;
+    t0 = w->t0;          /* path tangents dq/dlam at the two ends */
+    t1 = w->t1;
+
+    /* the unloaded state (q = 0, lam = 0: an equilibrium) and the full load at it */
+    memset(w->vec1, 0, sizeof(double) * (size_t)n);
+    if (!evaluate(w, w->vec1, 0.0, st0))
+        return FG_MODEL_ERROR;
+    if (!cholesky(st0->K, w->la, n))
+        return FG_FALLBACK;
+    cholesky_solve(w->la, n, st0->Q, t0);
+    memcpy(cur->q, st0->q, sizeof(double) * (size_t)n);
+    memcpy(cur->gU, st0->gU, sizeof(double) * (size_t)n);
+    memcpy(cur->QL, st0->QL, sizeof(double) * (size_t)n);
+    memcpy(cur->QT, st0->QT, sizeof(double) * (size_t)n);
+    memcpy(cur->S, st0->S, sizeof(double) * (size_t)n * (size_t)n);
+    cur->U = st0->U;
+    cur->W = st0->W;
+    cur->V = st0->V;
+    cur->gmax = st0->gmax;
+    cur->rmax = st0->rmax;
+    at_lambda(w, cur, 1.0);
+    if (!cholesky(cur->K, w->la, n))
+        return FG_FALLBACK;     /* the full load may buckle the unloaded state */
+    {
+        int max_it = p->max_iterations < 12 ? p->max_iterations : 12;
+        if (!newton(w, &cur, &spare, max_it, &iterations))
+            return FG_FALLBACK;
+    }
+    if (!cholesky(cur->K, w->la, n))
+        return FG_FALLBACK;
+    cholesky_solve(w->la, n, cur->Q, t1);
+    if (!in_poly_range(p, cur->q))
+        return FG_FALLBACK;
+
+    /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
+    for (j = 0; j < 3; ++j) {
+        double t = samples[j], *qt = w->vec4, *corr = w->vec3;
+        double h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
+        double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
+        for (i = 0; i < n; ++i)
+            qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * cur->q[i] + h11 * t1[i];
+        if (!evaluate(w, qt, t, smp) || !cholesky(smp->K, w->la, n))
+            return FG_FALLBACK;
+        cholesky_solve(w->la, n, smp->r, corr);
+        if (!(norm_inf(corr, n) <= 0.2 * p->max_dq) || !in_poly_range(p, qt))
+            return FG_FALLBACK;
+    }
+
+    /* polish: plain Newton steps while they lower the relative residual below 1e-14 */
+    for (j = 0; j < 3 && cur->rel > 1e-14; ++j) {
+        double *d = w->vec3, *qt = w->vec4;
+        if (!lu_solve(cur->K, w->la, w->piv, n, cur->r, d))
+            break;
+        for (i = 0; i < n; ++i)
+            qt[i] = cur->q[i] - d[i];
+        if (!evaluate(w, qt, 1.0, spare) || !(spare->rel < cur->rel))
+            break;
+        ++iterations;
+        {
+            fg_state *tmp = cur;
+            cur = spare;
+            spare = tmp;
+        }
+    }
+
+    /* the answer: kinematics at the equilibrium, compliance J K^-1 J^T of the output points */
+    if (!kinematics(w, cur->q))
+        return FG_MODEL_ERROR;
+    out->stable = cholesky(cur->K, w->la, n);
+    out->iterations = iterations;
+    out->energy = cur->U;
+    out->residual = cur->rel;
+    memcpy(out->q, cur->q, sizeof(double) * (size_t)n);
+    for (j = 0; j < p->noutputs; ++j) {
+        int pt = p->outputs[j];
+        const double *J = w->pJ + (size_t)3 * n * pt;
+        double *C = out->compliance + 9 * j, *X = w->lc;   /* X = K^-1 J^T, 3 columns */
+        int ok = 1;
+        memcpy(out->pose + 3 * j, w->ppose + 3 * pt, sizeof(double) * 3);
+        for (a = 0; a < 3 && ok; ++a) {
+            if (out->stable)
+                cholesky_solve(w->la, n, J + a * n, X + a * n);
+            else
+                ok = lu_solve(cur->K, w->lb, w->piv, n, J + a * n, X + a * n);
+        }
+        for (a = 0; a < 3; ++a)
+            for (i = 0; i < 3; ++i) {
+                double sum = 0.0;
+                int m;
+                for (m = 0; m < n; ++m)
+                    sum += J[a * n + m] * X[i * n + m];
+                C[a * 3 + i] = ok ? sum : NAN;
+            }
+        for (a = 0; a < 3; ++a)
+            for (i = 0; i < a; ++i) {
+                double s = 0.5 * (C[a * 3 + i] + C[i * 3 + a]);
+                C[a * 3 + i] = C[i * 3 + a] = s;
+            }
+    }
+    return FG_SOLVED;
+}

@@ -1,0 +1,65 @@
+/* The compiled chain solver's problem description and answer (see chain_solver.c).
+ *
+ * A scene is flattened into arrays by flexgen/compiled/plan.py; ctypes mirrors of these structs
+ * live in flexgen/compiled/library.py and must stay in step with them.
+ */
+#ifndef FLEXGEN_CHAIN_SOLVER_H
+#define FLEXGEN_CHAIN_SOLVER_H
+
+#include <stddef.h>
+
+/* a generated kernel: pose (3), J (3 x k), H (3 x k x k) of the tip in units of L */
+typedef void (*fg_kernel)(const double *q, double *pose, double *J, double *H);
+typedef int (*fg_range)(const double *q);
+
+enum { FG_MODEL_KERNEL = 0, FG_MODEL_FEM = 1, FG_MODEL_PRB = 2 };
+enum { FG_SOLVED = 0, FG_FALLBACK = 1, FG_MODEL_ERROR = 2 };
+
+typedef struct {
+    int kind;             /* FG_MODEL_* */
+    int ndof;             /* its coordinates are q[offset .. offset + ndof) */
+    int offset;
+    int parent;           /* flexure whose tip frame carries this root (earlier in the list), -1: base */
+    double at[3];         /* root frame in the parent frame: x, y, angle */
+    double length;
+    double gamma;         /* FG_MODEL_PRB: pin position */
+    fg_kernel poly;       /* FG_MODEL_KERNEL: polynomial kernel (NULL: none) */
+    fg_range in_range;    /* its range check */
+    fg_kernel gauss;      /* Gauss kernel (NULL: none) */
+} fg_flexure;
+
+typedef struct {
+    int frame;            /* flexure whose tip frame carries the point, -1: base */
+    double x, y;          /* in that frame */
+} fg_point;
+
+typedef struct {
+    int ndof, nflex, npoints, nloads, ntendons, noutputs;
+    const fg_flexure *flex;      /* nflex, every parent before its children */
+    const fg_point *points;      /* npoints */
+    const int *load_point;       /* nloads */
+    const double *load;          /* 3 nloads: fx, fy, moment */
+    const double *tension;       /* ntendons */
+    const int *route_start;      /* ntendons: first entry in route */
+    const int *route_len;        /* ntendons */
+    const int *route;            /* point indices */
+    const int *outputs;          /* noutputs point indices */
+    const double *stiffness;     /* ndof: diagonal of the elastic energy's Hessian */
+    double tol;                  /* relative residual of an equilibrium */
+    double max_dq;               /* largest change of a coordinate along the path */
+    int max_iterations;
+} fg_problem;
+
+typedef struct {
+    double *q;            /* ndof: the equilibrium */
+    double *pose;         /* 3 noutputs: world x, y, angle */
+    double *compliance;   /* 9 noutputs: 3 x 3 d(x, y, angle)/d(fx, fy, moment) */
+    double energy, residual;
+    int iterations, stable;
+} fg_answer;
+
+size_t fg_work_size(const fg_problem *p);
+size_t fg_iwork_size(const fg_problem *p);
+int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
+
+#endif /* FLEXGEN_CHAIN_SOLVER_H */

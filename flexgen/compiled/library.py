@@ -1,0 +1,119 @@
+"""Compile, cache and load the shared libraries of the compiled solver and the C kernels.
+
+Each C source (``flexgen/compiled/chain_solver.c``, ``generated/c/<kernel>.c``) is compiled once
+with the strict flags of ``flexgen.kernels.C_FLAGS`` into ``<cache>/<name>-<hash>.so``, the hash
+covering the source, its header and the flags, so an edited or regenerated source is rebuilt and
+an unchanged one is loaded again. ``<cache>`` is ``$FLEXGEN_CACHE`` or ``~/.cache/flexgen``.
+The ctypes structs here mirror ``chain_solver.h``.
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import subprocess
+import tempfile
+from functools import lru_cache
+from pathlib import Path
+
+from .. import kernels
+
+HERE = Path(__file__).resolve().parent
+_c_double_p = ctypes.POINTER(ctypes.c_double)
+_c_int_p = ctypes.POINTER(ctypes.c_int)
+
+
+class CompileError(RuntimeError):
+    """gcc is missing or failed; the message says which source."""
+
+
+class Flexure(ctypes.Structure):
+    _fields_ = [("kind", ctypes.c_int), ("ndof", ctypes.c_int), ("offset", ctypes.c_int),
+                ("parent", ctypes.c_int), ("at", ctypes.c_double * 3),
+                ("length", ctypes.c_double), ("gamma", ctypes.c_double),
+                ("poly", ctypes.c_void_p), ("in_range", ctypes.c_void_p),
+                ("gauss", ctypes.c_void_p)]
+
+
+class Point(ctypes.Structure):
+    _fields_ = [("frame", ctypes.c_int), ("x", ctypes.c_double), ("y", ctypes.c_double)]
+
+
+class Problem(ctypes.Structure):
+    _fields_ = [("ndof", ctypes.c_int), ("nflex", ctypes.c_int), ("npoints", ctypes.c_int),
+                ("nloads", ctypes.c_int), ("ntendons", ctypes.c_int), ("noutputs", ctypes.c_int),
+                ("flex", ctypes.POINTER(Flexure)), ("points", ctypes.POINTER(Point)),
+                ("load_point", _c_int_p), ("load", _c_double_p), ("tension", _c_double_p),
+                ("route_start", _c_int_p), ("route_len", _c_int_p), ("route", _c_int_p),
+                ("outputs", _c_int_p), ("stiffness", _c_double_p), ("tol", ctypes.c_double),
+                ("max_dq", ctypes.c_double), ("max_iterations", ctypes.c_int)]
+
+
+class Answer(ctypes.Structure):
+    _fields_ = [("q", _c_double_p), ("pose", _c_double_p), ("compliance", _c_double_p),
+                ("energy", ctypes.c_double), ("residual", ctypes.c_double),
+                ("iterations", ctypes.c_int), ("stable", ctypes.c_int)]
+
+
+MODEL_KERNEL, MODEL_FEM, MODEL_PRB = 0, 1, 2
+SOLVED, FALLBACK, MODEL_ERROR = 0, 1, 2
+
+
+def cache_dir() -> Path:
+    return Path(os.environ.get("FLEXGEN_CACHE") or Path.home() / ".cache" / "flexgen")
+
+
+def _shared_library(source: Path, headers: tuple[Path, ...] = ()) -> ctypes.CDLL:
+    """Compile ``source`` (once per content) and load it."""
+    digest = hashlib.sha256()
+    for path in (source, *headers):
+        digest.update(path.read_bytes())
+    digest.update(" ".join(kernels.C_FLAGS).encode())
+    folder = cache_dir()
+    target = folder / f"{source.stem}-{digest.hexdigest()[:16]}.so"
+    if not target.is_file():
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(suffix=".so", dir=folder)
+        os.close(fd)
+        try:
+            proc = subprocess.run(["gcc", *kernels.C_FLAGS, "-shared", "-fPIC",
+                                   f"-I{source.parent}", str(source), "-lm", "-o", tmp],
+                                  capture_output=True, text=True)
+        except OSError as exc:
+            os.unlink(tmp)
+            raise CompileError(f"cannot compile {source.name}: {exc}") from exc
+        if proc.returncode != 0:
+            os.unlink(tmp)
+            first = (proc.stderr.strip().splitlines() or ["gcc failed"])[0]
+            raise CompileError(f"cannot compile {source.name}: {first}")
+        os.replace(tmp, target)      # atomic: a concurrent build of the same source is harmless
+    return ctypes.CDLL(str(target))
+
+
+@lru_cache(maxsize=None)
+def solver_library() -> ctypes.CDLL:
+    lib = _shared_library(HERE / "chain_solver.c", (HERE / "chain_solver.h",))
+    for name in ("fg_work_size", "fg_iwork_size"):
+        fn = getattr(lib, name)
+        fn.argtypes = [ctypes.POINTER(Problem)]
+        fn.restype = ctypes.c_size_t
+    lib.fg_solve.argtypes = [ctypes.POINTER(Problem), _c_double_p, _c_int_p,
+                             ctypes.POINTER(Answer)]
+    lib.fg_solve.restype = ctypes.c_int
+    return lib
+
+
+@lru_cache(maxsize=None)
+def kernel_functions(name: str, folder: Path = kernels.GENERATED) -> tuple[int, int]:
+    """Addresses of ``<name>_evaluate`` and ``<name>_in_range`` in the compiled C kernel."""
+    source = folder / "c" / f"{name}.c"
+    if not source.is_file():
+        raise kernels.KernelNotFound(f"C kernel {name!r} not found in {folder}/c")
+    lib = _shared_library(source, (folder / "c" / f"{name}.h",))
+    _loaded.append(lib)              # keep the library (and so the addresses) alive
+    evaluate = ctypes.cast(getattr(lib, f"{name}_evaluate"), ctypes.c_void_p).value
+    in_range = ctypes.cast(getattr(lib, f"{name}_in_range"), ctypes.c_void_p).value
+    return evaluate, in_range
+
+
+_loaded: list[ctypes.CDLL] = []

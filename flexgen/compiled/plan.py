@@ -1,0 +1,132 @@
+"""Flatten a scene and its flexure models into the C structs of ``chain_solver.h``.
+
+The flexures are listed in the chain's body order (every parent before its children, as the C
+kinematics and the reverse Hessian accumulation need), each with the offset of its coordinates in
+the packed q of ``flexgen.chain.Chain``. The points are those the loads, tendons and outputs
+name, each on the flexure frame that carries it (-1: the base). A model the C solver does not
+know (anything but the built-in scm/cc, fem and prb classes) gives no plan.
+"""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from ..chain import BASE, Chain
+from ..models.fem import FEMModel
+from ..models.prb import PRBModel
+from ..models.scm import SCMModel
+from . import library as lib
+
+
+def _flexure_struct(model, offset: int, parent: int, at) -> tuple[lib.Flexure, np.ndarray] | None:
+    """The C struct and the diagonal energy Hessian of one model (None: not supported)."""
+    f = lib.Flexure()
+    f.ndof, f.offset, f.parent = int(model.n_dof), offset, parent
+    f.at[0], f.at[1], f.at[2] = (float(v) for v in at)
+    f.length, f.gamma = model.length, 0.0
+    kind = type(model)
+    if kind is SCMModel:
+        f.kind = lib.MODEL_KERNEL
+        if model.poly is not None:
+            f.poly, f.in_range = lib.kernel_functions(f"scm{model.n_dof}")
+        if model.gauss is not None:
+            f.gauss = lib.kernel_functions(model.gauss_name)[0]
+        stiffness = model.EI / model.length * np.asarray(model.weights, dtype=float)
+    elif kind is FEMModel:
+        f.kind = lib.MODEL_FEM
+        stiffness = np.full(model.n_dof, model.spring)
+    elif kind is PRBModel:
+        f.kind, f.gamma = lib.MODEL_PRB, model.gamma
+        stiffness = np.array([model.stiffness])
+    else:
+        return None
+    return f, stiffness
+
+
+class Plan:
+    """A scene's C problem, its workspace and its answer buffers (reusable for repeated solves
+    of the same scene and models; not thread-safe: one solve at a time)."""
+
+    def __init__(self, chain: Chain, loads, tendons, outputs: list[str], tol: float,
+                 max_dq: float, max_iterations: int, flexures, stiffness):
+        self.outputs = outputs
+        order = chain._flex_order
+        index = {name: i for i, name in enumerate(order)}
+        refs = list(dict.fromkeys([ref for ref, _ in loads]
+                                  + [ref for _, route in tendons for ref in route] + outputs))
+        pindex = {ref: i for i, ref in enumerate(refs)}
+        points = (lib.Point * max(len(refs), 1))()
+        for i, ref in enumerate(refs):
+            body, xy = chain._resolve(ref)
+            frame = chain._frame_of[body]
+            points[i].frame = -1 if frame == BASE else index[frame]
+            points[i].x, points[i].y = xy
+        n = chain.ndof
+        self._keep = []                              # arrays the struct points into
+
+        def ints(values):
+            a = np.ascontiguousarray(values, dtype=np.intc)
+            self._keep.append(a)
+            return a.ctypes.data_as(ctypes.POINTER(ctypes.c_int))
+
+        def doubles(values):
+            a = np.ascontiguousarray(values, dtype=float)
+            self._keep.append(a)
+            return a.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+        flex = (lib.Flexure * len(order))(*flexures)
+        route = [pindex[ref] for _, r in tendons for ref in r]
+        starts = np.cumsum([0] + [len(r) for _, r in tendons])[:-1]
+        p = lib.Problem()
+        p.ndof, p.nflex, p.npoints = n, len(order), len(refs)
+        p.nloads, p.ntendons, p.noutputs = len(loads), len(tendons), len(outputs)
+        p.flex, p.points = flex, points
+        p.load_point = ints([pindex[ref] for ref, _ in loads] or [0])
+        p.load = doubles(np.array([F for _, F in loads], dtype=float).ravel() if loads else [0.0])
+        p.tension = doubles([T for T, _ in tendons] or [0.0])
+        p.route_start = ints(starts if tendons else [0])
+        p.route_len = ints([len(r) for _, r in tendons] or [0])
+        p.route = ints(route or [0])
+        p.outputs = ints([pindex[ref] for ref in outputs] or [0])
+        p.stiffness = doubles(stiffness)
+        p.tol, p.max_dq, p.max_iterations = tol, max_dq, max_iterations
+        self._keep += [flex, points]
+        self.problem = p
+        solver = lib.solver_library()
+        self._solve = solver.fg_solve
+        self.work = np.empty(solver.fg_work_size(ctypes.byref(p)))
+        self.iwork = np.empty(solver.fg_iwork_size(ctypes.byref(p)), dtype=np.intc)
+        self.q = np.empty(n)
+        self.pose = np.empty((max(len(outputs), 1), 3))
+        self.compliance = np.empty((max(len(outputs), 1), 3, 3))
+        a = lib.Answer()
+        a.q = self.q.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        a.pose = self.pose.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        a.compliance = self.compliance.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self.answer = a
+        self._args = (ctypes.byref(p), self.work.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+                      self.iwork.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), ctypes.byref(a))
+
+    def run(self) -> int:
+        """One solve; the status (library.SOLVED, FALLBACK or MODEL_ERROR). When SOLVED, ``q``,
+        ``pose``, ``compliance`` and ``answer`` (energy, residual, iterations, stable) hold it."""
+        return self._solve(*self._args)
+
+
+def build_plan(chain: Chain, loads, tendons, outputs: list[str], tol: float, max_dq: float,
+               max_iterations: int) -> Plan | None:
+    """The Plan of a chain with these loads ((ref, (fx, fy, m)) pairs) and tendons
+    ((tension, route) pairs), or None if a model has no C counterpart."""
+    index = {name: i for i, name in enumerate(chain._flex_order)}
+    flexures, stiffness = [], np.zeros(chain.ndof)
+    for name in chain._flex_order:
+        fl = chain.flexures[name]
+        frame = chain._frame_of[fl.parent]
+        parent = -1 if frame == BASE else index[frame]
+        got = _flexure_struct(chain.models[name], chain.slices[name].start, parent, fl.at)
+        if got is None:
+            return None
+        flexures.append(got[0])
+        stiffness[chain.slices[name]] = got[1]
+    return Plan(chain, loads, tendons, outputs, tol, max_dq, max_iterations, flexures, stiffness)
