@@ -328,6 +328,16 @@ def _model_info(model: FlexureModel) -> dict:
     return info
 
 
+def prepare_system(scene: Scene, models: Mapping[str, FlexureModel]):
+    """(chain, system, output points, model info) of a scene with these models."""
+    chain = Chain(scene, models)
+    system = System(chain)
+    outputs = _output_points(scene, chain)
+    for ref in outputs:
+        chain.resolve_point(ref)
+    return chain, system, outputs, {name: _model_info(m) for name, m in models.items()}
+
+
 def _load_scene(scene) -> Scene:
     if isinstance(scene, Scene):
         return scene
@@ -384,18 +394,17 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
                                   backend=backend)
     from .models.registry import build_models
     models = build_models(scene, models, model_factory)
-    chain = Chain(scene, models)
-    system = System(chain)
-    outputs = _output_points(scene, chain)
-    for ref in outputs:
-        chain.resolve_point(ref)
-    info = {name: _model_info(m) for name, m in models.items()}
+
+    def prepare():
+        return prepare_system(scene, models)
+
     if backend == "c" and q0 is None and max_steps >= 1:
         from .compiled.solver import solve_compiled
-        compiled = solve_compiled(scene, chain, system, outputs, info, tol=tol,
-                                  max_iterations=max_iterations, max_dq=max_dq)
+        compiled = solve_compiled(scene, models, tol=tol, max_iterations=max_iterations,
+                                  max_dq=max_dq, prepare=prepare)
         if compiled is not None:
             return compiled
+    chain, system, outputs, info = prepare()
     sol = _Solver(system, tol, max_iterations)
     warnings: list[str] = []
     critical: list[float] = []

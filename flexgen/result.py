@@ -14,24 +14,27 @@ from typing import Any
 import numpy as np
 
 
-def ellipse(C: np.ndarray) -> dict[str, float]:
+def ellipse(C) -> dict[str, float]:
     """Eigenvalues of a symmetric 2x2 compliance (``major`` >= ``minor``) and the angle of the
-    major axis from the world x axis in (-pi/2, pi/2] (0 when the ellipse is a circle)."""
-    C = np.asarray(C, dtype=float)
-    C = 0.5 * (C + C.T)
-    if not np.all(np.isfinite(C)):
+    major axis from the world x axis in (-pi/2, pi/2] (0 when the ellipse is a circle).
+
+    Closed form (a 2x2 needs no eigen-solver): with C = [[a, b], [b, d]] symmetrized,
+    major = (a + d)/2 + hypot((a - d)/2, b), minor = det C / major (no cancellation when the
+    ellipse is thin and the major eigenvalue positive), angle = atan2(2 b, a - d) / 2."""
+    (a, b1), (b2, d) = ((float(C[0][0]), float(C[0][1])), (float(C[1][0]), float(C[1][1])))
+    b = 0.5 * (b1 + b2)
+    if not all(math.isfinite(v) for v in (a, b, d)):
         return {"major": math.nan, "minor": math.nan, "angle": math.nan}
-    w, V = np.linalg.eigh(C)
-    minor, major = float(w[0]), float(w[1])
+    half = math.hypot(0.5 * (a - d), b)
+    mean = 0.5 * (a + d)
+    major = mean + half
+    minor = (a * d - b * b) / major if major > 0.0 and mean > 0.0 else mean - half
     if major - minor <= 1e-14 * max(abs(major), abs(minor), 1e-300):
         angle = 0.0
     else:
-        vx, vy = V[:, 1]
-        angle = math.atan2(vy, vx)
+        angle = 0.5 * math.atan2(2.0 * b, a - d)
         if angle <= -math.pi / 2:
             angle += math.pi
-        elif angle > math.pi / 2:
-            angle -= math.pi
     return {"major": major, "minor": minor, "angle": float(angle)}
 
 

@@ -505,7 +505,7 @@ static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
 /* ---- dense linear algebra (n is small: a few flexures' coordinates) ----------------------- */
 
 /* Cholesky factor L (lower, row-major) of the symmetric A in F; 0 if A is not positive definite */
-static int cholesky(const double *A, double *F, int n)
+static int cholesky_builtin(const double *A, double *F, int n)
 {
     int i, j, k;
     for (i = 0; i < n; ++i)
@@ -524,7 +524,7 @@ static int cholesky(const double *A, double *F, int n)
     return 1;
 }
 
-static void cholesky_solve(const double *F, int n, const double *b, double *x)
+static void cholesky_solve_builtin(const double *F, int n, const double *b, double *x)
 {
     int i, k;
     for (i = 0; i < n; ++i) {
@@ -542,7 +542,8 @@ static void cholesky_solve(const double *F, int n, const double *b, double *x)
 }
 
 /* x = A^-1 b by LU with partial pivoting (A copied into F); 0 if A is singular */
-static int lu_solve(const double *A, double *F, int *piv, int n, const double *b, double *x)
+static int lu_solve_builtin(const double *A, double *F, int *piv, int n, const double *b,
+                            double *x)
 {
     int i, j, k;
     memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
@@ -588,6 +589,55 @@ static int lu_solve(const double *A, double *F, int *piv, int n, const double *b
     return 1;
 }
 
+/* The factorizations the solver uses: LAPACK's when given and n is large enough, else the
+ * built-in ones. K is symmetric, so its row-major storage is also its column-major storage. */
+static int use_lapack(const fg_problem *p, int n)
+{
+    return p->lapack.potrf != NULL && n >= p->lapack.min_size;
+}
+
+static int cholesky(const fg_problem *p, const double *A, double *F, int n)
+{
+    if (use_lapack(p, n)) {
+        char uplo = 'L';
+        int info = 0, lda = n;
+        memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+        p->lapack.potrf(&uplo, &n, F, &lda, &info);
+        return info == 0;
+    }
+    return cholesky_builtin(A, F, n);
+}
+
+static void cholesky_solve(const fg_problem *p, const double *F, int n, const double *b,
+                           double *x)
+{
+    if (use_lapack(p, n)) {
+        char uplo = 'L';
+        int info = 0, lda = n, nrhs = 1;
+        memcpy(x, b, sizeof(double) * (size_t)n);
+        p->lapack.potrs(&uplo, &n, &nrhs, (double *)F, &lda, x, &lda, &info);
+        return;
+    }
+    cholesky_solve_builtin(F, n, b, x);
+}
+
+static int lu_solve(const fg_problem *p, const double *A, double *F, int *piv, int n,
+                    const double *b, double *x)
+{
+    if (use_lapack(p, n)) {
+        char trans = 'N';
+        int info = 0, lda = n, nrhs = 1;
+        memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+        p->lapack.getrf(&n, &n, F, &lda, piv, &info);
+        if (info != 0)
+            return 0;
+        memcpy(x, b, sizeof(double) * (size_t)n);
+        p->lapack.getrs(&trans, &n, &nrhs, F, &lda, piv, x, &lda, &info);
+        return info == 0;
+    }
+    return lu_solve_builtin(A, F, piv, n, b, x);
+}
+
 static double norm2(const double *x, int n)
 {
     double s = 0.0;
@@ -630,7 +680,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, int max_it, int *i
         if (k >= 8 && st->rel > 0.5 * history[k - 6])
             return 0;
         ++*iterations;
-        if (!lu_solve(st->K, w->la, w->piv, n, st->r, d))
+        if (!lu_solve(p, st->K, w->la, w->piv, n, st->r, d))
             return 0;
         rn = norm2(st->r, n);
         for (tries = 0; tries < 30; ++tries) {
@@ -689,9 +739,9 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     memset(w->vec1, 0, sizeof(double) * (size_t)n);
     if (!evaluate(w, w->vec1, 0.0, st0))
         return FG_MODEL_ERROR;
-    if (!cholesky(st0->K, w->la, n))
+    if (!cholesky(p, st0->K, w->la, n))
         return FG_FALLBACK;
-    cholesky_solve(w->la, n, st0->Q, t0);
+    cholesky_solve(p, w->la, n, st0->Q, t0);
     memcpy(cur->q, st0->q, sizeof(double) * (size_t)n);
     memcpy(cur->gU, st0->gU, sizeof(double) * (size_t)n);
     memcpy(cur->QL, st0->QL, sizeof(double) * (size_t)n);
@@ -703,16 +753,16 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     cur->gmax = st0->gmax;
     cur->rmax = st0->rmax;
     at_lambda(w, cur, 1.0);
-    if (!cholesky(cur->K, w->la, n))
+    if (!cholesky(p, cur->K, w->la, n))
         return FG_FALLBACK;     /* the full load may buckle the unloaded state */
     {
         int max_it = p->max_iterations < 12 ? p->max_iterations : 12;
         if (!newton(w, &cur, &spare, max_it, &iterations))
             return FG_FALLBACK;
     }
-    if (!cholesky(cur->K, w->la, n))
+    if (!cholesky(p, cur->K, w->la, n))
         return FG_FALLBACK;
-    cholesky_solve(w->la, n, cur->Q, t1);
+    cholesky_solve(p, w->la, n, cur->Q, t1);
     if (!in_poly_range(p, cur->q))
         return FG_FALLBACK;
 
@@ -723,9 +773,9 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
         double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
         for (i = 0; i < n; ++i)
             qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * cur->q[i] + h11 * t1[i];
-        if (!evaluate(w, qt, t, smp) || !cholesky(smp->K, w->la, n))
+        if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
             return FG_FALLBACK;
-        cholesky_solve(w->la, n, smp->r, corr);
+        cholesky_solve(p, w->la, n, smp->r, corr);
         if (!(norm_inf(corr, n) <= 0.2 * p->max_dq) || !in_poly_range(p, qt))
             return FG_FALLBACK;
     }
@@ -733,7 +783,7 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     /* polish: plain Newton steps while they lower the relative residual below 1e-14 */
     for (j = 0; j < 3 && cur->rel > 1e-14; ++j) {
         double *d = w->vec3, *qt = w->vec4;
-        if (!lu_solve(cur->K, w->la, w->piv, n, cur->r, d))
+        if (!lu_solve(p, cur->K, w->la, w->piv, n, cur->r, d))
             break;
         for (i = 0; i < n; ++i)
             qt[i] = cur->q[i] - d[i];
@@ -750,7 +800,7 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     /* the answer: kinematics at the equilibrium, compliance J K^-1 J^T of the output points */
     if (!kinematics(w, cur->q))
         return FG_MODEL_ERROR;
-    out->stable = cholesky(cur->K, w->la, n);
+    out->stable = cholesky(p, cur->K, w->la, n);
     out->iterations = iterations;
     out->energy = cur->U;
     out->residual = cur->rel;
@@ -763,9 +813,9 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
         memcpy(out->pose + 3 * j, w->ppose + 3 * pt, sizeof(double) * 3);
         for (a = 0; a < 3 && ok; ++a) {
             if (out->stable)
-                cholesky_solve(w->la, n, J + a * n, X + a * n);
+                cholesky_solve(p, w->la, n, J + a * n, X + a * n);
             else
-                ok = lu_solve(cur->K, w->lb, w->piv, n, J + a * n, X + a * n);
+                ok = lu_solve(p, cur->K, w->lb, w->piv, n, J + a * n, X + a * n);
         }
         for (a = 0; a < 3; ++a)
             for (i = 0; i < 3; ++i) {

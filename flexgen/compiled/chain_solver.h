@@ -28,6 +28,23 @@ typedef struct {
     fg_kernel gauss;      /* Gauss kernel (NULL: none) */
 } fg_flexure;
 
+/* optional LAPACK routines (Fortran calling convention), e.g. scipy's; NULL: the built-in
+ * (unblocked) factorizations, which are as fast for a few coordinates */
+typedef void (*fg_potrf)(char *uplo, int *n, double *a, int *lda, int *info);
+typedef void (*fg_potrs)(char *uplo, int *n, int *nrhs, double *a, int *lda, double *b, int *ldb,
+                         int *info);
+typedef void (*fg_getrf)(int *m, int *n, double *a, int *lda, int *ipiv, int *info);
+typedef void (*fg_getrs)(char *trans, int *n, int *nrhs, double *a, int *lda, int *ipiv,
+                         double *b, int *ldb, int *info);
+
+typedef struct {
+    fg_potrf potrf;
+    fg_potrs potrs;
+    fg_getrf getrf;
+    fg_getrs getrs;
+    int min_size;         /* use them from this many coordinates on */
+} fg_lapack;
+
 typedef struct {
     int frame;            /* flexure whose tip frame carries the point, -1: base */
     double x, y;          /* in that frame */
@@ -48,6 +65,7 @@ typedef struct {
     double tol;                  /* relative residual of an equilibrium */
     double max_dq;               /* largest change of a coordinate along the path */
     int max_iterations;
+    fg_lapack lapack;
 } fg_problem;
 
 typedef struct {

@@ -39,6 +39,12 @@ class Point(ctypes.Structure):
     _fields_ = [("frame", ctypes.c_int), ("x", ctypes.c_double), ("y", ctypes.c_double)]
 
 
+class Lapack(ctypes.Structure):
+    _fields_ = [("potrf", ctypes.c_void_p), ("potrs", ctypes.c_void_p),
+                ("getrf", ctypes.c_void_p), ("getrs", ctypes.c_void_p),
+                ("min_size", ctypes.c_int)]
+
+
 class Problem(ctypes.Structure):
     _fields_ = [("ndof", ctypes.c_int), ("nflex", ctypes.c_int), ("npoints", ctypes.c_int),
                 ("nloads", ctypes.c_int), ("ntendons", ctypes.c_int), ("noutputs", ctypes.c_int),
@@ -46,7 +52,8 @@ class Problem(ctypes.Structure):
                 ("load_point", _c_int_p), ("load", _c_double_p), ("tension", _c_double_p),
                 ("route_start", _c_int_p), ("route_len", _c_int_p), ("route", _c_int_p),
                 ("outputs", _c_int_p), ("stiffness", _c_double_p), ("tol", ctypes.c_double),
-                ("max_dq", ctypes.c_double), ("max_iterations", ctypes.c_int)]
+                ("max_dq", ctypes.c_double), ("max_iterations", ctypes.c_int),
+                ("lapack", Lapack)]
 
 
 class Answer(ctypes.Structure):
@@ -117,3 +124,31 @@ def kernel_functions(name: str, folder: Path = kernels.GENERATED) -> tuple[int, 
 
 
 _loaded: list[ctypes.CDLL] = []
+
+# From this many coordinates on the solver factorizes with LAPACK (the one SciPy ships, the same
+# code numpy.linalg and scipy.linalg run for the Python solver); below it the built-in unblocked
+# factorizations are faster (no call overhead). Measured: benchmarks/solver_speed.py.
+LAPACK_MIN_SIZE = 16
+
+
+@lru_cache(maxsize=None)
+def lapack() -> Lapack:
+    """SciPy's dpotrf, dpotrs, dgetrf, dgetrs by address (scipy.linalg.cython_lapack exports them
+    as capsules); all None if that fails, and the solver uses its built-in factorizations."""
+    table = Lapack()
+    table.min_size = LAPACK_MIN_SIZE
+    try:
+        from scipy.linalg import cython_lapack
+        name_of = ctypes.pythonapi.PyCapsule_GetName
+        name_of.restype, name_of.argtypes = ctypes.c_char_p, [ctypes.py_object]
+        pointer = ctypes.pythonapi.PyCapsule_GetPointer
+        pointer.restype, pointer.argtypes = ctypes.c_void_p, [ctypes.py_object, ctypes.c_char_p]
+        found = {}
+        for routine in ("potrf", "potrs", "getrf", "getrs"):
+            capsule = cython_lapack.__pyx_capi__["d" + routine]
+            found[routine] = pointer(capsule, name_of(capsule))
+    except (ImportError, AttributeError, KeyError, ValueError):
+        return table
+    table.potrf, table.potrs = found["potrf"], found["potrs"]
+    table.getrf, table.getrs = found["getrf"], found["getrs"]
+    return table

@@ -91,6 +91,7 @@ class Plan:
         p.outputs = ints([pindex[ref] for ref in outputs] or [0])
         p.stiffness = doubles(stiffness)
         p.tol, p.max_dq, p.max_iterations = tol, max_dq, max_iterations
+        p.lapack = lib.lapack()
         self._keep += [flex, points]
         self.problem = p
         solver = lib.solver_library()

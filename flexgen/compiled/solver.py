@@ -1,10 +1,17 @@
 """Solve a scene with the compiled chain solver and build the same Result the Python solver does.
 
 ``solve_compiled`` returns None whenever the C solver hands the scene back (``FALLBACK``: a case
-for the load continuation; ``MODEL_ERROR``), or a model has no C counterpart: the caller then runs
-the Python solver, which reports such cases in full.
+for the load continuation; ``MODEL_ERROR``), a model has no C counterpart or gcc is missing: the
+caller then runs the Python solver, which reports such cases in full.
+
+The Plan of a (scene, models, solver settings) is kept (the last ``CACHE_SIZE`` of them, keyed
+by the scene object and the models' parameters), so solving the same scene again, as a
+controller or a benchmark does, costs the C solve and the Result, not the flattening.
 """
 from __future__ import annotations
+
+import threading
+from collections import OrderedDict
 
 import numpy as np
 
@@ -12,20 +19,47 @@ from ..result import PointResult, Result, ellipse
 from . import library as lib
 from .plan import build_plan
 
-
-def solve_compiled(scene, chain, system, outputs: list[str], info: dict, *, tol: float,
-                   max_iterations: int, max_dq: float) -> Result | None:
-    try:
-        plan = build_plan(chain, system.loads, system.tendons, outputs, tol, max_dq,
-                          max_iterations)
-    except lib.CompileError:
-        return None
-    if plan is None or plan.run() != lib.SOLVED:
-        return None
-    return result_of(plan, scene.name, chain, info)
+CACHE_SIZE = 64
+_plans: OrderedDict = OrderedDict()      # key -> (scene, plan, slices, outputs, info)
+_lock = threading.Lock()                 # one solve at a time per process: plans share workspaces
 
 
-def result_of(plan, scene_name: str, chain, info: dict) -> Result:
+def _signature(scene, models) -> tuple | None:
+    sig = []
+    for f in scene.flexures:
+        m = models[f.name]
+        sig.append((type(m), m.n_dof, m.length, m.EI, getattr(m, "kernel", None),
+                    getattr(m, "gauss_name", None), getattr(m, "gamma", None),
+                    getattr(m, "K_theta", None)))
+    return tuple(sig)
+
+
+def solve_compiled(scene, models, *, tol: float, max_iterations: int, max_dq: float,
+                   prepare) -> Result | None:
+    """The Result of the compiled solve, or None (run the Python solver). ``prepare()`` gives
+    (chain, system, outputs, info) as the Python solver builds them, called only when no Plan
+    is cached."""
+    key = (id(scene), _signature(scene, models), tol, max_iterations, max_dq)
+    with _lock:
+        entry = _plans.get(key)
+        if entry is None or entry[0] is not scene:
+            chain, system, outputs, info = prepare()
+            try:
+                plan = build_plan(chain, system.loads, system.tendons, outputs, tol, max_dq,
+                                  max_iterations)
+            except lib.CompileError:
+                plan = None
+            entry = (scene, plan, dict(chain.slices), outputs, info)
+            _plans[key] = entry
+            if len(_plans) > CACHE_SIZE:
+                _plans.popitem(last=False)
+        scene_, plan, slices, outputs, info = entry
+        if plan is None or plan.run() != lib.SOLVED:
+            return None
+        return result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()})
+
+
+def result_of(plan, scene_name: str, slices, info: dict) -> Result:
     """The Result of a solved Plan (what ``equilibrium._result`` builds from a State)."""
     a = plan.answer
     warnings: list[str] = []
@@ -40,8 +74,21 @@ def result_of(plan, scene_name: str, chain, info: dict) -> Result:
         C2 = C3[:2, :2]
         points[ref] = PointResult(pose=plan.pose[i].tolist(), compliance=C2.tolist(),
                                   ellipse=ellipse(C2), compliance3=C3.tolist())
-    q = {name: plan.q[sl].tolist() for name, sl in chain.slices.items()}
+    q = plan.q
     return Result(scene=scene_name, converged=True, stable=stable, iterations=int(a.iterations),
-                  model=info, q=q, points=points, warnings=warnings, reason=None,
-                  critical_load_factors=[], load_factor=1.0, energy=float(a.energy),
-                  residual=float(a.residual))
+                  model=info, q={name: q[sl].tolist() for name, sl in slices.items()},
+                  points=points, warnings=warnings, reason=None, critical_load_factors=[],
+                  load_factor=1.0, energy=float(a.energy), residual=float(a.residual))
+
+
+def prepare(scene, models=None, model_factory=None, *, tol: float = 1e-12,
+            max_iterations: int = 50, max_dq: float = 0.5):
+    """A Plan for repeated compiled solves of ``scene`` (the models as ``flexgen.equilibrium.solve``
+    builds them), or None if a model has no C counterpart. ``plan.run()`` solves (status
+    ``library.SOLVED`` or a hand-back to the Python solver); ``result_of`` gives the Result. This
+    is what a controller loop, or the benchmark of the compiled solve alone, calls."""
+    from ..equilibrium import prepare_system
+    from ..models.registry import build_models
+    models = build_models(scene, models, model_factory)
+    chain, system, outputs, _ = prepare_system(scene, models)
+    return build_plan(chain, system.loads, system.tendons, outputs, tol, max_dq, max_iterations)
