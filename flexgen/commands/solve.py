@@ -4,7 +4,8 @@ Exit codes: 0 an equilibrium was found; 1 none was found (one line on stderr wit
 with --json the object with "converged": false and "reason" still goes to stdout); 2 bad input
 (raised as SceneError or UsageError, reported by flexgen/cli.py).
 
-``add_model_options`` and ``solve_args`` are shared with `flexgen plot`.
+``add_model_options`` and ``solve_args`` are shared with `flexgen plot`; ``--backend`` is
+`solve`'s own (``add_backend_option``).
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import sys
 from flexgen.commands.common import UsageError, integer, tolerance
 
 KINDS = ("scm", "cc", "prb", "fem", "exact")
+BACKENDS = ("python", "c")       # flexgen.equilibrium.BACKENDS
 
 
 def add_model_options(p) -> None:
@@ -34,7 +36,18 @@ def add_model_options(p) -> None:
                         "result reports the choice and the estimate (docs/selection.md)")
 
 
-OPTION_NAMES = ["tolerance"]     # extra argparse dests forwarded to flexgen.api.solve_scene
+def add_backend_option(p) -> None:
+    """--backend: which chain solver (forwarded as ``backend=`` to flexgen.equilibrium.solve)."""
+    p.add_argument("--backend", choices=BACKENDS, default="python",
+                   help="chain solver (default python): python, the reference solver; c, the "
+                        "compiled chain solver (flexgen/compiled; needs gcc, compiles once into "
+                        "~/.cache/flexgen or $FLEXGEN_CACHE). Both give the same answer; c falls "
+                        "back to python for buckling, snap-through and kernel switches. Ignored "
+                        "with --model exact")
+
+
+# extra argparse dests forwarded to flexgen.api.solve_scene (and on to flexgen.equilibrium.solve)
+OPTION_NAMES = ["tolerance", "backend"]
 
 
 def solve_args(args):
@@ -64,6 +77,7 @@ def register(sub) -> None:
         "ellipse. Without --json: a table. Exit codes: 0 equilibrium found, 1 no equilibrium "
         "(reason on stderr), 2 bad input (one line on stderr naming the key)."))
     add_model_options(p)
+    add_backend_option(p)
     p.add_argument("--json", action="store_true",
                    help="print the result as one JSON object (the fields of the public contract, "
                         "plus \"reason\" when not converged)")
