@@ -81,6 +81,27 @@ def test_targets_measured(run):
     assert tg["exact_ratio"] == pytest.approx(tg["finger_exact_s"] / tg["finger_scm3_s"])
     pe, ce = tg["finger_scm3_error"]
     assert pe < 1e-3 and ce < 1e-3
+    for suffix in ("_c", "_cs"):
+        assert tg[f"finger_scm3{suffix}_s"] > 0
+        assert tg[f"exact_ratio{suffix}"] == pytest.approx(
+            tg["finger_exact_s"] / tg[f"finger_scm3{suffix}_s"])
+    for timing in bench.TIMINGS:
+        assert f"equal_smooth_{timing}_ratio" in tg
+
+
+def test_compiled_backend_measured_and_agrees(run):
+    """Every chain model was also solved with backend="c" and agrees with the Python solver; the
+    C solver solved the smooth cantilever itself (no hand-back), and its times are recorded."""
+    data, out = run
+    assert data.backend_diff and max(data.backend_diff.values()) <= 1e-9
+    for md in data.models:
+        if md.kind == "exact":
+            continue
+        assert data.c_solved[md.label, bench.SMOOTH_SCENE], md.label
+        assert data.times_cs[md.label, bench.SMOOTH_SCENE] > 0
+        assert data.times_c[md.label, bench.SMOOTH_SCENE] > 0
+    text = (out / "accuracy-vs-speed.md").read_text()
+    assert "compiled solve" in text and "backend c" in text
 
 
 def test_time_at_error():

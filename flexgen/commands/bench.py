@@ -28,7 +28,11 @@ def run(args) -> int:
     tg = data.targets
     print(f"wrote {args.out / 'accuracy-vs-speed.md'} and {args.out / 'accuracy-vs-speed.png'} "
           f"({data.elapsed:.0f} s)")
-    print(f"finger scm3: {tg['finger_scm3_s'] * 1e3:.2f} ms per solve; exact/scm3 "
-          f"{tg['exact_ratio']:.0f}x; fem/scm at equal accuracy (smooth) "
-          f"{tg.get('equal_smooth_ratio', float('nan')):.1f}x", file=sys.stderr)
+    nan = float("nan")
+    for timing, label in (("time", "Python solver"), ("time_cs", "compiled solve")):
+        suffix = {"time": "", "time_cs": "_cs"}[timing]
+        print(f"{label}: finger scm3 {tg[f'finger_scm3{suffix}_s'] * 1e3:.3f} ms per solve; "
+              f"exact/scm3 {tg[f'exact_ratio{suffix}']:.0f}x; fem/scm at equal accuracy "
+              f"(smooth) {tg.get(f'equal_smooth_{timing}_ratio', nan):.1f}x, (suite) "
+              f"{tg.get(f'equal_suite_{timing}_ratio', nan):.1f}x", file=sys.stderr)
     return 0
