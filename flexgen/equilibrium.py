@@ -375,8 +375,8 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
 
     ``backend`` = "c" solves with the compiled chain solver (``flexgen.compiled``) where it can:
     the full load in one Newton solve under the same acceptance checks as the direct attempt
-    here; every case it hands back (buckling, snap-through, a kernel switch, a warm start, a
-    model without a C counterpart) runs the Python solver below.
+    here (or, with ``q0``, the same warm start); every case it hands back (buckling,
+    snap-through, a kernel switch, a model without a C counterpart) runs the Python solver below.
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
@@ -398,10 +398,10 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     def prepare():
         return prepare_system(scene, models)
 
-    if backend == "c" and q0 is None and max_steps >= 1:
+    if backend == "c" and max_steps >= 1:
         from .compiled.solver import solve_compiled
         compiled = solve_compiled(scene, models, tol=tol, max_iterations=max_iterations,
-                                  max_dq=max_dq, prepare=prepare)
+                                  max_dq=max_dq, prepare=prepare, q0=q0)
         if compiled is not None:
             return compiled
     chain, system, outputs, info = prepare()

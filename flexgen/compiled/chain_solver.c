@@ -5,9 +5,10 @@
  * only when every check of equilibrium._direct_solve passes (the stiffness at the unloaded state
  * under the full load is positive definite, Newton converges, the end state is stable, the
  * cubic Hermite path between the ends is stable and close to equilibrium where sampled, every
- * "auto" flexure stays in its polynomial kernel's range along it). Anything else (buckling,
- * snap-through, a kernel switch, a singular stiffness) returns FG_FALLBACK and the Python solver
- * runs its load continuation, which handles and reports those cases.
+ * smooth curvature flexure stays in its kernel's range along it), or a warm start from a given q0
+ * (equilibrium._warm_start). Anything else (buckling, snap-through, a kernel switch, a singular
+ * stiffness) returns FG_FALLBACK and the Python solver runs its load continuation, which handles
+ * and reports those cases.
  *
  * Flexure models: the generated smooth curvature kernels (scm{N}, scm{N}_gauss{G}: function
  * pointers, so this file needs no header of theirs), the n-element chain ("fem", the same
@@ -45,6 +46,7 @@ typedef struct {
     double *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
     double *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
     int *piv;
+    int switched;           /* an "auto" flexure used its Gauss kernel since this was reset */
     fg_state st[4];
 } fg_ws;
 
@@ -141,7 +143,7 @@ static double *tip_block(const fg_ws *w, int i)
 /* pose (3), J (3 x k), H (3 x k x k) of the tip in the root frame, physical units; 0 if the
  * model cannot be evaluated at q (a polynomial-only kernel past its range) */
 static int flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
-                       double *scratch)
+                       double *scratch, int *switched)
 {
     int k = f->ndof, i, j;
     if (f->kind == FG_MODEL_KERNEL) {
@@ -149,9 +151,11 @@ static int flexure_tip(const fg_flexure *f, const double *q, double *pose, doubl
         double L = f->length;
         if (f->poly != NULL && (f->gauss == NULL || f->in_range(q)))
             kernel = f->poly;
-        else if (f->gauss != NULL)
+        else if (f->gauss != NULL) {
             kernel = f->gauss;
-        else
+            if (f->poly != NULL)
+                *switched = 1;
+        } else
             return 0;
         if (f->poly != NULL && f->gauss == NULL && !f->in_range(q))
             return 0;
@@ -256,7 +260,7 @@ static int kinematics(fg_ws *w, const double *q)
                 J[j] -= awy * J[2 * n + j];
                 J[n + j] += awx * J[2 * n + j];
             }
-        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch))
+        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched))
             return 0;
         th = rp[2];
         c = cos(th);
@@ -702,14 +706,16 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, int max_it, int *i
     return 0;
 }
 
-/* every "auto" flexure (polynomial and Gauss kernels) within its polynomial kernel's range */
-static int in_poly_range(const fg_problem *p, const double *q)
+/* every smooth curvature flexure within its range (SCMModel.in_range): the polynomial kernel's
+ * when it has one (an "auto" flexure past it would switch kernels), else the Gauss kernel's
+ * certified range */
+static int in_kernel_range(const fg_problem *p, const double *q)
 {
     int i;
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
-        if (f->kind == FG_MODEL_KERNEL && f->poly != NULL && f->gauss != NULL
-            && !f->in_range(q + f->offset))
+        fg_range in_range = f->poly != NULL ? f->in_range : f->gauss_in_range;
+        if (f->kind == FG_MODEL_KERNEL && in_range != NULL && !in_range(q + f->offset))
             return 0;
     }
     return 1;
@@ -717,69 +723,11 @@ static int in_poly_range(const fg_problem *p, const double *q)
 
 /* ---- the solve ---------------------------------------------------------------------------- */
 
-int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
+/* polish the equilibrium *cur, then the answer: q, the output points' poses and compliances */
+static int finish(fg_ws *w, fg_state *cur, fg_state *spare, int iterations, fg_answer *out)
 {
-    fg_ws ws, *w = &ws;
-    fg_state *st0, *cur, *spare, *smp;
-    int n = p->ndof, i, j, a, iterations = 0;
-    double *t0, *t1;
-    const double samples[3] = {0.25, 0.5, 0.75};
-
-    bind(w, p, work, iwork);
-    st0 = &w->st[0];
-    cur = &w->st[1];
-    spare = &w->st[2];
-    smp = &w->st[3];
-    out->iterations = 0;
-    out->stable = 0;
-    t0 = w->t0;          /* path tangents dq/dlam at the two ends */
-    t1 = w->t1;
-
-    /* the unloaded state (q = 0, lam = 0: an equilibrium) and the full load at it */
-    memset(w->vec1, 0, sizeof(double) * (size_t)n);
-    if (!evaluate(w, w->vec1, 0.0, st0))
-        return FG_MODEL_ERROR;
-    if (!cholesky(p, st0->K, w->la, n))
-        return FG_FALLBACK;
-    cholesky_solve(p, w->la, n, st0->Q, t0);
-    memcpy(cur->q, st0->q, sizeof(double) * (size_t)n);
-    memcpy(cur->gU, st0->gU, sizeof(double) * (size_t)n);
-    memcpy(cur->QL, st0->QL, sizeof(double) * (size_t)n);
-    memcpy(cur->QT, st0->QT, sizeof(double) * (size_t)n);
-    memcpy(cur->S, st0->S, sizeof(double) * (size_t)n * (size_t)n);
-    cur->U = st0->U;
-    cur->W = st0->W;
-    cur->V = st0->V;
-    cur->gmax = st0->gmax;
-    cur->rmax = st0->rmax;
-    at_lambda(w, cur, 1.0);
-    if (!cholesky(p, cur->K, w->la, n))
-        return FG_FALLBACK;     /* the full load may buckle the unloaded state */
-    {
-        int max_it = p->max_iterations < 12 ? p->max_iterations : 12;
-        if (!newton(w, &cur, &spare, max_it, &iterations))
-            return FG_FALLBACK;
-    }
-    if (!cholesky(p, cur->K, w->la, n))
-        return FG_FALLBACK;
-    cholesky_solve(p, w->la, n, cur->Q, t1);
-    if (!in_poly_range(p, cur->q))
-        return FG_FALLBACK;
-
-    /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
-    for (j = 0; j < 3; ++j) {
-        double t = samples[j], *qt = w->vec4, *corr = w->vec3;
-        double h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
-        double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
-        for (i = 0; i < n; ++i)
-            qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * cur->q[i] + h11 * t1[i];
-        if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
-            return FG_FALLBACK;
-        cholesky_solve(p, w->la, n, smp->r, corr);
-        if (!(norm_inf(corr, n) <= 0.2 * p->max_dq) || !in_poly_range(p, qt))
-            return FG_FALLBACK;
-    }
-
+    const fg_problem *p = w->p;
+    int n = w->n, i, j, a;
     /* polish: plain Newton steps while they lower the relative residual below 1e-14 */
     for (j = 0; j < 3 && cur->rel > 1e-14; ++j) {
         double *d = w->vec3, *qt = w->vec4;
@@ -832,4 +780,87 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
             }
     }
     return FG_SOLVED;
+}
+
+int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
+{
+    fg_ws ws, *w = &ws;
+    fg_state *st0, *cur, *spare, *smp;
+    int n = p->ndof, i, j, iterations = 0;
+    double *t0, *t1;
+    const double samples[3] = {0.25, 0.5, 0.75};
+
+    bind(w, p, work, iwork);
+    st0 = &w->st[0];
+    cur = &w->st[1];
+    spare = &w->st[2];
+    smp = &w->st[3];
+    out->iterations = 0;
+    out->stable = 0;
+    t0 = w->t0;          /* path tangents dq/dlam at the two ends */
+    t1 = w->t1;
+
+    w->switched = 0;
+    if (p->q0 != NULL) {
+        /* warm start (equilibrium._warm_start): Newton at the full load from q0, accepted if it
+         * converges to a stable equilibrium within max_dq of q0 without any kernel switch (the
+         * Python solver warns of one, even on a trial step) */
+        if (!evaluate(w, p->q0, 1.0, cur)
+            || !newton(w, &cur, &spare, p->max_iterations, &iterations)
+            || !cholesky(p, cur->K, w->la, n) || w->switched)
+            return FG_FALLBACK;
+        for (i = 0; i < n; ++i)
+            w->vec4[i] = cur->q[i] - p->q0[i];
+        if (norm_inf(w->vec4, n) > p->max_dq)
+            return FG_FALLBACK;
+        i = finish(w, cur, spare, iterations, out);
+        return i == FG_SOLVED && w->switched ? FG_FALLBACK : i;
+    }
+
+    /* the unloaded state (q = 0, lam = 0: an equilibrium) and the full load at it */
+    memset(w->vec1, 0, sizeof(double) * (size_t)n);
+    if (!evaluate(w, w->vec1, 0.0, st0))
+        return FG_MODEL_ERROR;
+    if (!cholesky(p, st0->K, w->la, n))
+        return FG_FALLBACK;
+    cholesky_solve(p, w->la, n, st0->Q, t0);
+    memcpy(cur->q, st0->q, sizeof(double) * (size_t)n);
+    memcpy(cur->gU, st0->gU, sizeof(double) * (size_t)n);
+    memcpy(cur->QL, st0->QL, sizeof(double) * (size_t)n);
+    memcpy(cur->QT, st0->QT, sizeof(double) * (size_t)n);
+    memcpy(cur->S, st0->S, sizeof(double) * (size_t)n * (size_t)n);
+    cur->U = st0->U;
+    cur->W = st0->W;
+    cur->V = st0->V;
+    cur->gmax = st0->gmax;
+    cur->rmax = st0->rmax;
+    at_lambda(w, cur, 1.0);
+    if (!cholesky(p, cur->K, w->la, n))
+        return FG_FALLBACK;     /* the full load may buckle the unloaded state */
+    {
+        int max_it = p->max_iterations < 12 ? p->max_iterations : 12;
+        if (!newton(w, &cur, &spare, max_it, &iterations))
+            return FG_FALLBACK;
+    }
+    if (!cholesky(p, cur->K, w->la, n))
+        return FG_FALLBACK;
+    cholesky_solve(p, w->la, n, cur->Q, t1);
+    if (!in_kernel_range(p, cur->q))
+        return FG_FALLBACK;
+
+    /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
+    for (j = 0; j < 3; ++j) {
+        double t = samples[j], *qt = w->vec4, *corr = w->vec3;
+        double h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
+        double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
+        for (i = 0; i < n; ++i)
+            qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * cur->q[i] + h11 * t1[i];
+        if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
+            return FG_FALLBACK;
+        cholesky_solve(p, w->la, n, smp->r, corr);
+        if (!(norm_inf(corr, n) <= 0.2 * p->max_dq) || !in_kernel_range(p, qt))
+            return FG_FALLBACK;
+    }
+
+    return finish(w, cur, spare, iterations, out);
 }

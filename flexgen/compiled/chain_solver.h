@@ -26,6 +26,7 @@ typedef struct {
     fg_kernel poly;       /* FG_MODEL_KERNEL: polynomial kernel (NULL: none) */
     fg_range in_range;    /* its range check */
     fg_kernel gauss;      /* Gauss kernel (NULL: none) */
+    fg_range gauss_in_range;   /* its certified range */
 } fg_flexure;
 
 /* optional LAPACK routines (Fortran calling convention), e.g. scipy's; NULL: the built-in
@@ -66,6 +67,7 @@ typedef struct {
     double max_dq;               /* largest change of a coordinate along the path */
     int max_iterations;
     fg_lapack lapack;
+    const double *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
 } fg_problem;
 
 typedef struct {

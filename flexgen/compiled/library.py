@@ -32,7 +32,7 @@ class Flexure(ctypes.Structure):
                 ("parent", ctypes.c_int), ("at", ctypes.c_double * 3),
                 ("length", ctypes.c_double), ("gamma", ctypes.c_double),
                 ("poly", ctypes.c_void_p), ("in_range", ctypes.c_void_p),
-                ("gauss", ctypes.c_void_p)]
+                ("gauss", ctypes.c_void_p), ("gauss_in_range", ctypes.c_void_p)]
 
 
 class Point(ctypes.Structure):
@@ -53,7 +53,7 @@ class Problem(ctypes.Structure):
                 ("route_start", _c_int_p), ("route_len", _c_int_p), ("route", _c_int_p),
                 ("outputs", _c_int_p), ("stiffness", _c_double_p), ("tol", ctypes.c_double),
                 ("max_dq", ctypes.c_double), ("max_iterations", ctypes.c_int),
-                ("lapack", Lapack)]
+                ("lapack", Lapack), ("q0", _c_double_p)]
 
 
 class Answer(ctypes.Structure):

@@ -31,7 +31,7 @@ def _flexure_struct(model, offset: int, parent: int, at) -> tuple[lib.Flexure, n
         if model.poly is not None:
             f.poly, f.in_range = lib.kernel_functions(f"scm{model.n_dof}")
         if model.gauss is not None:
-            f.gauss = lib.kernel_functions(model.gauss_name)[0]
+            f.gauss, f.gauss_in_range = lib.kernel_functions(model.gauss_name)
         stiffness = model.EI / model.length * np.asarray(model.weights, dtype=float)
     elif kind is FEMModel:
         f.kind = lib.MODEL_FEM
@@ -108,10 +108,21 @@ class Plan:
         self.answer = a
         self._args = (ctypes.byref(p), self.work.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
                       self.iwork.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), ctypes.byref(a))
+        self.q0 = np.zeros(n)
+        self._q0_pointer = self.q0.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self._warm = False
 
-    def run(self) -> int:
-        """One solve; the status (library.SOLVED, FALLBACK or MODEL_ERROR). When SOLVED, ``q``,
-        ``pose``, ``compliance`` and ``answer`` (energy, residual, iterations, stable) hold it."""
+    def run(self, q0: np.ndarray | None = None) -> int:
+        """One solve (from the unloaded state, or Newton at the full load from the packed ``q0``);
+        the status (library.SOLVED, FALLBACK or MODEL_ERROR). When SOLVED, ``q``, ``pose``,
+        ``compliance`` and ``answer`` (energy, residual, iterations, stable) hold it."""
+        if q0 is not None:
+            self.q0[:] = q0
+            self.problem.q0 = self._q0_pointer
+            self._warm = True
+        elif self._warm:
+            self.problem.q0 = None
+            self._warm = False
         return self._solve(*self._args)
 
 

@@ -35,10 +35,11 @@ def _signature(scene, models) -> tuple | None:
 
 
 def solve_compiled(scene, models, *, tol: float, max_iterations: int, max_dq: float,
-                   prepare) -> Result | None:
+                   prepare, q0=None) -> Result | None:
     """The Result of the compiled solve, or None (run the Python solver). ``prepare()`` gives
     (chain, system, outputs, info) as the Python solver builds them, called only when no Plan
-    is cached."""
+    is cached. ``q0``: a warm start, {flexure: coordinates} (padded with zeros or truncated to
+    each model's size, as ``equilibrium._warm_start`` does)."""
     key = (id(scene), _signature(scene, models), tol, max_iterations, max_dq)
     with _lock:
         entry = _plans.get(key)
@@ -54,7 +55,13 @@ def solve_compiled(scene, models, *, tol: float, max_iterations: int, max_dq: fl
             if len(_plans) > CACHE_SIZE:
                 _plans.popitem(last=False)
         scene_, plan, slices, outputs, info = entry
-        if plan is None or plan.run() != lib.SOLVED:
+        start = None
+        if plan is not None and q0 is not None:
+            start = np.zeros(plan.q.size)
+            for name, sl in slices.items():
+                v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]
+                start[sl.start:sl.start + v.size] = v
+        if plan is None or plan.run(start) != lib.SOLVED:
             return None
         return result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()})
 
