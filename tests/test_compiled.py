@@ -1,0 +1,616 @@
+"""The compiled chain solver (``flexgen.compiled``, ``solve(..., backend="c")``).
+
+The reference is the Python solver (``backend="python"``, tested elsewhere against the exact
+elastica): on the examples and the seeded random chains and trees of ``flexgen.bench`` (forces,
+moments, tendons), for scm 1..6 (kernels auto, poly, gauss), prb and fem, the C backend must give
+the same flags, iterations, equilibrium, poses, compliances and warnings, and must take the C path
+exactly where the Python solver's direct full-load solve is accepted. The C answers are also
+checked on their own: the Python residual at the C equilibrium, and the C compliance against
+central differences of C solves. Then: the C path really runs without the Python solver; the
+fallbacks (buckling, custom models, warm starts, a poly kernel bent past its range); the backend
+argument; the C source (strict C99, no heap, no writable globals); the reuse of a plan, its
+cache per scene, and LAPACK against the built-in factorizations.
+
+Two strict xfails record known discrepancies (a missing C kernel raises instead of falling back;
+a reused model instance's stale kernel-switch flag warns in Python only): fixing either makes
+its test pass, and then the marker must go.
+"""
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import subprocess
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexgen.compiled.library as clib
+import flexgen.compiled.solver as csolver
+import flexgen.equilibrium as eq
+from flexgen import bench, kernels
+from flexgen.chain import Chain
+from flexgen.compiled.plan import build_plan
+from flexgen.equilibrium import solve
+from flexgen.models.base import TipKinematics
+from flexgen.models.fem import FEMModel
+from flexgen.models.prb import PRBModel
+from flexgen.models.registry import build_models
+from flexgen.models.scm import SCMModel
+from flexgen.scene import Load, load_scene, scene_from_dict
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+SOURCE = Path(clib.__file__).resolve().parent / "chain_solver.c"
+N_RANDOM = 10                     # seeded random bench scenes (about 3 s to draw)
+TOL = 1e-12                       # the solve's default relative residual
+
+
+# -- model factories ------------------------------------------------------------------------------
+
+def scm(modes: int, kernel: str = "auto"):
+    return lambda f: SCMModel(f.length, f.EI, modes, kernel=kernel, name=f.name)
+
+
+def prb():
+    return lambda f: PRBModel(f.length, f.EI)
+
+
+def fem(elements: int):
+    return lambda f: FEMModel(f.length, f.EI, elements)
+
+
+FACTORIES = {f"scm{m} {k}": scm(m, k) for m in range(1, 7) for k in ("auto", "poly", "gauss")}
+FACTORIES.update({"prb": prb(), "fem4": fem(4), "fem16": fem(16), "fem64": fem(64)})
+
+
+# -- scenes ---------------------------------------------------------------------------------------
+
+def example(name: str):
+    return load_scene(EXAMPLES / f"{name}.toml")
+
+
+def cantilever(force=(0.0, 0.0), moment=0.0, L=1.0, EI=1.0):
+    return scene_from_dict({
+        "name": "cantilever", "flexure": [{"name": "beam", "length": L, "EI": EI}],
+        "load": [{"point": "beam.tip", "force": list(force), "moment": moment}],
+        "output": {"points": ["beam.tip"]}})
+
+
+@pytest.fixture(scope="module")
+def scenes():
+    """The bench suite: the four examples and the seeded random chains and trees."""
+    ex = bench.example_scenes()
+    assert sorted(n for n, _ in ex) == ["arc_moment", "cantilever_tip_load",
+                                       "rectangular_elastica", "two_link_finger"]
+    rnd = bench.random_scenes(N_RANDOM)
+    assert len(rnd) == N_RANDOM
+    # the random suite covers what it should: chains, trees, moments, tendons
+    assert any(len(s.flexures) >= 3 and is_tree(s) for _, s in rnd)
+    assert any(s.tendons for _, s in rnd)
+    assert any(ld.moment != 0.0 for _, s in rnd for ld in s.loads)
+    return ex + rnd
+
+
+def is_tree(scene) -> bool:
+    parents = [f.parent for f in scene.flexures]
+    return len(set(parents)) < len(parents)
+
+
+def richest(scenes):
+    """The random scene with the most going on: a tree, a tendon, moments, most flexures."""
+    return max((s for n, s in scenes if n.startswith("random")),
+               key=lambda s: (is_tree(s), bool(s.tendons),
+                              any(ld.moment for ld in s.loads), len(s.flexures)))
+
+
+def chain_with_tendon(scenes):
+    """A random two-flexure chain with a tendon (else the richest scene)."""
+    for n, s in scenes:
+        if n.startswith("random") and len(s.flexures) == 2 and s.tendons:
+            return s
+    return richest(scenes)
+
+
+PICK = {"richest": richest, "chain_with_tendon": chain_with_tendon}
+
+
+def pick(scenes, name):
+    return PICK[name](scenes) if name in PICK else dict(scenes)[name]
+
+
+# -- spying on which path a solve took ------------------------------------------------------------
+
+@pytest.fixture
+def spy(monkeypatch):
+    """Records, per solve, whether the compiled solver returned an answer ("compiled") and
+    whether the Python solver's direct full-load solve was accepted ("direct")."""
+    log = {"compiled": [], "direct": []}
+    real_compiled, real_direct = csolver.solve_compiled, eq._direct_solve
+
+    def compiled(*args, **kwargs):
+        got = real_compiled(*args, **kwargs)
+        log["compiled"].append(got is not None)
+        return got
+
+    def direct(*args, **kwargs):
+        got = real_direct(*args, **kwargs)
+        log["direct"].append(got is not None)
+        return got
+
+    monkeypatch.setattr(csolver, "solve_compiled", compiled)
+    monkeypatch.setattr(eq, "_direct_solve", direct)
+    return log
+
+
+def solve_both(scene, spy, **kwargs):
+    """(python result, c result, python's direct solve accepted, c answered)."""
+    spy["compiled"].clear(), spy["direct"].clear()
+    rp = solve(scene, backend="python", **kwargs)
+    assert spy["compiled"] == []
+    direct = spy["direct"] == [True]
+    spy["compiled"].clear(), spy["direct"].clear()
+    rc = solve(scene, backend="c", **kwargs)
+    assert len(spy["compiled"]) <= 1
+    taken = spy["compiled"] == [True]
+    if taken:
+        assert spy["direct"] == []          # the Python solver did not run
+    return rp, rc, direct, taken
+
+
+# -- comparing results ----------------------------------------------------------------------------
+
+def differences(scene, rp, rc) -> list[str]:
+    """Every way the c result ``rc`` differs from the python result ``rp`` beyond rounding."""
+    out = []
+    for key in ("converged", "stable", "iterations", "warnings", "reason", "load_factor",
+                "critical_load_factors", "model"):
+        if getattr(rp, key) != getattr(rc, key):
+            out.append(f"{key}: python {getattr(rp, key)!r}, c {getattr(rc, key)!r}")
+    if rp.q.keys() != rc.q.keys():
+        out.append(f"q flexures: python {sorted(rp.q)}, c {sorted(rc.q)}")
+    else:
+        for name in rp.q:
+            a, b = np.asarray(rp.q[name]), np.asarray(rc.q[name])
+            if a.shape != b.shape:
+                out.append(f"q[{name}] shape {a.shape} vs {b.shape}")
+                continue
+            d = float(np.max(np.abs(a - b), initial=0.0))
+            if not d <= 1e-9 * max(1.0, float(np.max(np.abs(a), initial=0.0))):
+                out.append(f"q[{name}] differs by {d:.3g}")
+    if rp.points.keys() != rc.points.keys():
+        out.append(f"points: python {sorted(rp.points)}, c {sorted(rc.points)}")
+        return out
+    for ref in rp.points:
+        pp, pc = rp.points[ref], rc.points[ref]
+        L = bench.path_length(scene, ref)
+        dpos = float(np.max(np.abs(np.subtract(pp.pose[:2], pc.pose[:2]))))
+        dang = abs(pp.pose[2] - pc.pose[2])
+        if not (dpos <= 1e-9 * L and dang <= 1e-9):
+            out.append(f"pose of {ref}: position differs by {dpos:.3g} (L = {L:.3g}), "
+                       f"angle by {dang:.3g}")
+        Cp, Cc = np.asarray(pp.compliance3), np.asarray(pc.compliance3)
+        if not np.array_equal(np.isfinite(Cp), np.isfinite(Cc)):
+            out.append(f"compliance3 of {ref}: finite entries differ")
+        elif np.all(np.isfinite(Cp)):
+            rel = np.linalg.norm(Cp - Cc, 2) / np.linalg.norm(Cp, 2)
+            if not rel <= 1e-7:
+                out.append(f"compliance3 of {ref}: relative difference {rel:.3g}")
+            if not np.allclose(pc.compliance, Cc[:2, :2], rtol=0, atol=0):
+                out.append(f"compliance of {ref} is not the position block of compliance3")
+    if rp.converged and not math.isclose(rp.energy, rc.energy, rel_tol=1e-8, abs_tol=1e-300):
+        out.append(f"energy: python {rp.energy!r}, c {rc.energy!r}")
+    if rc.converged and not rc.residual <= TOL:
+        out.append(f"c residual {rc.residual!r} > tol")
+    return out
+
+
+def python_residual(scene, factory, result) -> float:
+    """The relative residual the Python System gives at the result's equilibrium (full load)."""
+    models = build_models(scene, None, factory)
+    chain = Chain(scene, models)
+    q = chain.pack(result.q)
+    return eq.System(chain).state(q, 1.0).rel
+
+
+# -- 1. agreement on the bench suite --------------------------------------------------------------
+
+def _cases(label: str, scenes):
+    if label == "fem64":        # slow in Python on trees: the examples and chains of <= 2 flexures
+        return [(n, s) for n, s in scenes if len(s.flexures) <= 2]
+    return scenes
+
+
+@pytest.mark.parametrize("label", list(FACTORIES))
+def test_c_backend_agrees_with_python(label, scenes, spy):
+    factory = FACTORIES[label]
+    cases = _cases(label, scenes)
+    problems, taken_count = [], 0
+    for name, scene in cases:
+        rp, rc, direct, taken = solve_both(scene, spy, model_factory=factory)
+        problems += [f"{name}: {p}" for p in differences(scene, rp, rc)]
+        # the C solver answers exactly where the Python direct solve is accepted
+        if taken != direct:
+            problems.append(f"{name}: python direct solve accepted={direct}, c answered={taken}")
+        if taken:
+            taken_count += 1
+            assert rc.critical_load_factors == [] and rc.converged and rc.stable
+            rel = python_residual(scene, factory, rc)
+            if not rel <= TOL:
+                problems.append(f"{name}: python residual at the c equilibrium {rel:.3g}")
+    assert not problems, "\n".join(problems)
+    # not vacuous: most of the suite runs in C (the exceptions buckle, switch kernels, ...)
+    assert taken_count >= len(cases) // 2, f"the C path answered {taken_count} of {len(cases)}"
+
+
+def test_suite_exercises_the_c_path_on_trees_with_tendons_and_moments(scenes, spy):
+    """The scenes the C path answers include trees, tendons and moments (scm3 and fem16)."""
+    for factory in (scm(3), fem(16)):
+        seen = set()
+        for _, scene in scenes:
+            spy["compiled"].clear()
+            solve(scene, model_factory=factory, backend="c")
+            if spy["compiled"] == [True]:
+                if is_tree(scene):
+                    seen.add("tree")
+                if scene.tendons:
+                    seen.add("tendon")
+                if any(ld.moment for ld in scene.loads):
+                    seen.add("moment")
+                if len(scene.flexures) >= 2:
+                    seen.add("chain")
+        assert seen == {"tree", "tendon", "moment", "chain"}
+
+
+@pytest.mark.parametrize("name, factory", [
+    ("cantilever_tip_load", scm(3)),
+    ("two_link_finger", scm(4)),
+    ("richest", fem(16)),              # a 4-flexure tree with a tendon and moments
+    ("chain_with_tendon", prb()),
+])
+def test_c_compliance_matches_finite_differences(name, factory, scenes, spy):
+    """compliance3 = d(pose)/d(fx, fy, m) at each output point: central differences of C solves
+    under a small extra load at the point (an independent check of the C answer)."""
+    scene = pick(scenes, name)
+    f0 = scene.flexures[0]
+    fscale, mscale = f0.EI / f0.length ** 2, f0.EI / f0.length
+    spy["compiled"].clear()
+    base = solve(scene, model_factory=factory, backend="c")
+    assert spy["compiled"] == [True]
+    for ref in base.points:
+        C = np.asarray(base.points[ref].compliance3)
+        fd = np.zeros((3, 3))
+        for j, (unit, h) in enumerate((((1, 0, 0), 1e-5 * fscale), ((0, 1, 0), 1e-5 * fscale),
+                                        ((0, 0, 1), 1e-5 * mscale))):
+            poses = []
+            for sign in (1.0, -1.0):
+                extra = Load(ref, (sign * h * unit[0], sign * h * unit[1]), sign * h * unit[2])
+                sc = replace(scene, loads=tuple(scene.loads) + (extra,))
+                spy["compiled"].clear()
+                r = solve(sc, model_factory=factory, backend="c")
+                assert spy["compiled"] == [True]
+                poses.append(np.asarray(r.points[ref].pose))
+            fd[:, j] = (poses[0] - poses[1]) / (2 * h)
+        rel = np.linalg.norm(C - fd, 2) / np.linalg.norm(C, 2)
+        assert rel <= 1e-6, (ref, rel, C, fd)
+
+
+# -- 2. the C path really runs, and hands buckling back ------------------------------------------
+
+def test_cantilever_is_solved_without_the_python_solver(monkeypatch):
+    scene = example("cantilever_tip_load")
+    reference = solve(scene, model_factory=scm(3))
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the Python solver ran")
+
+    monkeypatch.setattr(eq, "_Solver", forbidden)
+    monkeypatch.setattr(eq, "_direct_solve", forbidden)
+    with pytest.raises(AssertionError, match="Python solver ran"):
+        solve(scene, model_factory=scm(3))          # the patch does catch the Python path
+    got = solve(scene, model_factory=scm(3), backend="c")
+    assert got.converged and got.stable and got.iterations > 0
+    assert differences(scene, reference, got) == []
+    # and against Bisshopp & Drucker (alpha = 2): x/L = 0.83936, y/L = -0.49346, angle 0.78175
+    x, y, th = got.points["beam.tip"].pose
+    assert abs(x - 0.83936) < 2e-4 and abs(y + 0.49346) < 2e-4 and abs(th + 0.78175) < 2e-4
+
+
+def _plan_for(scene, factory, tol=TOL, max_dq=0.5, max_iterations=50):
+    models = build_models(scene, None, factory)
+    chain = Chain(scene, models)
+    system = eq.System(chain)
+    outputs = eq._output_points(scene, chain)
+    return chain, build_plan(chain, system.loads, system.tendons, outputs, tol, max_dq,
+                             max_iterations)
+
+
+def test_buckling_falls_back_and_reports_the_critical_load(spy):
+    scene = example("rectangular_elastica")
+    _, plan = _plan_for(scene, scm(3))
+    assert plan is not None and plan.run() == clib.FALLBACK
+    rp, rc, direct, taken = solve_both(scene, spy, model_factory=scm(3))
+    assert not direct and not taken and spy["direct"] == [False]      # the fallback ran
+    assert differences(scene, rp, rc) == []
+    assert rc.critical_load_factors == rp.critical_load_factors
+    assert len(rc.critical_load_factors) == 1
+    # Euler: P_cr = pi^2 EI / (4 L^2), the applied load 3.4375929 (scm3: within 1e-3)
+    euler = math.pi ** 2 / 4 / 3.4375929
+    assert abs(rc.critical_load_factors[0] / euler - 1.0) < 1e-3
+    assert any(w.startswith("buckling: bifurcation at critical load factor") for w in rc.warnings)
+    assert rc.warnings == rp.warnings
+
+
+# -- 3. fallbacks ---------------------------------------------------------------------------------
+
+class CustomSCM(SCMModel):
+    """A user's subclass: the same mathematics, but not a class the C solver knows."""
+
+
+class Wrapped:
+    """A FlexureModel by delegation (the protocol only)."""
+
+    def __init__(self, inner):
+        self.inner = inner
+        self.kind, self.label, self.n_dof = "scm", "wrapped " + inner.label, inner.n_dof
+        self.length, self.EI = inner.length, inner.EI
+
+    def tip(self, q) -> TipKinematics:
+        return self.inner.tip(q)
+
+    def energy(self, q):
+        return self.inner.energy(q)
+
+    def energy_gradient(self, q):
+        return self.inner.energy_gradient(q)
+
+    def energy_hessian(self, q):
+        return self.inner.energy_hessian(q)
+
+    def shape(self, q, num=64):
+        return self.inner.shape(q, num)
+
+
+@pytest.mark.parametrize("make", [
+    lambda f: CustomSCM(f.length, f.EI, 3, name=f.name),
+    lambda f: Wrapped(SCMModel(f.length, f.EI, 3, kernel="gauss", name=f.name)),
+], ids=["subclass", "wrapper"])
+@pytest.mark.parametrize("name", ["cantilever_tip_load", "two_link_finger"])
+def test_custom_model_has_no_plan_and_falls_back(make, name, spy):
+    scene = example(name)
+    _, plan = _plan_for(scene, make)
+    assert plan is None
+    rp, rc, direct, taken = solve_both(scene, spy, model_factory=make)
+    assert direct and not taken and spy["direct"] == [True]          # the Python solver ran
+    assert differences(scene, rp, rc) == []
+
+
+def test_one_custom_flexure_among_known_ones_falls_back(spy):
+    scene = example("two_link_finger")
+    models = {"distal": Wrapped(SCMModel(0.015, scene.flexure("distal").EI, 3, kernel="gauss",
+                                         name="distal"))}
+    rp, rc, _, taken = solve_both(scene, spy, models=models)
+    assert not taken and spy["direct"] == [True]
+    assert differences(scene, rp, rc) == []
+    # the wrapper is the gauss model itself: the same answer as the C solve of plain scm3 gauss
+    mixed = {"distal": SCMModel(0.015, scene.flexure("distal").EI, 3, kernel="gauss",
+                                name="distal")}
+    spy["compiled"].clear()
+    plain = solve(scene, models=mixed, backend="c")
+    assert spy["compiled"] == [True]
+    for p in plain.points:
+        assert np.allclose(plain.points[p].pose, rc.points[p].pose, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name, warm_factory, factory", [
+    ("cantilever_tip_load", scm(3), scm(5)),       # q0 padded with zeros
+    ("two_link_finger", scm(4), scm(3)),           # q0 truncated
+    ("richest", scm(3), scm(3, "gauss")),
+    ("chain_with_tendon", fem(4), fem(4)),
+])
+def test_warm_start_matches_python(name, warm_factory, factory, scenes, spy):
+    scene = pick(scenes, name)
+    q0 = solve(scene, model_factory=warm_factory).q
+    rp, rc, _, _ = solve_both(scene, spy, model_factory=factory, q0=q0)
+    assert rc.converged
+    assert differences(scene, rp, rc) == []
+    cold = solve(scene, model_factory=factory, backend="c")
+    for p in cold.points:
+        assert np.allclose(cold.points[p].pose, rc.points[p].pose, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("name, q0", [
+    ("cantilever_tip_load", {"beam": [3.0, -1.0, 0.5]}),      # far off: Newton leaves max_dq
+    ("two_link_finger", {}),                                 # all zeros: Newton at the full load
+    ("rectangular_elastica", {}),                            # zeros: the unstable straight state
+    ("rectangular_elastica", {"beam": [1.5]}),               # near the post-buckled branch
+])
+def test_poor_warm_starts_match_python(name, q0, spy):
+    scene = example(name)
+    rp, rc, _, _ = solve_both(scene, spy, model_factory=scm(3), q0=q0)
+    assert differences(scene, rp, rc) == []
+
+
+def test_poly_kernel_past_its_range_fails_the_same_way(spy):
+    """A tip moment that would bend scm3 (poly only: |phi| <= 90 deg) to 150 degrees."""
+    scene = cantilever(moment=math.radians(150.0))
+    _, plan = _plan_for(scene, scm(3, "poly"))
+    assert plan is not None and plan.run() == clib.FALLBACK
+    rp, rc, direct, taken = solve_both(scene, spy, model_factory=scm(3, "poly"))
+    assert not direct and not taken
+    assert rc.converged is False and rp.converged is False
+    assert rc.reason == rp.reason and "bent past the range of the polynomial kernel" in rc.reason
+    assert differences(scene, rp, rc) == []
+    # "auto" switches to the Gauss kernel there: the same answer in both, with its warning
+    rp, rc, _, _ = solve_both(scene, spy, model_factory=scm(3, "auto"))
+    assert rc.converged and differences(scene, rp, rc) == []
+    assert any("switched to the Gauss kernel" in w for w in rc.warnings)
+    assert abs(rc.points["beam.tip"].pose[2] - math.radians(150.0)) < 1e-9   # a pure moment
+
+
+@pytest.mark.parametrize("degrees", [150.0, 200.0, 300.0])
+def test_gauss_kernel_past_its_certified_range_matches_python(degrees, spy):
+    """kernel="gauss" is certified for |phi| <= 180 degrees (SCMModel.in_range): the direct
+    solve must reject a path beyond it as _direct_solve does (then the continuation runs)."""
+    scene = cantilever(moment=math.radians(degrees))
+    rp, rc, direct, taken = solve_both(scene, spy, model_factory=scm(3, "gauss"))
+    assert direct == (degrees < 180.0)
+    assert taken == direct
+    assert differences(scene, rp, rc) == []
+    _, plan = _plan_for(scene, scm(3, "gauss"))
+    assert plan.run() == (clib.SOLVED if direct else clib.FALLBACK)
+    assert abs(rc.points["beam.tip"].pose[2] - math.radians(degrees)) < 1e-9
+
+
+@pytest.mark.xfail(strict=True, raises=kernels.KernelNotFound,
+                   reason="bug: a kernel with no generated C source (flexgen generate --lang "
+                   "numpy) makes solve(backend='c') raise KernelNotFound instead of falling back "
+                   "(solve_compiled catches only CompileError)")
+def test_missing_c_kernel_falls_back(monkeypatch, spy):
+    def missing(name, folder=kernels.GENERATED):
+        raise kernels.KernelNotFound(f"C kernel {name!r} not found in {folder}/c")
+
+    monkeypatch.setattr(clib, "kernel_functions", missing)
+    scene = example("cantilever_tip_load")
+    rp, rc, _, taken = solve_both(scene, spy, model_factory=scm(3))
+    assert not taken and differences(scene, rp, rc) == []
+
+
+def test_plan_cache_tells_models_and_settings_apart(spy):
+    """solve(backend="c") keeps a plan per scene: every model parameter and solver setting that
+    changes the answer must give its own (one scene object, solved in turns)."""
+    scene = cantilever(moment=math.radians(150.0))
+    variants = [
+        dict(model_factory=scm(3, "gauss")),          # converges (C)
+        dict(model_factory=scm(3, "poly")),           # fails: past the polynomial range
+        dict(model_factory=scm(3, "auto")),           # switches kernels (Python)
+        dict(model_factory=scm(4, "gauss")),
+        dict(model_factory=prb()),
+        dict(model_factory=lambda f: PRBModel(f.length, f.EI, gamma=0.7)),
+        dict(model_factory=lambda f: PRBModel(f.length, f.EI, K_theta=2.0)),
+        dict(model_factory=fem(8)),
+        dict(models={"beam": SCMModel(1.0, 2.0, 3, kernel="gauss", name="beam")}),
+        dict(model_factory=scm(3, "gauss"), tol=1e-6),
+        dict(model_factory=scm(3, "gauss"), max_iterations=1),
+        dict(model_factory=fem(8), max_dq=1e-3),
+    ]
+    for _ in range(2):
+        for kwargs in variants:
+            rp, rc, _, _ = solve_both(scene, spy, **kwargs)
+            assert differences(scene, rp, rc) == [], kwargs
+
+
+def test_lapack_and_builtin_factorizations_agree(scenes):
+    """From LAPACK_MIN_SIZE coordinates on the plan calls SciPy's LAPACK; the built-in
+    factorizations must give the same answer (fem16 on a 4-flexure tree: 64 coordinates)."""
+    scene = richest(scenes)
+    _, plan = _plan_for(scene, fem(16))
+    if not plan.problem.lapack.potrf:
+        pytest.skip("SciPy's LAPACK routines are not available")
+    assert plan.q.size >= max(16, plan.problem.lapack.min_size)
+    assert plan.run() == clib.SOLVED
+    lapack = (plan.q.copy(), plan.pose.copy(), plan.compliance.copy(), plan.answer.iterations)
+    plan.problem.lapack.min_size = 10 ** 9
+    assert plan.run() == clib.SOLVED
+    builtin = (plan.q.copy(), plan.pose.copy(), plan.compliance.copy(), plan.answer.iterations)
+    assert lapack[3] == builtin[3]
+    assert np.allclose(lapack[0], builtin[0], rtol=0, atol=1e-11)
+    assert np.allclose(lapack[1], builtin[1], rtol=0, atol=1e-11)
+    assert np.linalg.norm((lapack[2] - builtin[2]).ravel()) <= 1e-9 * np.linalg.norm(lapack[2])
+
+
+@pytest.mark.xfail(strict=True, reason="discrepancy: a model instance reused across solves "
+                   "keeps SCMModel.switched from an earlier solve; the Python solver then warns of "
+                   "a kernel switch this solve did not make, the compiled path does not")
+def test_reused_model_gives_the_same_warnings(spy):
+    results = {}
+    for backend in ("python", "c"):
+        model = SCMModel(1.0, 1.0, 3, name="beam")          # "auto": switches past 90 degrees
+        solve(cantilever(moment=math.radians(150.0)), models={"beam": model}, backend=backend)
+        assert model.switched is True
+        results[backend] = solve(cantilever(moment=math.radians(30.0)), models={"beam": model},
+                                 backend=backend)
+    assert results["python"].warnings == results["c"].warnings
+
+
+# -- 4. the backend argument ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", ["fortran", "C", ""])
+def test_unknown_backend_raises(backend):
+    with pytest.raises(ValueError, match="backend"):
+        solve(example("cantilever_tip_load"), model_factory=scm(3), backend=backend)
+
+
+# -- 5. the C source ------------------------------------------------------------------------------
+
+def _strip_comments(text: str) -> str:
+    return re.sub(r"/\*.*?\*/|//[^\n]*", " ", text, flags=re.S)
+
+
+@pytest.mark.parametrize("opt", ["-O0", "-O2"])
+def test_c_source_compiles_strictly_without_writable_globals(opt, tmp_path):
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not available")
+    obj = tmp_path / "chain_solver.o"
+    proc = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", opt,
+                           f"-I{SOURCE.parent}", "-c", str(SOURCE), "-o", str(obj)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    if shutil.which("nm") is None:
+        pytest.skip("nm is not available")
+    out = subprocess.run(["nm", str(obj)], capture_output=True, text=True, check=True).stdout
+    symbols = [line.split() for line in out.splitlines() if line.strip()]
+    writable = [s for s in symbols if len(s) >= 2 and s[-2] in ("B", "D", "C", "b", "d")]
+    assert writable == [], writable
+    defined = {s[-1] for s in symbols if len(s) == 3 and s[1] == "T"}
+    assert {"fg_solve", "fg_work_size", "fg_iwork_size"} <= defined
+
+
+def test_c_source_uses_no_heap():
+    code = _strip_comments(SOURCE.read_text())
+    for name in ("malloc", "calloc", "realloc", "free", "alloca"):
+        assert not re.search(rf"\b{name}\s*\(", code), name
+
+
+# -- 6. a plan is reusable ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name, factory", [
+    ("two_link_finger", scm(3)),
+    ("richest", scm(3)),
+    ("richest", fem(16)),
+    ("arc_moment", prb()),
+])
+def test_plan_runs_twice_identically(name, factory, scenes):
+    scene = pick(scenes, name)
+    chain, plan = _plan_for(scene, factory)
+    assert plan is not None
+    assert plan.run() == clib.SOLVED
+
+    def answer():
+        a = plan.answer
+        return (plan.q.copy(), plan.pose.copy(), plan.compliance.copy(),
+                a.energy, a.residual, a.iterations, a.stable)
+
+    first = answer()
+    assert plan.run() == clib.SOLVED
+    second = answer()
+    # the workspace carries nothing from one run to the next: garbage in it changes nothing
+    plan.work[:] = np.nan
+    plan.iwork[:] = -7
+    plan.q[:] = np.inf
+    assert plan.run() == clib.SOLVED
+    third = answer()
+    # nor does another plan's solve in between (no global state)
+    _, other = _plan_for(example("cantilever_tip_load"), scm(4))
+    assert other.run() == clib.SOLVED
+    assert plan.run() == clib.SOLVED
+    fourth = answer()
+    for got in (second, third, fourth):
+        for x, y in zip(first[:3], got[:3]):
+            assert np.array_equal(x, y)
+        assert first[3:] == got[3:]
+    # and it is the Python solver's answer
+    ref = solve(scene, model_factory=factory)
+    assert np.allclose(chain.pack(ref.q), first[0], rtol=0, atol=1e-9)
+    assert first[5] == ref.iterations
