@@ -374,9 +374,9 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     answer, otherwise the solve falls back to the continuation from the unloaded state.
 
     ``backend`` = "c" solves with the compiled chain solver (``flexgen.compiled``) where it can:
-    the full load in one Newton solve under the same acceptance checks as the direct attempt
-    here (or, with ``q0``, the same warm start); every case it hands back (buckling,
-    snap-through, a kernel switch, a model without a C counterpart) runs the Python solver below.
+    the same direct attempt, warm start and load continuation as here, up to the first loss of
+    stability; every case it hands back (buckling, snap-through, any kernel switch, a model
+    without a C counterpart) runs the Python solver below, so the answer is the same.
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
@@ -394,14 +394,19 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
                                   backend=backend)
     from .models.registry import build_models
     models = build_models(scene, models, model_factory)
+    for m in models.values():          # a model reused from an earlier solve: its switch is not ours
+        if getattr(m, "switched", False):
+            m.switched = False
 
     def prepare():
         return prepare_system(scene, models)
 
-    if backend == "c" and max_steps >= 1:
+    if backend == "c":
         from .compiled.solver import solve_compiled
-        compiled = solve_compiled(scene, models, tol=tol, max_iterations=max_iterations,
-                                  max_dq=max_dq, prepare=prepare, q0=q0)
+        settings = dict(tol=tol, max_iterations=max_iterations, max_steps=max_steps,
+                        initial_step=initial_step, max_step=max_step, min_step=min_step,
+                        max_dq=max_dq)
+        compiled = solve_compiled(scene, models, settings, prepare, q0)
         if compiled is not None:
             return compiled
     chain, system, outputs, info = prepare()

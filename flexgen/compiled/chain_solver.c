@@ -782,13 +782,118 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, int iterations, fg_a
     return FG_SOLVED;
 }
 
+/* The full load in one Newton solve from the unloaded state *st0 (equilibrium._direct_solve):
+ * 1 with the equilibrium in *cur if every check passes, else 0 (the continuation runs). */
+static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state **spare,
+                        fg_state *smp, int *iterations)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, i, j, max_it = p->max_iterations < 12 ? p->max_iterations : 12;
+    double *t0 = w->t0, *t1 = w->t1;     /* path tangents dq/dlam at the two ends */
+    const double samples[3] = {0.25, 0.5, 0.75};
+    fg_state *c = *cur;
+
+    cholesky_solve(p, w->la, n, st0->Q, t0);     /* la: K(q0, 0), factored by the caller */
+    memcpy(c->q, st0->q, sizeof(double) * (size_t)n);
+    memcpy(c->gU, st0->gU, sizeof(double) * (size_t)n);
+    memcpy(c->QL, st0->QL, sizeof(double) * (size_t)n);
+    memcpy(c->QT, st0->QT, sizeof(double) * (size_t)n);
+    memcpy(c->S, st0->S, sizeof(double) * (size_t)n * (size_t)n);
+    c->U = st0->U;
+    c->W = st0->W;
+    c->V = st0->V;
+    c->gmax = st0->gmax;
+    c->rmax = st0->rmax;
+    at_lambda(w, c, 1.0);
+    if (!cholesky(p, c->K, w->la, n))
+        return 0;                 /* the full load may buckle the unloaded state */
+    if (!newton(w, cur, spare, max_it, iterations))
+        return 0;
+    c = *cur;
+    if (!cholesky(p, c->K, w->la, n))
+        return 0;
+    cholesky_solve(p, w->la, n, c->Q, t1);
+    if (!in_kernel_range(p, c->q))
+        return 0;
+    /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
+    for (j = 0; j < 3; ++j) {
+        double t = samples[j], *qt = w->vec4, *corr = w->vec3;
+        double h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
+        double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
+        for (i = 0; i < n; ++i)
+            qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
+        if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
+            return 0;
+        cholesky_solve(p, w->la, n, smp->r, corr);
+        if (!(norm_inf(corr, n) <= 0.2 * p->max_dq) || !in_kernel_range(p, qt))
+            return 0;
+    }
+    return 1;
+}
+
+/* Load continuation from the stable state **path (lam = 0) to lam = 1 (equilibrium.solve's
+ * loop): adaptive steps, a tangent predictor while K is positive definite, Newton at each load
+ * factor, a step that changes a coordinate by more than max_dq counts as a jump. 1 with the
+ * equilibrium at lam = 1 in **path; 0 (hand back to the Python solver) when a step lands on an
+ * unstable state from a stable one (a bifurcation, or the unstable side of a limit point), the
+ * path ends, or the step budget runs out: the Python solver locates and reports those. */
+static int continuation(fg_ws *w, fg_state **path, fg_state **a, fg_state **b, int *iterations)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, i, steps = 0;
+    double lam = 0.0, dlam = p->initial_step;
+    while (lam < 1.0) {
+        double lam_n = lam + dlam < 1.0 ? lam + dlam : 1.0;
+        int it0 = *iterations, used, found = 0, attempt, stable_before;
+        if (++steps > p->max_steps)
+            return 0;
+        stable_before = cholesky(p, (*path)->K, w->la, n);
+        for (attempt = 0; attempt < 2 && !found; ++attempt) {
+            double *start = w->vec1;
+            if (attempt == 0) {            /* the tangent predictor */
+                if (!stable_before)
+                    continue;
+                cholesky_solve(p, w->la, n, (*path)->Q, w->t0);
+                for (i = 0; i < n; ++i)
+                    start[i] = (*path)->q[i] + (lam_n - lam) * w->t0[i];
+            } else {
+                memcpy(start, (*path)->q, sizeof(double) * (size_t)n);
+            }
+            if (!evaluate(w, start, lam_n, *a) || !newton(w, a, b, p->max_iterations, iterations))
+                continue;
+            for (i = 0; i < n; ++i)
+                w->vec2[i] = (*a)->q[i] - (*path)->q[i];
+            found = norm_inf(w->vec2, n) <= p->max_dq;
+        }
+        used = *iterations - it0;
+        if (found && stable_before && !cholesky(p, (*a)->K, w->la, n))
+            return 0;             /* lost stability: a bifurcation or a limit point */
+        if (!found) {
+            if (dlam > p->min_step) {
+                dlam = 0.5 * dlam > p->min_step ? 0.5 * dlam : p->min_step;
+                continue;
+            }
+            return 0;             /* the path ends (a limit point) */
+        }
+        if (used <= 3)
+            dlam = 2.0 * dlam < p->max_step ? 2.0 * dlam : p->max_step;
+        else if (used <= 6)
+            dlam = 1.2 * dlam < p->max_step ? 1.2 * dlam : p->max_step;
+        {
+            fg_state *old = *path;
+            *path = *a;
+            *a = old;
+        }
+        lam = lam_n;
+    }
+    return 1;
+}
+
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
 {
     fg_ws ws, *w = &ws;
     fg_state *st0, *cur, *spare, *smp;
-    int n = p->ndof, i, j, iterations = 0;
-    double *t0, *t1;
-    const double samples[3] = {0.25, 0.5, 0.75};
+    int n = p->ndof, i, iterations = 0;
 
     bind(w, p, work, iwork);
     st0 = &w->st[0];
@@ -797,70 +902,44 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     smp = &w->st[3];
     out->iterations = 0;
     out->stable = 0;
-    t0 = w->t0;          /* path tangents dq/dlam at the two ends */
-    t1 = w->t1;
 
     w->switched = 0;
     if (p->q0 != NULL) {
         /* warm start (equilibrium._warm_start): Newton at the full load from q0, accepted if it
-         * converges to a stable equilibrium within max_dq of q0 without any kernel switch (the
-         * Python solver warns of one, even on a trial step) */
+         * converges to a stable equilibrium within max_dq of q0 */
         if (!evaluate(w, p->q0, 1.0, cur)
             || !newton(w, &cur, &spare, p->max_iterations, &iterations)
-            || !cholesky(p, cur->K, w->la, n) || w->switched)
+            || !cholesky(p, cur->K, w->la, n))
             return FG_FALLBACK;
         for (i = 0; i < n; ++i)
             w->vec4[i] = cur->q[i] - p->q0[i];
         if (norm_inf(w->vec4, n) > p->max_dq)
             return FG_FALLBACK;
-        i = finish(w, cur, spare, iterations, out);
-        return i == FG_SOLVED && w->switched ? FG_FALLBACK : i;
-    }
-
-    /* the unloaded state (q = 0, lam = 0: an equilibrium) and the full load at it */
-    memset(w->vec1, 0, sizeof(double) * (size_t)n);
-    if (!evaluate(w, w->vec1, 0.0, st0))
-        return FG_MODEL_ERROR;
-    if (!cholesky(p, st0->K, w->la, n))
-        return FG_FALLBACK;
-    cholesky_solve(p, w->la, n, st0->Q, t0);
-    memcpy(cur->q, st0->q, sizeof(double) * (size_t)n);
-    memcpy(cur->gU, st0->gU, sizeof(double) * (size_t)n);
-    memcpy(cur->QL, st0->QL, sizeof(double) * (size_t)n);
-    memcpy(cur->QT, st0->QT, sizeof(double) * (size_t)n);
-    memcpy(cur->S, st0->S, sizeof(double) * (size_t)n * (size_t)n);
-    cur->U = st0->U;
-    cur->W = st0->W;
-    cur->V = st0->V;
-    cur->gmax = st0->gmax;
-    cur->rmax = st0->rmax;
-    at_lambda(w, cur, 1.0);
-    if (!cholesky(p, cur->K, w->la, n))
-        return FG_FALLBACK;     /* the full load may buckle the unloaded state */
-    {
-        int max_it = p->max_iterations < 12 ? p->max_iterations : 12;
-        if (!newton(w, &cur, &spare, max_it, &iterations))
+    } else {
+        /* the unloaded state (q = 0, lam = 0: an equilibrium), then the full load at once, else
+         * the continuation from it */
+        memset(w->vec1, 0, sizeof(double) * (size_t)n);
+        if (!evaluate(w, w->vec1, 0.0, st0))
+            return FG_MODEL_ERROR;
+        if (!cholesky(p, st0->K, w->la, n))
             return FG_FALLBACK;
-    }
-    if (!cholesky(p, cur->K, w->la, n))
-        return FG_FALLBACK;
-    cholesky_solve(p, w->la, n, cur->Q, t1);
-    if (!in_kernel_range(p, cur->q))
-        return FG_FALLBACK;
-
-    /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
-    for (j = 0; j < 3; ++j) {
-        double t = samples[j], *qt = w->vec4, *corr = w->vec3;
-        double h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
-        double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
-        for (i = 0; i < n; ++i)
-            qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * cur->q[i] + h11 * t1[i];
-        if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
+        if (p->max_steps < 1)
             return FG_FALLBACK;
-        cholesky_solve(p, w->la, n, smp->r, corr);
-        if (!(norm_inf(corr, n) <= 0.2 * p->max_dq) || !in_kernel_range(p, qt))
-            return FG_FALLBACK;
+        if (direct_solve(w, st0, &cur, &spare, smp, &iterations)) {
+            w->switched = 0;      /* trial steps past a kernel's range are no part of the path */
+        } else {
+            fg_state *path = st0, *a = cur, *b = spare;
+            iterations = 0;       /* a rejected direct attempt leaves no trace */
+            w->switched = 0;
+            if (!continuation(w, &path, &a, &b, &iterations))
+                return FG_FALLBACK;
+            cur = path;
+            spare = a;
+        }
     }
-
-    return finish(w, cur, spare, iterations, out);
+    /* any kernel switch on the way (even a trial step): the Python solver warns of it */
+    if (w->switched)
+        return FG_FALLBACK;
+    i = finish(w, cur, spare, iterations, out);
+    return i == FG_SOLVED && w->switched ? FG_FALLBACK : i;
 }

@@ -65,7 +65,9 @@ typedef struct {
     const double *stiffness;     /* ndof: diagonal of the elastic energy's Hessian */
     double tol;                  /* relative residual of an equilibrium */
     double max_dq;               /* largest change of a coordinate along the path */
-    int max_iterations;
+    int max_iterations;          /* Newton iterations per load step */
+    int max_steps;               /* continuation steps */
+    double initial_step, max_step, min_step;   /* load-factor steps of the continuation */
     fg_lapack lapack;
     const double *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
 } fg_problem;

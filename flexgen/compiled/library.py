@@ -53,6 +53,8 @@ class Problem(ctypes.Structure):
                 ("route_start", _c_int_p), ("route_len", _c_int_p), ("route", _c_int_p),
                 ("outputs", _c_int_p), ("stiffness", _c_double_p), ("tol", ctypes.c_double),
                 ("max_dq", ctypes.c_double), ("max_iterations", ctypes.c_int),
+                ("max_steps", ctypes.c_int), ("initial_step", ctypes.c_double),
+                ("max_step", ctypes.c_double), ("min_step", ctypes.c_double),
                 ("lapack", Lapack), ("q0", _c_double_p)]
 
 

@@ -48,8 +48,8 @@ class Plan:
     """A scene's C problem, its workspace and its answer buffers (reusable for repeated solves
     of the same scene and models; not thread-safe: one solve at a time)."""
 
-    def __init__(self, chain: Chain, loads, tendons, outputs: list[str], tol: float,
-                 max_dq: float, max_iterations: int, flexures, stiffness):
+    def __init__(self, chain: Chain, loads, tendons, outputs: list[str], settings: dict,
+                 flexures, stiffness):
         self.outputs = outputs
         order = chain._flex_order
         index = {name: i for i, name in enumerate(order)}
@@ -90,7 +90,8 @@ class Plan:
         p.route = ints(route or [0])
         p.outputs = ints([pindex[ref] for ref in outputs] or [0])
         p.stiffness = doubles(stiffness)
-        p.tol, p.max_dq, p.max_iterations = tol, max_dq, max_iterations
+        for key, value in {**DEFAULTS, **settings}.items():
+            setattr(p, key, value)
         p.lapack = lib.lapack()
         self._keep += [flex, points]
         self.problem = p
@@ -126,10 +127,18 @@ class Plan:
         return self._solve(*self._args)
 
 
-def build_plan(chain: Chain, loads, tendons, outputs: list[str], tol: float, max_dq: float,
-               max_iterations: int) -> Plan | None:
+# the solver settings of flexgen.equilibrium.solve that the C solver takes, with its defaults
+DEFAULTS = {"tol": 1e-12, "max_iterations": 50, "max_steps": 500, "initial_step": 0.1,
+            "max_step": 0.25, "min_step": 1e-5, "max_dq": 0.5}
+
+
+def build_plan(chain: Chain, loads, tendons, outputs: list[str], **settings) -> Plan | None:
     """The Plan of a chain with these loads ((ref, (fx, fy, m)) pairs) and tendons
-    ((tension, route) pairs), or None if a model has no C counterpart."""
+    ((tension, route) pairs), or None if a model has no C counterpart. ``settings``: any of
+    ``DEFAULTS`` (``flexgen.equilibrium.solve``'s keyword arguments of the same names)."""
+    unknown = set(settings) - set(DEFAULTS)
+    if unknown:
+        raise TypeError(f"build_plan: unknown setting {sorted(unknown)[0]!r}")
     index = {name: i for i, name in enumerate(chain._flex_order)}
     flexures, stiffness = [], np.zeros(chain.ndof)
     for name in chain._flex_order:
@@ -141,4 +150,4 @@ def build_plan(chain: Chain, loads, tendons, outputs: list[str], tol: float, max
             return None
         flexures.append(got[0])
         stiffness[chain.slices[name]] = got[1]
-    return Plan(chain, loads, tendons, outputs, tol, max_dq, max_iterations, flexures, stiffness)
+    return Plan(chain, loads, tendons, outputs, settings, flexures, stiffness)

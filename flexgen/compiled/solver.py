@@ -1,7 +1,7 @@
 """Solve a scene with the compiled chain solver and build the same Result the Python solver does.
 
 ``solve_compiled`` returns None whenever the C solver hands the scene back (``FALLBACK``: a case
-for the load continuation; ``MODEL_ERROR``), a model has no C counterpart or gcc is missing: the
+for the load continuation; ``MODEL_ERROR``), a model has no C counterpart, a kernel has no C source or gcc is missing: the
 caller then runs the Python solver, which reports such cases in full.
 
 The Plan of a (scene, models, solver settings) is kept (the last ``CACHE_SIZE`` of them, keyed
@@ -15,6 +15,7 @@ from collections import OrderedDict
 
 import numpy as np
 
+from .. import kernels
 from ..result import PointResult, Result, ellipse
 from . import library as lib
 from .plan import build_plan
@@ -34,22 +35,20 @@ def _signature(scene, models) -> tuple | None:
     return tuple(sig)
 
 
-def solve_compiled(scene, models, *, tol: float, max_iterations: int, max_dq: float,
-                   prepare, q0=None) -> Result | None:
+def solve_compiled(scene, models, settings: dict, prepare, q0=None) -> Result | None:
     """The Result of the compiled solve, or None (run the Python solver). ``prepare()`` gives
     (chain, system, outputs, info) as the Python solver builds them, called only when no Plan
-    is cached. ``q0``: a warm start, {flexure: coordinates} (padded with zeros or truncated to
+    is cached; ``settings``: the solver settings (``plan.DEFAULTS``). ``q0``: a warm start, {flexure: coordinates} (padded with zeros or truncated to
     each model's size, as ``equilibrium._warm_start`` does)."""
-    key = (id(scene), _signature(scene, models), tol, max_iterations, max_dq)
+    key = (id(scene), _signature(scene, models), tuple(sorted(settings.items())))
     with _lock:
         entry = _plans.get(key)
         if entry is None or entry[0] is not scene:
             chain, system, outputs, info = prepare()
             try:
-                plan = build_plan(chain, system.loads, system.tendons, outputs, tol, max_dq,
-                                  max_iterations)
-            except lib.CompileError:
-                plan = None
+                plan = build_plan(chain, system.loads, system.tendons, outputs, **settings)
+            except (lib.CompileError, kernels.KernelNotFound):
+                plan = None           # no gcc, or a kernel generated for NumPy only
             entry = (scene, plan, dict(chain.slices), outputs, info)
             _plans[key] = entry
             if len(_plans) > CACHE_SIZE:
@@ -88,14 +87,14 @@ def result_of(plan, scene_name: str, slices, info: dict) -> Result:
                   load_factor=1.0, energy=float(a.energy), residual=float(a.residual))
 
 
-def prepare(scene, models=None, model_factory=None, *, tol: float = 1e-12,
-            max_iterations: int = 50, max_dq: float = 0.5):
+def prepare(scene, models=None, model_factory=None, **settings):
     """A Plan for repeated compiled solves of ``scene`` (the models as ``flexgen.equilibrium.solve``
-    builds them), or None if a model has no C counterpart. ``plan.run()`` solves (status
+    builds them; ``settings`` as ``plan.DEFAULTS``), or None if a model has no C counterpart.
+    ``plan.run()`` solves (status
     ``library.SOLVED`` or a hand-back to the Python solver); ``result_of`` gives the Result. This
     is what a controller loop, or the benchmark of the compiled solve alone, calls."""
     from ..equilibrium import prepare_system
     from ..models.registry import build_models
     models = build_models(scene, models, model_factory)
     chain, system, outputs, _ = prepare_system(scene, models)
-    return build_plan(chain, system.loads, system.tendons, outputs, tol, max_dq, max_iterations)
+    return build_plan(chain, system.loads, system.tendons, outputs, **settings)
