@@ -606,16 +606,20 @@ def plot(data: BenchData, path: Path) -> None:
             for md, lab, (t, e) in zip(data.models, labels, pts):
                 if not (math.isfinite(t) and math.isfinite(e)):
                     continue
+                if md.kind == "exact" and not filled:
+                    continue                      # one solver only: drawn once, below
                 key = (md.family, filled)
+                name = ("exact (Python, shooting)" if md.kind == "exact"
+                        else f"{md.family} ({'compiled' if filled else 'Python'})")
                 ax.loglog(t * 1e3, e, MARKERS[md.family], ms=8 if filled else 7,
                           color=COLORS[md.family], mfc=COLORS[md.family] if filled else "none",
-                          alpha=1.0 if filled else 0.6,
-                          label=(f"{md.family} ({'compiled' if filled else 'Python'})"
-                                 if key not in seen else None))
+                          alpha=1.0 if filled else 0.6, label=name if key not in seen else None)
                 seen.add(key)
-                if filled or md.kind == "exact":
-                    ax.annotate(lab, (t * 1e3, e), textcoords="offset points", xytext=(5, 4),
-                                fontsize=7)
+                if filled:       # poly labels below-left of the marker, the rest above-right
+                    left = md.family == "scm-poly"
+                    ax.annotate(lab, (t * 1e3, e), textcoords="offset points",
+                                xytext=(-5, -10) if left else (5, 4),
+                                ha="right" if left else "left", fontsize=7)
             front = pareto_front(pts)
             ax.step([pts[i][0] * 1e3 for i in front], [pts[i][1] for i in front], where="post",
                     color="tab:green" if filled else "tab:gray", lw=1.5, alpha=0.7,
