@@ -1,14 +1,14 @@
 /* The compiled chain solver: equilibrium and compliance of a scene in one call.
  *
- * The same mathematics as flexgen/chain.py and flexgen/equilibrium.py (read their docstrings
- * first), for the common case: Newton at the full load straight from the unloaded state, accepted
- * only when every check of equilibrium._direct_solve passes (the stiffness at the unloaded state
- * under the full load is positive definite, Newton converges, the end state is stable, the
- * cubic Hermite path between the ends is stable and close to equilibrium where sampled, every
- * smooth curvature flexure stays in its kernel's range along it), or a warm start from a given q0
- * (equilibrium._warm_start). Anything else (buckling, snap-through, a kernel switch, a singular
- * stiffness) returns FG_FALLBACK and the Python solver runs its load continuation, which handles
- * and reports those cases.
+ * The same mathematics and the same algorithm as flexgen/chain.py and flexgen/equilibrium.py
+ * (read their docstrings first), step for step: the full load in one Newton solve from the
+ * unloaded state when every check of equilibrium._direct_solve passes (direct_solve), else the
+ * load continuation (continuation), or a warm start from a given q0; then polishing and the
+ * compliance of the output points (finish). Where the Python solver would do more than that --
+ * a step loses stability (a bifurcation, such as Euler buckling, or a limit point), the path
+ * ends, a kernel switches from the polynomial to the Gauss kernel (the Python solver warns of
+ * it) -- fg_solve returns FG_FALLBACK and the Python solver runs the scene, locating and
+ * reporting those cases. So the two give the same answers (tests/test_compiled.py).
  *
  * Flexure models: the generated smooth curvature kernels (scm{N}, scm{N}_gauss{G}: function
  * pointers, so this file needs no header of theirs), the n-element chain ("fem", the same
