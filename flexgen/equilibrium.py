@@ -58,7 +58,7 @@ import scipy.linalg
 
 from .chain import Chain, ChainError
 from .models.base import FlexureModel
-from .result import PointResult, Result, ellipse
+from .result import UNSTABLE, Result, point_result
 from .scene import Flexure, Scene
 
 _EVAL_ERRORS = (ValueError, ArithmeticError, np.linalg.LinAlgError)
@@ -742,16 +742,9 @@ def _result(scene, chain, system, st: State, outputs, info, iterations, warnings
     _restore_kinematics(chain, st)
     stable = _cholesky_ok(st.K)
     if not stable:
-        warnings.append("the equilibrium is unstable: the stiffness matrix is not positive definite")
-    points = {}
-    for ref in outputs:
-        pose = chain.point_j(ref, st.q)[0]
-        C3 = compliance(system, st, ref)
-        if not np.all(np.isfinite(C3)):
-            warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
-        C2 = C3[:2, :2]
-        points[ref] = PointResult(pose=[float(x) for x in pose], compliance=C2.tolist(),
-                                  ellipse=ellipse(C2), compliance3=C3.tolist())
+        warnings.append(UNSTABLE)
+    points = {ref: point_result(ref, chain.point_j(ref, st.q)[0], compliance(system, st, ref),
+                                warnings) for ref in outputs}
     q = {name: [float(x) for x in v] for name, v in chain.split(st.q).items()}
     res = Result(scene=scene.name, converged=True, stable=stable, iterations=iterations,
                  model=info, q=q, points=points, warnings=warnings, reason=None,

@@ -50,6 +50,19 @@ class PointResult:
                 "ellipse": dict(self.ellipse)}
 
 
+def point_result(ref: str, pose, C3: np.ndarray, warnings: list[str]) -> PointResult:
+    """The PointResult of an output point from its pose and 3x3 compliance (both solvers build
+    theirs here); a non-finite compliance adds its warning to ``warnings``."""
+    if not np.all(np.isfinite(C3)):
+        warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
+    C2 = C3[:2, :2]
+    return PointResult(pose=[float(x) for x in pose], compliance=C2.tolist(), ellipse=ellipse(C2),
+                       compliance3=C3.tolist())
+
+
+UNSTABLE = "the equilibrium is unstable: the stiffness matrix is not positive definite"
+
+
 @dataclass
 class Result:
     scene: str

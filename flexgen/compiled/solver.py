@@ -16,7 +16,7 @@ from collections import OrderedDict
 import numpy as np
 
 from .. import kernels
-from ..result import PointResult, Result, ellipse
+from ..result import UNSTABLE, Result, point_result
 from . import library as lib
 from .plan import build_plan
 
@@ -71,15 +71,9 @@ def result_of(plan, scene_name: str, slices, info: dict) -> Result:
     warnings: list[str] = []
     stable = bool(a.stable)
     if not stable:
-        warnings.append("the equilibrium is unstable: the stiffness matrix is not positive definite")
-    points = {}
-    for i, ref in enumerate(plan.outputs):
-        C3 = plan.compliance[i]
-        if not np.all(np.isfinite(C3)):
-            warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
-        C2 = C3[:2, :2]
-        points[ref] = PointResult(pose=plan.pose[i].tolist(), compliance=C2.tolist(),
-                                  ellipse=ellipse(C2), compliance3=C3.tolist())
+        warnings.append(UNSTABLE)
+    points = {ref: point_result(ref, plan.pose[i], plan.compliance[i].copy(), warnings)
+              for i, ref in enumerate(plan.outputs)}
     q = plan.q
     return Result(scene=scene_name, converged=True, stable=stable, iterations=int(a.iterations),
                   model=info, q={name: q[sl].tolist() for name, sl in slices.items()},
