@@ -406,12 +406,14 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
         settings = dict(tol=tol, max_iterations=max_iterations, max_steps=max_steps,
                         initial_step=initial_step, max_step=max_step, min_step=min_step,
                         max_dq=max_dq)
-        compiled = solve_compiled(scene, models, settings, prepare, q0)
+        compiled, unavailable = solve_compiled(scene, models, settings, prepare, q0)
         if compiled is not None:
             return compiled
     chain, system, outputs, info = prepare()
     sol = _Solver(system, tol, max_iterations)
     warnings: list[str] = []
+    if backend == "c" and unavailable:
+        warnings.append(unavailable)
     critical: list[float] = []
 
     def fail(reason: str, lam: float) -> Result:

@@ -28,7 +28,7 @@ def to_result(scene: Scene, sol) -> Result:
     if not sol.converged:
         reason = (f"exact solver: no equilibrium found beyond load factor {sol.load_factor:.6g}"
                   + (f" ({warnings[0]})" if warnings else ""))
-        return Result(scene=scene.name, converged=False, stable=False,
+        return Result(scene=scene.name, solver="exact", converged=False, stable=False,
                       iterations=int(sol.iterations), model=info, q={}, points={},
                       warnings=warnings, reason=reason, critical_load_factors=critical,
                       load_factor=float(sol.load_factor))
@@ -44,7 +44,7 @@ def to_result(scene: Scene, sol) -> Result:
         warnings.append("the equilibrium is unstable (exact solver: the shooting Jacobian's "
                         "determinant changed sign along the load path)")
     q = {name: [float(x) for x in v] for name, v in sol.root_loads.items()}
-    return Result(scene=scene.name, converged=True, stable=bool(sol.stable),
+    return Result(scene=scene.name, solver="exact", converged=True, stable=bool(sol.stable),
                   iterations=int(sol.iterations), model=info, q=q, points=points,
                   warnings=warnings, reason=None, critical_load_factors=critical,
                   load_factor=float(sol.load_factor))
@@ -58,7 +58,7 @@ def solve(scene: Scene):
         sol = solve_exact(scene)
     except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
         info = {f.name: {"kind": "exact"} for f in scene.flexures}
-        return Result(scene=scene.name, converged=False, stable=False, iterations=0, model=info,
+        return Result(scene=scene.name, solver="exact", converged=False, stable=False, iterations=0, model=info,
                       q={}, points={}, reason=f"exact solver failed: {exc}",
                       load_factor=0.0), None
     return to_result(scene, sol), sol

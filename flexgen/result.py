@@ -83,6 +83,8 @@ class Result:
     # "kernel" and "error_estimate"
     tolerance: float | None = None
     error_estimate: float | None = None
+    # which solver produced it (Python API only): "python", "c" (flexgen.compiled) or "exact"
+    solver: str = "python"
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickle and deepcopy without ``_final`` (the solve's chain and final state, set by
@@ -122,7 +124,8 @@ class Result:
         """A human-readable summary."""
         lines = [f"scene: {self.scene}"]
         if self.converged:
-            lines.append(f"converged in {self.iterations} Newton iterations; "
+            by = {"c": " (compiled solver)"}.get(self.solver, "")
+            lines.append(f"converged in {self.iterations} Newton iterations{by}; "
                          f"{'stable' if self.stable else 'UNSTABLE'} equilibrium")
         else:
             lines.append(f"NOT converged after {self.iterations} Newton iterations: {self.reason}")

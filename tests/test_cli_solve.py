@@ -310,7 +310,7 @@ def test_backend_c_gives_the_json_of_backend_python(capsys, monkeypatch, finger_
 
     def spy(*args, **kwargs):                          # the flag must reach the compiled solver
         res = compiled_solve(*args, **kwargs)
-        ran.append(res is not None)
+        ran.append(res[0] is not None)
         return res
 
     compiled_solve = compiled.solve_compiled

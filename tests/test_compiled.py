@@ -130,7 +130,7 @@ def spy(monkeypatch):
 
     def compiled(*args, **kwargs):
         got = real_compiled(*args, **kwargs)
-        log["compiled"].append(got is not None)
+        log["compiled"].append(got[0] is not None)
         return got
 
     def direct(*args, **kwargs):
@@ -487,7 +487,23 @@ def test_missing_c_kernel_falls_back(monkeypatch, spy):
     monkeypatch.setattr(clib, "kernel_functions", missing)
     scene = example("cantilever_tip_load")
     rp, rc, _, taken = solve_both(scene, spy, model_factory=scm(3))
-    assert not taken and differences(scene, rp, rc) == []
+    assert not taken and rc.solver == "python"
+    # the same answer, and a warning that the compiled solver was unavailable, naming why
+    note = [w for w in rc.warnings if w not in rp.warnings]
+    assert len(note) == 1 and "backend 'c' is unavailable" in note[0] and "scm3" in note[0]
+    rc.warnings = rp.warnings
+    assert differences(scene, rp, rc) == []
+
+
+def test_solver_field_and_table_say_which_solver_answered():
+    scene = example("cantilever_tip_load")
+    rc = solve(scene, backend="c", model_factory=scm(3))
+    rp = solve(scene, model_factory=scm(3))
+    assert rc.solver == "c" and rp.solver == "python"
+    assert "(compiled solver)" in rc.table() and "(compiled solver)" not in rp.table()
+    assert "solver" not in rc.contract()          # not part of the JSON contract
+    buckled = solve(example("rectangular_elastica"), backend="c", model_factory=scm(3))
+    assert buckled.solver == "python"             # handed back: the continuation crossed buckling
 
 
 def test_plan_cache_tells_models_and_settings_apart(spy):

@@ -1,8 +1,9 @@
 """Solve a scene with the compiled chain solver and build the same Result the Python solver does.
 
-``solve_compiled`` returns None whenever the C solver hands the scene back (``FALLBACK``: a case
-for the load continuation; ``MODEL_ERROR``), a model has no C counterpart, a kernel has no C source or gcc is missing: the
-caller then runs the Python solver, which reports such cases in full.
+``solve_compiled`` gives no Result whenever the C solver hands the scene back (``FALLBACK``: a
+case the Python solver reports in full; ``MODEL_ERROR``), a model has no C counterpart, a kernel
+has no C source or gcc is missing: the caller then runs the Python solver (and, for the last two,
+warns that the compiled solver was unavailable).
 
 The Plan of a (scene, models, solver settings) is kept (the last ``CACHE_SIZE`` of them, keyed
 by the scene object and the models' parameters), so solving the same scene again, as a
@@ -35,25 +36,34 @@ def _signature(scene, models) -> tuple | None:
     return tuple(sig)
 
 
-def solve_compiled(scene, models, settings: dict, prepare, q0=None) -> Result | None:
-    """The Result of the compiled solve, or None (run the Python solver). ``prepare()`` gives
-    (chain, system, outputs, info) as the Python solver builds them, called only when no Plan
-    is cached; ``settings``: the solver settings (``plan.DEFAULTS``). ``q0``: a warm start, {flexure: coordinates} (padded with zeros or truncated to
-    each model's size, as ``equilibrium._warm_start`` does)."""
+def solve_compiled(scene, models, settings: dict, prepare,
+                   q0=None) -> tuple[Result | None, str | None]:
+    """(the Result of the compiled solve, None) or (None, why not | None): None means run the
+    Python solver; "why not" is set when the compiled solver is unavailable for this scene (no
+    gcc, a kernel without C source), for the caller to warn of, and None when the C solver
+    handed the scene back or a model has no C counterpart (the same answer follows, slower).
+
+    ``prepare()`` gives (chain, system, outputs, info) as the Python solver builds them, called
+    only when no Plan is cached; ``settings``: the solver settings (``plan.DEFAULTS``); ``q0``:
+    a warm start, {flexure: coordinates} (padded with zeros or truncated to each model's size,
+    as ``equilibrium._warm_start`` does)."""
     key = (id(scene), _signature(scene, models), tuple(sorted(settings.items())))
     with _lock:
         entry = _plans.get(key)
         if entry is None or entry[0] is not scene:
             chain, system, outputs, info = prepare()
+            unavailable = None
             try:
                 plan = build_plan(chain, system.loads, system.tendons, outputs, **settings)
-            except (lib.CompileError, kernels.KernelNotFound):
+            except (lib.CompileError, kernels.KernelNotFound) as exc:
                 plan = None           # no gcc, or a kernel generated for NumPy only
-            entry = (scene, plan, dict(chain.slices), outputs, info)
+                unavailable = (f"backend 'c' is unavailable ({exc}); solved by the Python "
+                               f"solver")
+            entry = (scene, plan, dict(chain.slices), outputs, info, unavailable)
             _plans[key] = entry
             if len(_plans) > CACHE_SIZE:
                 _plans.popitem(last=False)
-        scene_, plan, slices, outputs, info = entry
+        scene_, plan, slices, outputs, info, unavailable = entry
         start = None
         if plan is not None and q0 is not None:
             start = np.zeros(plan.q.size)
@@ -61,8 +71,8 @@ def solve_compiled(scene, models, settings: dict, prepare, q0=None) -> Result | 
                 v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]
                 start[sl.start:sl.start + v.size] = v
         if plan is None or plan.run(start) != lib.SOLVED:
-            return None
-        return result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()})
+            return None, unavailable
+        return result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()}), None
 
 
 def result_of(plan, scene_name: str, slices, info: dict) -> Result:
@@ -78,7 +88,8 @@ def result_of(plan, scene_name: str, slices, info: dict) -> Result:
     return Result(scene=scene_name, converged=True, stable=stable, iterations=int(a.iterations),
                   model=info, q={name: q[sl].tolist() for name, sl in slices.items()},
                   points=points, warnings=warnings, reason=None, critical_load_factors=[],
-                  load_factor=1.0, energy=float(a.energy), residual=float(a.residual))
+                  load_factor=1.0, energy=float(a.energy), residual=float(a.residual),
+                  solver="c")
 
 
 def prepare(scene, models=None, model_factory=None, **settings):
