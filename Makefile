@@ -1,7 +1,7 @@
 # flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
 PYTHON ?= python3
 
-.PHONY: setup test regen check-generated bench bench-kernels bench-growth bench-models demo
+.PHONY: setup test regen check-generated bench bench-kernels bench-growth bench-models bench-solver demo
 
 setup:
 	$(PYTHON) -m pip install --quiet -e ".[test]"
@@ -17,12 +17,16 @@ check-generated:
 	$(PYTHON) -m flexgen generate --out generated --check
 
 # Every benchmark page under docs/ (about 8 minutes on 2 cores).
-bench: bench-kernels bench-growth bench-models
+bench: bench-kernels bench-growth bench-models bench-solver
 
 # flexgen bench (accuracy vs speed) and flexgen stability (where models fail) into docs/
 bench-models:
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) -m flexgen bench --out docs
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) -m flexgen stability --out docs
+
+# time per solve: the Python solver, backend c, the compiled solve; LAPACK vs built-in
+bench-solver:
+	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/solver_speed.py --out docs/solver-speed.md
 
 bench-kernels:
 	$(PYTHON) benchmarks/kernels.py --out docs/benchmarks.md

@@ -647,6 +647,11 @@ def format_error(x: float) -> str:
     return "0" if x == 0 else f"{x:.1e}"
 
 
+def _lapack_min_size() -> int:
+    from flexgen.compiled.library import LAPACK_MIN_SIZE
+    return LAPACK_MIN_SIZE
+
+
 def render_markdown(data: BenchData) -> str:
     tg = data.targets
     L = ["# Accuracy against speed", "",
@@ -676,8 +681,8 @@ def render_markdown(data: BenchData) -> str:
          "scene flattened once, as a controller loop calls it (ctypes call included). Where the C "
          "solver hands a scene back to the Python solver (buckling, snap-through, a kernel "
          "switch), the backend c time of that scene counts instead. Linear algebra: SciPy's "
-         "LAPACK from 16 coordinates on (the same routines numpy.linalg runs for the Python "
-         "solver), built-in factorizations below.",
+         f"LAPACK from {_lapack_min_size()} coordinates on (the same routines numpy.linalg runs "
+         "for the Python solver), built-in factorizations below.",
          "- **C ns/call**: one call of the generated C kernel (pose, J, H) in double, timed "
          "with `benchmarks/kernels.py`'s harness (min over repeats).",
          "- cc is one Legendre mode (`auto` kernel); `scmN poly` uses the polynomial kernel only "

@@ -129,8 +129,9 @@ _loaded: list[ctypes.CDLL] = []
 
 # From this many coordinates on the solver factorizes with LAPACK (the one SciPy ships, the same
 # code numpy.linalg and scipy.linalg run for the Python solver); below it the built-in unblocked
-# factorizations are faster (no call overhead). Measured: benchmarks/solver_speed.py.
-LAPACK_MIN_SIZE = 16
+# factorizations are faster (no call overhead). Measured with benchmarks/solver_speed.py
+# (docs/solver-speed.md): built-in faster at 16 coordinates (fem16), LAPACK from 32 on.
+LAPACK_MIN_SIZE = 32
 
 
 @lru_cache(maxsize=None)
