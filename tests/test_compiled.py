@@ -640,3 +640,28 @@ def test_plan_runs_twice_identically(name, factory, scenes):
     ref = solve(scene, model_factory=factory)
     assert np.allclose(chain.pack(ref.q), first[0], rtol=0, atol=1e-9)
     assert first[5] == ref.iterations
+
+
+def test_validity_check_reuses_the_compiled_stiffness():
+    """flexgen.solve runs the validity check on every answer; from a compiled answer it reuses the
+    C solver's final stiffness (Result._final), which must be the one the Python System gives at
+    that equilibrium, and the API's answers (validity warnings included) match the Python ones."""
+    from flexgen import validity
+    from flexgen.api import solve as api_solve
+    scene = example("two_link_finger")
+    rc = solve(scene, backend="c")
+    assert rc.solver == "c"
+    models = build_models(scene, None, None)
+    assert validity._reusable_state(scene, models, rc.q, rc._final) is not None
+    chain = Chain(scene, models)
+    K = eq.System(chain).state(chain.pack(rc.q), 1.0).K
+    np.testing.assert_allclose(rc._final[2].K, K, rtol=1e-10, atol=1e-12 * np.abs(K).max())
+    reused = validity.stiffness_margin(scene, models, rc.q, rc._final)
+    fresh = validity.stiffness_margin(scene, models, rc.q, None)
+    assert reused == pytest.approx(fresh, rel=1e-9) and 0 < reused < 1
+    for name in ("two_link_finger", "cantilever_tip_load", "arc_moment"):
+        a, b = api_solve(example(name)), api_solve(example(name), backend="c")
+        assert b.solver == "c" and a.warnings == b.warnings
+        assert a.error_class.keys() == b.error_class.keys()
+        for k in a.error_class:
+            assert b.error_class[k] == pytest.approx(a.error_class[k], rel=1e-9), k

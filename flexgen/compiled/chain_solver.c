@@ -753,6 +753,8 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, int iterations, fg_a
     out->energy = cur->U;
     out->residual = cur->rel;
     memcpy(out->q, cur->q, sizeof(double) * (size_t)n);
+    if (out->stiffness != NULL)
+        memcpy(out->stiffness, cur->K, sizeof(double) * (size_t)n * (size_t)n);
     for (j = 0; j < p->noutputs; ++j) {
         int pt = p->outputs[j];
         const double *J = w->pJ + (size_t)3 * n * pt;

@@ -76,6 +76,7 @@ typedef struct {
     double *q;            /* ndof: the equilibrium */
     double *pose;         /* 3 noutputs: world x, y, angle */
     double *compliance;   /* 9 noutputs: 3 x 3 d(x, y, angle)/d(fx, fy, moment) */
+    double *stiffness;    /* ndof x ndof: the stiffness K at the equilibrium (NULL: not wanted) */
     double energy, residual;
     int iterations, stable;
 } fg_answer;

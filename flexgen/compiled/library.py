@@ -60,6 +60,7 @@ class Problem(ctypes.Structure):
 
 class Answer(ctypes.Structure):
     _fields_ = [("q", _c_double_p), ("pose", _c_double_p), ("compliance", _c_double_p),
+                ("stiffness", _c_double_p),
                 ("energy", ctypes.c_double), ("residual", ctypes.c_double),
                 ("iterations", ctypes.c_int), ("stable", ctypes.c_int)]
 

@@ -102,10 +102,12 @@ class Plan:
         self.q = np.empty(n)
         self.pose = np.empty((max(len(outputs), 1), 3))
         self.compliance = np.empty((max(len(outputs), 1), 3, 3))
+        self.K = np.empty((n, n))
         a = lib.Answer()
         a.q = self.q.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         a.pose = self.pose.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         a.compliance = self.compliance.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        a.stiffness = self.K.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         self.answer = a
         self._args = (ctypes.byref(p), self.work.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
                       self.iwork.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), ctypes.byref(a))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
+from typing import NamedTuple
 
 import numpy as np
 
@@ -59,11 +60,12 @@ def solve_compiled(scene, models, settings: dict, prepare,
                 plan = None           # no gcc, or a kernel generated for NumPy only
                 unavailable = (f"backend 'c' is unavailable ({exc}); solved by the Python "
                                f"solver")
-            entry = (scene, plan, dict(chain.slices), outputs, info, unavailable)
+            entry = (scene, plan, chain, system, outputs, info, unavailable)
             _plans[key] = entry
             if len(_plans) > CACHE_SIZE:
                 _plans.popitem(last=False)
-        scene_, plan, slices, outputs, info, unavailable = entry
+        scene_, plan, chain, system, outputs, info, unavailable = entry
+        slices = chain.slices
         start = None
         if plan is not None and q0 is not None:
             start = np.zeros(plan.q.size)
@@ -72,7 +74,18 @@ def solve_compiled(scene, models, settings: dict, prepare,
                 start[sl.start:sl.start + v.size] = v
         if plan is None or plan.run(start) != lib.SOLVED:
             return None, unavailable
-        return result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()}), None
+        res = result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()})
+        # the chain and final stiffness, for the validity check to reuse (as equilibrium._result
+        # leaves them): q and K copied, the chain and system those of this plan
+        res._final = (chain, system, FinalState(plan.q.copy(), 1.0, plan.K.copy()))
+        return res, None
+
+
+class FinalState(NamedTuple):
+    """The part of an equilibrium.State the validity check reads (``validity.stiffness_margin``)."""
+    q: np.ndarray
+    lam: float
+    K: np.ndarray
 
 
 def result_of(plan, scene_name: str, slices, info: dict) -> Result:
