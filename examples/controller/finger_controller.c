@@ -201,6 +201,7 @@ int main(int argc, char **argv)
                 (unsigned long)fg_iwork_size(&finger.problem), WORK_MAX, IWORK_MAX);
         return 1;
     }
+    memset(&answer, 0, sizeof answer);      /* NULL for every output not wanted (stiffness) */
     answer.q = q;
     answer.pose = pose;
     answer.compliance = compliance;
