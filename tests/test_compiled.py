@@ -665,3 +665,17 @@ def test_validity_check_reuses_the_compiled_stiffness():
         assert a.error_class.keys() == b.error_class.keys()
         for k in a.error_class:
             assert b.error_class[k] == pytest.approx(a.error_class[k], rel=1e-9), k
+
+
+def test_cache_dir_falls_back_to_the_temp_dir(monkeypatch, tmp_path):
+    """$FLEXGEN_CACHE wins; without it ~/.cache/flexgen; with no usable home a temp folder."""
+    monkeypatch.setenv("FLEXGEN_CACHE", str(tmp_path / "c"))
+    assert clib.cache_dir() == tmp_path / "c"
+    monkeypatch.delenv("FLEXGEN_CACHE")
+    monkeypatch.setattr(Path, "home", staticmethod(lambda: tmp_path / "h"))
+    assert clib.cache_dir() == tmp_path / "h" / ".cache" / "flexgen"
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setattr(Path, "home", staticmethod(lambda: blocker))
+    got = clib.cache_dir()
+    assert got.parent == Path(__import__("tempfile").gettempdir()) and "flexgen" in got.name

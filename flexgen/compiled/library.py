@@ -3,7 +3,8 @@
 Each C source (``flexgen/compiled/chain_solver.c``, ``generated/c/<kernel>.c``) is compiled once
 with the strict flags of ``flexgen.kernels.C_FLAGS`` into ``<cache>/<name>-<hash>.so``, the hash
 covering the source, its header and the flags, so an edited or regenerated source is rebuilt and
-an unchanged one is loaded again. ``<cache>`` is ``$FLEXGEN_CACHE`` or ``~/.cache/flexgen``.
+an unchanged one is loaded again. ``<cache>`` is ``$FLEXGEN_CACHE`` or ``~/.cache/flexgen`` (a
+folder in the temp dir when the home folder is not writable).
 The ctypes structs here mirror ``chain_solver.h``.
 """
 from __future__ import annotations
@@ -70,7 +71,17 @@ SOLVED, FALLBACK, MODEL_ERROR = 0, 1, 2
 
 
 def cache_dir() -> Path:
-    return Path(os.environ.get("FLEXGEN_CACHE") or Path.home() / ".cache" / "flexgen")
+    """$FLEXGEN_CACHE, else ~/.cache/flexgen, else (no writable home) a folder in the temp dir."""
+    if os.environ.get("FLEXGEN_CACHE"):
+        return Path(os.environ["FLEXGEN_CACHE"])
+    home = Path.home() / ".cache" / "flexgen"
+    try:
+        home.mkdir(parents=True, exist_ok=True)
+        if os.access(home, os.W_OK):
+            return home
+    except OSError:
+        pass
+    return Path(tempfile.gettempdir()) / f"flexgen-cache-{os.getuid()}"
 
 
 def _shared_library(source: Path, headers: tuple[Path, ...] = ()) -> ctypes.CDLL:
