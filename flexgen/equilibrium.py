@@ -57,6 +57,7 @@ import numpy as np
 import scipy.linalg
 
 from .chain import Chain, ChainError
+from .compiled import solver as compiled_solver
 from .models.base import FlexureModel
 from .result import UNSTABLE, Result, point_result
 from .scene import Flexure, Scene
@@ -402,11 +403,11 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
         return prepare_system(scene, models)
 
     if backend == "c":
-        from .compiled.solver import solve_compiled
         settings = dict(tol=tol, max_iterations=max_iterations, max_steps=max_steps,
                         initial_step=initial_step, max_step=max_step, min_step=min_step,
                         max_dq=max_dq)
-        compiled, unavailable = solve_compiled(scene, models, settings, prepare, q0)
+        compiled, unavailable = compiled_solver.solve_compiled(scene, models, settings, prepare,
+                                                                q0)
         if compiled is not None:
             return compiled
     chain, system, outputs, info = prepare()

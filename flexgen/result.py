@@ -53,11 +53,12 @@ class PointResult:
 def point_result(ref: str, pose, C3: np.ndarray, warnings: list[str]) -> PointResult:
     """The PointResult of an output point from its pose and 3x3 compliance (both solvers build
     theirs here); a non-finite compliance adds its warning to ``warnings``."""
-    if not np.all(np.isfinite(C3)):
+    c3 = np.asarray(C3, dtype=float).tolist()       # plain floats (cheaper than numpy here)
+    if not all(math.isfinite(v) for row in c3 for v in row):
         warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
-    C2 = C3[:2, :2]
-    return PointResult(pose=[float(x) for x in pose], compliance=C2.tolist(), ellipse=ellipse(C2),
-                       compliance3=C3.tolist())
+    c2 = [c3[0][:2], c3[1][:2]]
+    return PointResult(pose=[float(x) for x in pose], compliance=c2, ellipse=ellipse(c2),
+                       compliance3=c3)
 
 
 UNSTABLE = "the equilibrium is unstable: the stiffness matrix is not positive definite"
