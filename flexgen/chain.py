@@ -182,6 +182,16 @@ class Chain:
             visit(body, ())
         return order
 
+    @property
+    def flexure_order(self) -> list[str]:
+        """The flexures, every one after the flexure (if any) whose tip frame carries its root."""
+        return list(self._flex_order)
+
+    def frame_of(self, body: str) -> str:
+        """The frame a body moves with: its own for a flexure, its parent flexure's for a link,
+        ``"base"`` for the base and links on it."""
+        return self._frame_of[body]
+
     def resolve_point(self, ref: str) -> tuple[str, tuple[float, float]]:
         """``"<body>.<point>"`` -> (body, point coordinates in the body's frame); the scene's
         resolver, so unknown points raise its one-line SceneError."""

@@ -51,15 +51,15 @@ class Plan:
     def __init__(self, chain: Chain, loads, tendons, outputs: list[str], settings: dict,
                  flexures, stiffness):
         self.outputs = outputs
-        order = chain._flex_order
+        order = chain.flexure_order
         index = {name: i for i, name in enumerate(order)}
         refs = list(dict.fromkeys([ref for ref, _ in loads]
                                   + [ref for _, route in tendons for ref in route] + outputs))
         pindex = {ref: i for i, ref in enumerate(refs)}
         points = (lib.Point * max(len(refs), 1))()
         for i, ref in enumerate(refs):
-            body, xy = chain._resolve(ref)
-            frame = chain._frame_of[body]
+            body, xy = chain.resolve_point(ref)
+            frame = chain.frame_of(body)
             points[i].frame = -1 if frame == BASE else index[frame]
             points[i].x, points[i].y = xy
         n = chain.ndof
@@ -141,11 +141,12 @@ def build_plan(chain: Chain, loads, tendons, outputs: list[str], **settings) -> 
     unknown = set(settings) - set(DEFAULTS)
     if unknown:
         raise TypeError(f"build_plan: unknown setting {sorted(unknown)[0]!r}")
-    index = {name: i for i, name in enumerate(chain._flex_order)}
+    order = chain.flexure_order
+    index = {name: i for i, name in enumerate(order)}
     flexures, stiffness = [], np.zeros(chain.ndof)
-    for name in chain._flex_order:
+    for name in order:
         fl = chain.flexures[name]
-        frame = chain._frame_of[fl.parent]
+        frame = chain.frame_of(fl.parent)
         parent = -1 if frame == BASE else index[frame]
         got = _flexure_struct(chain.models[name], chain.slices[name].start, parent, fl.at)
         if got is None:
