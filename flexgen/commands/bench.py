@@ -12,8 +12,11 @@ def register(sub) -> None:
                        description=(
         "Solve the examples and a seeded set of random chains and trees with every model (cc, "
         "prb, scm2..6 with the poly and the gauss kernel, fem 4..64, exact); measure pose and "
-        "compliance errors against exact, time per solve, ns per C kernel call; write "
-        "accuracy-vs-speed.png (log-log, Pareto front) and accuracy-vs-speed.md into --out."))
+        "compliance errors against exact; time per solve three ways (the Python solver, "
+        "backend=\"c\" through the Python API, the compiled solve alone) and ns per C kernel "
+        "call; check that both backends agree; write accuracy-vs-speed.png (log-log, Pareto "
+        "fronts) and accuracy-vs-speed.md into --out. About 75 s on 2 cores; set "
+        "OPENBLAS_NUM_THREADS=1 (make bench-models does) for stable timings."))
     p.add_argument("--quick", action="store_true",
                    help="a few scenes and models (for the tests; well under a minute)")
     p.add_argument("--out", type=Path, default=REPO / "docs", help="output folder (default docs/)")
