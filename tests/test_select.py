@@ -195,6 +195,7 @@ def test_cli_select_prints_choice_and_cost(capsys):
     assert rc == 0
     assert "proximal" in out and "distal" in out
     assert "ms per solve" in out and "error estimate of the whole answer" in out
+    assert "with the Python solver" in out and "with backend c" in out
 
 
 def test_cli_select_json(capsys):
