@@ -375,9 +375,10 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     answer, otherwise the solve falls back to the continuation from the unloaded state.
 
     ``backend`` = "c" solves with the compiled chain solver (``flexgen.compiled``) where it can:
-    the same direct attempt, warm start and load continuation as here, up to the first loss of
-    stability; every case it hands back (buckling, snap-through, any kernel switch, a model
-    without a C counterpart) runs the Python solver below, so the answer is the same.
+    the same direct attempt, warm start and load continuation as here, bifurcations and
+    snap-throughs included; every case it hands back (any kernel switch, a failed warm start, a
+    solve that fails, a model without a C counterpart) runs the Python solver below, so the
+    answer is the same.
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
@@ -470,9 +471,7 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
             if new is None or not _cholesky_ok(new.K):
                 return fail(f"no equilibrium found beyond load factor {lam:.6g}: {sol.last_error}", lam)
             critical.append(float(lam))
-            warnings.append(f"snap-through: the equilibrium path ends at a limit point near load "
-                            f"factor {lam:.6g}; the solve continued from the stable equilibrium "
-                            f"it jumps to")
+            warnings.append(snap_warning(lam))
             st, lam, dlam = new, lam_n, float(initial_step)
             continue
         if used <= 3:
@@ -693,13 +692,13 @@ def _cross_bifurcation(sol: _Solver, a: State, b: State, outputs, chain: Chain,
     if not candidates:
         return None
     if len(candidates) == 1:
-        choice, why = candidates[0], "the only stable side found"
+        choice, why = candidates[0], BUCKLING_SIDES[0]
     else:
         s1, s2 = candidates
         Pscale = max(abs(s1.Pi), abs(s2.Pi), abs(s1.U), abs(s2.U), 1e-300)
         if abs(s1.Pi - s2.Pi) > 1e-9 * Pscale:
             choice = s1 if s1.Pi < s2.Pi else s2
-            why = "the side of lower potential energy"
+            why = BUCKLING_SIDES[1]
         else:
             def mean_row(s, row):
                 if not outputs:
@@ -708,15 +707,34 @@ def _cross_bifurcation(sol: _Solver, a: State, b: State, outputs, chain: Chain,
             y1, y2 = mean_row(s1, 1), mean_row(s2, 1)
             if abs(y1 - y2) > 1e-9 * max(abs(y1), abs(y2), 1e-300):
                 choice = s1 if y1 > y2 else s2
-                why = "symmetric: the side of larger world y, by convention"
+                why = BUCKLING_SIDES[2]
             else:
                 choice = s1 if mean_row(s1, 2) >= mean_row(s2, 2) else s2
-                why = "symmetric: the counter-clockwise side, by convention"
+                why = BUCKLING_SIDES[3]
     critical.append(float(lam_c))
-    warnings.append(f"buckling: bifurcation at critical load factor {lam_c:.10g} (the stiffness "
-                    f"matrix lost positive definiteness); continued on the stable post-buckled "
-                    f"branch ({why})")
+    warnings.append(buckling_warning(lam_c, why))
     return choice
+
+
+# Why the solve took the side it did past a bifurcation (the compiled solver reports the index
+# plus one: chain_solver.h's FG_BUCKLING_*).
+BUCKLING_SIDES = ("the only stable side found",
+                  "the side of lower potential energy",
+                  "symmetric: the side of larger world y, by convention",
+                  "symmetric: the counter-clockwise side, by convention")
+
+
+def buckling_warning(lam_c: float, why: str) -> str:
+    """The warning of a bifurcation crossed at critical load factor ``lam_c`` (both solvers')."""
+    return (f"buckling: bifurcation at critical load factor {lam_c:.10g} (the stiffness "
+            f"matrix lost positive definiteness); continued on the stable post-buckled "
+            f"branch ({why})")
+
+
+def snap_warning(lam: float) -> str:
+    """The warning of a path that ends at a limit point near load factor ``lam`` (both solvers')."""
+    return (f"snap-through: the equilibrium path ends at a limit point near load factor "
+            f"{lam:.6g}; the solve continued from the stable equilibrium it jumps to")
 
 
 def compliance(system: System, st: State, ref: str) -> np.ndarray:

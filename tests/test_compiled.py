@@ -7,9 +7,12 @@ the same flags, iterations, equilibrium, poses, compliances and warnings, and mu
 exactly where the Python solver's direct full-load solve is accepted. The C answers are also
 checked on their own: the Python residual at the C equilibrium, and the C compliance against
 central differences of C solves. Then: the C path really runs without the Python solver; the
-fallbacks (buckling, custom models, warm starts, a poly kernel bent past its range); the backend
-argument; the C source (strict C99, no heap, no writable globals); the reuse of a plan, its
-cache per scene, and LAPACK against the built-in factorizations.
+losses of stability it handles as the Python solver does (bifurcations crossed: Euler columns in
+every orientation, loads far beyond the Euler load, an asymmetric bifurcation under a tendon;
+snap-throughs), with the built-in and the LAPACK eigen-solver, and the capacity of its critical
+arrays; the fallbacks (kernel switches, custom models, warm starts, a poly kernel bent past its
+range); the backend argument; the C source (strict C99, no heap, no writable globals); the reuse
+of a plan, its cache per scene, and LAPACK against the built-in factorizations.
 
 Two regressions are guarded: a kernel with no C source falls back instead of raising, and a
 model instance reused across solves does not carry a kernel-switch warning from an earlier solve.
@@ -70,9 +73,10 @@ def example(name: str):
     return load_scene(EXAMPLES / f"{name}.toml")
 
 
-def cantilever(force=(0.0, 0.0), moment=0.0, L=1.0, EI=1.0):
+def cantilever(force=(0.0, 0.0), moment=0.0, L=1.0, EI=1.0, angle=0.0):
     return scene_from_dict({
-        "name": "cantilever", "flexure": [{"name": "beam", "length": L, "EI": EI}],
+        "name": "cantilever",
+        "flexure": [{"name": "beam", "length": L, "EI": EI, "at": [0.0, 0.0, angle]}],
         "load": [{"point": "beam.tip", "force": list(force), "moment": moment}],
         "output": {"points": ["beam.tip"]}})
 
@@ -164,9 +168,15 @@ def differences(scene, rp, rc) -> list[str]:
     """Every way the c result ``rc`` differs from the python result ``rp`` beyond rounding."""
     out = []
     for key in ("converged", "stable", "iterations", "warnings", "reason", "load_factor",
-                "critical_load_factors", "model"):
+                "model"):
         if getattr(rp, key) != getattr(rc, key):
             out.append(f"{key}: python {getattr(rp, key)!r}, c {getattr(rc, key)!r}")
+    # the critical load factors (bifurcations, snap-throughs): located by the same steps, to
+    # rounding (the warnings above quote them to 10 digits, identically)
+    cp, cc = rp.critical_load_factors, rc.critical_load_factors
+    if len(cp) != len(cc) or not all(math.isclose(a, b, rel_tol=1e-9, abs_tol=0.0)
+                                     for a, b in zip(cp, cc)):
+        out.append(f"critical_load_factors: python {cp!r}, c {cc!r}")
     if rp.q.keys() != rc.q.keys():
         out.append(f"q flexures: python {sorted(rp.q)}, c {sorted(rc.q)}")
     else:
@@ -229,16 +239,18 @@ def test_c_backend_agrees_with_python(label, scenes, spy):
     for name, scene in cases:
         rp, rc, direct, taken = solve_both(scene, spy, model_factory=factory)
         problems += [f"{name}: {p}" for p in differences(scene, rp, rc)]
-        # the C solver answers wherever the Python direct solve is accepted, and otherwise only
-        # along a continuation that never lost stability or switched kernels
+        # the C solver answers every solve the Python solver converges on (bifurcations and
+        # snap-throughs included) unless a kernel switched (the Python solver warns of it)
+        switched = any("switched to the Gauss kernel" in w for w in rp.warnings)
         if direct and not taken:
             problems.append(f"{name}: python direct solve accepted, c handed it back")
-        if taken and (rp.critical_load_factors
-                      or any("switched to the Gauss kernel" in w for w in rp.warnings)):
-            problems.append(f"{name}: c answered a solve that buckled, snapped or switched")
+        if rp.converged and not switched and not taken:
+            problems.append(f"{name}: c handed back a solve without a kernel switch")
+        if taken and switched:
+            problems.append(f"{name}: c answered a solve that switched kernels")
         if taken:
             taken_count += 1
-            assert rc.critical_load_factors == [] and rc.converged and rc.stable
+            assert rc.converged and rc.stable
             rel = python_residual(scene, factory, rc)
             if not rel <= TOL:
                 problems.append(f"{name}: python residual at the c equilibrium {rel:.3g}")
@@ -312,7 +324,7 @@ def test_c_compliance_matches_finite_differences(name, factory, scenes, spy):
         assert rel <= 1e-6, (ref, rel, C, fd)
 
 
-# -- 2. the C path really runs, and hands buckling back ------------------------------------------
+# -- 2. the C path really runs without the Python solver -----------------------------------------
 
 def test_cantilever_is_solved_without_the_python_solver(monkeypatch):
     scene = example("cantilever_tip_load")
@@ -342,20 +354,210 @@ def _plan_for(scene, factory, tol=TOL, max_dq=0.5, max_iterations=50):
                              max_dq=max_dq, max_iterations=max_iterations)
 
 
-def test_buckling_falls_back_and_reports_the_critical_load(spy):
+# -- 2b. stability along the path, in C: bifurcations crossed, snap-throughs ----------------------
+
+EULER = math.pi ** 2 / 4          # the first Euler load of a cantilever, EI = L = 1
+ELASTICA = 3.4375929              # the load of examples/rectangular_elastica.toml
+SNAP = dict(force=(-1.74574099, -4.67920763), moment=3.478735754260268)   # a fold near 0.5457
+WHY = dict(zip(("only", "lower", "y", "ccw"), eq.BUCKLING_SIDES))
+# the models whose kernels never switch on these paths ("auto" passes the polynomial range of
+# 90 degrees in the post-buckled elastica: a kernel switch, handed back), and the n-element chain
+STABILITY_FACTORIES = {"scm3 gauss": scm(3, "gauss"), "scm5 gauss": scm(5, "gauss"),
+                       "fem16": fem(16)}
+
+
+def column(P: float, angle: float):
+    """A cantilever along ``angle`` under the axial compressive tip load P."""
+    return cantilever(force=(-P * math.cos(angle), -P * math.sin(angle)), angle=angle)
+
+
+def tendon_column(T: float, ry: float):
+    """A tendon from base point (0, ry) to the tip of a flexure along x, and the dead tip load
+    that cancels its transverse pull: the straight state stays an equilibrium, but the tendon
+    turns with the tip and a dead load does not, so the bifurcation is not a symmetric one (the
+    sides differ in potential energy)."""
+    return scene_from_dict({
+        "name": "tendon column", "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
+        "base": {"points": {"r0": [0.0, ry]}},
+        "tendon": [{"tension": T, "route": ["base.r0", "a.tip"]}],
+        "load": [{"point": "a.tip", "force": [0.0, -T * ry / math.hypot(1.0, ry)],
+                  "moment": 0.0}],
+        "output": {"points": ["a.tip"]}})
+
+
+def assert_answered_in_c(scene, spy, factory):
+    """Both backends; the C solver answered (the Python solver never ran) with Python's answer:
+    q, poses, compliances, iterations, identical warnings, critical load factors to 1e-9."""
+    rp, rc, direct, taken = solve_both(scene, spy, model_factory=factory)
+    assert rp.converged and rp.stable
+    assert not direct and taken and rc.solver == "c"
+    assert differences(scene, rp, rc) == []
+    assert rc.iterations == rp.iterations and rc.warnings == rp.warnings
+    return rp, rc
+
+
+def buckling_sides(result) -> list[str]:
+    """The why of each bifurcation warning, or "snap" for a snap-through."""
+    out = []
+    for w in result.warnings:
+        if w.startswith("snap-through"):
+            out.append("snap")
+        elif w.startswith("buckling"):
+            out.append(next(k for k, why in WHY.items() if w.endswith(f"({why})")))
+    return out
+
+
+@pytest.mark.parametrize("label", list(STABILITY_FACTORIES))
+def test_rectangular_elastica_buckles_in_c(label, spy):
     scene = example("rectangular_elastica")
-    _, plan = _plan_for(scene, scm(3))
+    rp, rc = assert_answered_in_c(scene, spy, STABILITY_FACTORIES[label])
+    assert len(rc.critical_load_factors) == 1
+    # Euler: P_cr = pi^2 EI / (4 L^2) of the applied load (these models: within 2e-3)
+    assert abs(rc.critical_load_factors[0] / (EULER / ELASTICA) - 1.0) < 2e-3
+    assert buckling_sides(rc) == ["y"]
+    assert rc.warnings == [eq.buckling_warning(rp.critical_load_factors[0], WHY["y"])]
+    x, y, th = rc.points["beam.tip"].pose          # the exact elastica: 0.456947, 0.762760, 90 deg
+    assert abs(x - 0.456947) < 2e-3 and abs(y - 0.762760) < 2e-3 and abs(th - math.pi / 2) < 1e-2
+
+
+@pytest.mark.parametrize("modes", [3, 5])
+def test_rectangular_elastica_with_the_auto_kernel_is_handed_back(modes, spy):
+    """The scene's own model (scm "auto") passes the polynomial kernel's range on the way (the
+    Python solver warns of the switch): handed back, the same answer."""
+    scene = example("rectangular_elastica")
+    _, plan = _plan_for(scene, scm(modes))
     assert plan is not None and plan.run() == clib.FALLBACK
-    rp, rc, direct, taken = solve_both(scene, spy, model_factory=scm(3))
+    rp, rc, direct, taken = solve_both(scene, spy, model_factory=scm(modes))
     assert not direct and not taken and spy["direct"] == [False]      # the fallback ran
     assert differences(scene, rp, rc) == []
-    assert rc.critical_load_factors == rp.critical_load_factors
+    assert any("switched to the Gauss kernel" in w for w in rc.warnings)
     assert len(rc.critical_load_factors) == 1
-    # Euler: P_cr = pi^2 EI / (4 L^2), the applied load 3.4375929 (scm3: within 1e-3)
-    euler = math.pi ** 2 / 4 / 3.4375929
-    assert abs(rc.critical_load_factors[0] / euler - 1.0) < 1e-3
-    assert any(w.startswith("buckling: bifurcation at critical load factor") for w in rc.warnings)
-    assert rc.warnings == rp.warnings
+
+
+@pytest.mark.parametrize("label", list(STABILITY_FACTORIES))
+@pytest.mark.parametrize("angle, side", [
+    (0.0, "y"), (0.3, "y"), (2.0, "y"), (math.pi, "y"),      # buckles to larger world y
+    (math.pi / 2, "ccw"), (-math.pi / 2, "ccw"),             # y the same: counter-clockwise
+])
+def test_euler_column_breaks_symmetry_the_same_way(label, angle, side, spy):
+    """A cantilever turned by ``angle`` under an axial load beyond its first Euler load: the
+    straight state loses stability at a symmetric pitchfork; both solvers find the same critical
+    load and take the same side, whichever sign the eigen-solvers give the lost mode."""
+    scene = column(ELASTICA, angle)
+    rp, rc = assert_answered_in_c(scene, spy, STABILITY_FACTORIES[label])
+    assert buckling_sides(rc) == [side]
+    assert abs(rc.critical_load_factors[0] / (EULER / ELASTICA) - 1.0) < 2e-3
+    # the side taken: the tip moved up (larger world y) or turned counter-clockwise
+    x, y, th = rc.points["beam.tip"].pose
+    if side == "y":
+        assert y > 0.5 * math.cos(angle) ** 2
+    else:
+        assert th > angle
+
+
+@pytest.mark.parametrize("label", list(STABILITY_FACTORIES))
+@pytest.mark.parametrize("P", [12.0, 25.0, 40.0])
+def test_loads_far_beyond_the_euler_load(label, P, spy):
+    """Up to 16 Euler loads: a bifurcation, for some models a second one on the post-buckled
+    branch, all answered in C as in Python."""
+    scene = column(P, 0.0)
+    rp, rc = assert_answered_in_c(scene, spy, STABILITY_FACTORIES[label])
+    assert buckling_sides(rc)[0] == "y"
+    assert abs(rc.critical_load_factors[0] / (EULER / P) - 1.0) < 2e-3
+
+
+@pytest.mark.parametrize("label", ["scm3 gauss", "scm5 gauss", "scm6 gauss"])
+def test_snap_through_in_c(label, spy):
+    """A tip force and moment whose proportional path has a fold near load factor 0.5457
+    (tests/test_reference_models.py): the path ends, the solve descends to the equilibrium it
+    snaps to, records the load factor and goes on, in C as in Python."""
+    scene = cantilever(**SNAP)
+    rp, rc = assert_answered_in_c(scene, spy, FACTORIES[label])
+    assert buckling_sides(rc) == ["snap"]
+    assert 0.54 < rc.critical_load_factors[0] < 0.55
+    assert rc.warnings == [eq.snap_warning(rp.critical_load_factors[0])]
+
+
+@pytest.mark.parametrize("label, T, ry, sides", [
+    ("prb", 8.0, 1.5, ["lower"]), ("fem4", 8.0, 1.5, ["lower"]), ("fem16", 8.0, 1.5, None),
+    ("prb", 20.0, -3.0, ["lower"]), ("fem4", 20.0, 0.5, ["only"]), ("fem16", 20.0, 0.5, None),
+    ("scm5 gauss", 20.0, 1.5, None),
+])
+def test_asymmetric_bifurcation_under_a_tendon(label, T, ry, sides, spy):
+    """A bifurcation whose sides differ in potential energy (the lower one is taken), or where
+    one side's descent finds no stable state (the only stable side is taken)."""
+    scene = tendon_column(T, ry)
+    factory = FACTORIES[label] if label in FACTORIES else STABILITY_FACTORIES[label]
+    rp, rc = assert_answered_in_c(scene, spy, factory)
+    assert len(rc.critical_load_factors) >= 1
+    if sides is not None:
+        assert buckling_sides(rc) == sides
+
+
+def _c_result(scene, factory, min_size: int):
+    """The plan's own answer (no Python solver behind it) with LAPACK from ``min_size``
+    coordinates on (10**9: the built-in factorizations and Jacobi eigen-solver throughout)."""
+    models = build_models(scene, None, factory)
+    chain, system, outputs, info = eq.prepare_system(scene, models)
+    plan = build_plan(chain, system.loads, system.tendons, outputs)
+    plan.problem.lapack.min_size = min_size
+    status = plan.run()
+    if status != clib.SOLVED:
+        return plan, status, None
+    return plan, status, csolver.result_of(plan, scene.name, chain.slices, info)
+
+
+@pytest.mark.parametrize("eigen", ["builtin", "lapack"])
+@pytest.mark.parametrize("name, label", [
+    ("rectangular_elastica", "scm3 gauss"), ("rectangular_elastica", "scm5 gauss"),
+    ("rectangular_elastica", "fem16"), ("column vertical", "fem16"),
+    ("column 25", "scm5 gauss"), ("column 25", "fem4"), ("snap", "scm5 gauss"),
+    ("tendon lower", "fem4"), ("tendon only", "fem4"),
+])
+def test_builtin_and_lapack_eigen_solvers_give_python_answer(eigen, name, label):
+    """The Jacobi method (min_size 10**9) and LAPACK's dsyev (min_size 1: every factorization
+    and eigen-decomposition by LAPACK) both give the Python solver's answer."""
+    scene = {"rectangular_elastica": lambda: example("rectangular_elastica"),
+             "column vertical": lambda: column(ELASTICA, math.pi / 2),
+             "column 25": lambda: column(25.0, 0.0),
+             "snap": lambda: cantilever(**SNAP),
+             "tendon lower": lambda: tendon_column(8.0, 1.5),
+             "tendon only": lambda: tendon_column(20.0, 0.5)}[name]()
+    factory = {**FACTORIES, **STABILITY_FACTORIES}[label]
+    if eigen == "lapack" and not clib.lapack().syev:
+        pytest.skip("SciPy's LAPACK routines are not available")
+    plan, status, rc = _c_result(scene, factory, 10 ** 9 if eigen == "builtin" else 1)
+    assert status == clib.SOLVED
+    rp = solve(scene, model_factory=factory)
+    assert rp.critical_load_factors
+    assert differences(scene, rp, rc) == []
+    assert rc.iterations == rp.iterations and rc.warnings == rp.warnings
+
+
+def test_critical_events_beyond_the_capacity_are_handed_back(spy):
+    """The caller gives the capacity of the critical arrays: more events hand the solve back."""
+    scene = column(25.0, 0.0)
+    _, plan = _plan_for(scene, scm(3, "gauss"))
+    assert plan.run() == clib.SOLVED and plan.answer.ncritical == 2     # two bifurcations
+    side = eq.BUCKLING_SIDES.index(WHY["y"]) + 1
+    assert plan.critical_kind[:2].tolist() == [side, side]
+    first = plan.critical[:2].copy()
+    plan.answer.max_critical = 1
+    assert plan.run() == clib.FALLBACK
+    plan.answer.max_critical = 0
+    assert plan.run() == clib.FALLBACK
+    plan.answer.max_critical = 2
+    assert plan.run() == clib.SOLVED and np.array_equal(plan.critical[:2], first)
+    _, snap = _plan_for(cantilever(**SNAP), scm(5, "gauss"))
+    assert snap.run() == clib.SOLVED and snap.answer.ncritical == 1
+    assert snap.critical_kind[0] == clib.SNAP_THROUGH
+    # a caller without critical arrays (NULL, capacity 0: as a zeroed fg_answer) gets the
+    # stable paths answered and the rest handed back
+    plan.answer.critical = None
+    assert plan.run() == clib.FALLBACK
+    _, calm = _plan_for(example("cantilever_tip_load"), scm(3))
+    calm.answer.critical, calm.answer.max_critical = None, 0
+    assert calm.run() == clib.SOLVED
 
 
 # -- 3. fallbacks ---------------------------------------------------------------------------------
@@ -503,7 +705,9 @@ def test_solver_field_and_table_say_which_solver_answered():
     assert "(compiled solver)" in rc.table() and "(compiled solver)" not in rp.table()
     assert "solver" not in rc.contract()          # not part of the JSON contract
     buckled = solve(example("rectangular_elastica"), backend="c", model_factory=scm(3))
-    assert buckled.solver == "python"             # handed back: the continuation crossed buckling
+    assert buckled.solver == "python"             # handed back: the "auto" kernel switched
+    buckled = solve(example("rectangular_elastica"), backend="c", model_factory=scm(3, "gauss"))
+    assert buckled.solver == "c" and buckled.critical_load_factors      # crossed in C
 
 
 def test_plan_cache_tells_models_and_settings_apart(spy):

@@ -4,16 +4,25 @@
  * (read their docstrings first), step for step: the full load in one Newton solve from the
  * unloaded state when every check of equilibrium._direct_solve passes (direct_solve), else the
  * load continuation (continuation), or a warm start from a given q0; then polishing and the
- * compliance of the output points (finish). Where the Python solver would do more than that --
- * a step loses stability (a bifurcation, such as Euler buckling, or a limit point), the path
- * ends, a kernel switches from the polynomial to the Gauss kernel (the Python solver warns of
- * it) -- fg_solve returns FG_FALLBACK and the Python solver runs the scene, locating and
- * reporting those cases. So the two give the same answers (tests/test_compiled.py).
+ * compliance of the output points (finish). The continuation handles a loss of stability as
+ * the Python solver does: a step from a stable onto an unstable state is a bifurcation (such as
+ * Euler buckling: located by regula falsi on the smallest eigenvalue, then the stable side taken
+ * by descent, cross_bifurcation) or else overshoots a limit point (a shorter step); where the
+ * path ends the solve descends to the equilibrium it snaps to. Each such critical load factor is
+ * reported in fg_answer.critical with its kind (the Python side rebuilds the Python solver's
+ * warnings from them). Where the Python solver would do more than that -- a kernel switches from
+ * the polynomial to the Gauss kernel (the Python solver warns of it), a warm start fails, the
+ * critical array is full, no equilibrium is found -- fg_solve returns FG_FALLBACK and the Python
+ * solver runs the scene. So the two give the same answers (tests/test_compiled.py).
  *
  * Flexure models: the generated smooth curvature kernels (scm{N}, scm{N}_gauss{G}: function
  * pointers, so this file needs no header of theirs), the n-element chain ("fem", the same
  * discretisation as flexgen/models/fem.py) and the pseudo-rigid body (flexgen/models/prb.py).
  * Every elastic energy is quadratic with a diagonal Hessian (``stiffness``).
+ *
+ * Linear algebra: built-in Cholesky, LU and (cyclic Jacobi) symmetric eigen-decomposition, or
+ * LAPACK's dpotrf/dpotrs, dgetrf/dgetrs and dsyev by function pointer (fg_lapack) from
+ * lapack.min_size coordinates on.
  *
  * C99, no heap, no globals: the caller provides the workspace (fg_work_size doubles and
  * fg_iwork_size ints). Compiled with gcc -std=c99 -Wall -Wextra -Werror -pedantic.
@@ -25,6 +34,9 @@
 #include "chain_solver.h"
 
 /* ---- workspace ------------------------------------------------------------------------- */
+
+#define FG_NSTATES 6        /* states held at once (the bifurcation crossing needs five) */
+#define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
 
 typedef struct {
     double *q, *gU, *QL, *QT, *S;   /* load-independent parts (S: load Hessian at lam = 1) */
@@ -45,9 +57,11 @@ typedef struct {
     double *reach;          /* n */
     double *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
     double *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
+    double *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
+    double *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
     int switched;           /* an "auto" flexure used its Gauss kernel since this was reset */
-    fg_state st[4];
+    fg_state st[FG_NSTATES];
 } fg_ws;
 
 static size_t tip_size(const fg_problem *p)
@@ -75,7 +89,8 @@ size_t fg_work_size(const fg_problem *p)
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
     size_t state = 6 * n + 2 * n * n;
     return F * (3 + 3 * n) + 8 * F + tip_size(p) + P * (3 + 3 * n) + 4 * F
-        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 6 * n + 4 * state + 16;
+        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 10 * n
+        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
 }
 
 size_t fg_iwork_size(const fg_problem *p)
@@ -112,7 +127,14 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
     w->vec4 = x; x += n;
     w->t0 = x; x += n;
     w->t1 = x; x += n;
-    for (i = 0; i < 4; ++i) {
+    w->vmin = x; x += n;
+    w->cvec = x; x += n;
+    w->qplus = x; x += n;
+    w->qminus = x; x += n;
+    w->ew = x; x += n;
+    w->eV = x; x += n * n;
+    w->ework = x; x += 2 * n * n + FG_LWORK(n);
+    for (i = 0; i < FG_NSTATES; ++i) {
         fg_state *s = &w->st[i];
         s->q = x; x += n;
         s->gU = x; x += n;
@@ -661,44 +683,217 @@ static double norm_inf(const double *x, int n)
     return s;
 }
 
-/* ---- Newton with a backtracking line search on |r| (equilibrium.py: _Solver.newton) ------ */
+static double dot(const double *x, const double *y, int n)
+{
+    double s = 0.0;
+    int i;
+    for (i = 0; i < n; ++i)
+        s += x[i] * y[i];
+    return s;
+}
 
-/* Newton from *cur (evaluated) at its load factor, using *spare for trial states; on success
- * *cur points at the converged state. */
-static int newton(fg_ws *w, fg_state **cur, fg_state **spare, int max_it, int *iterations)
+/* ---- symmetric eigen-decomposition (numpy.linalg.eigh) ------------------------------------ */
+
+/* The cyclic Jacobi method: the eigenvalues of the symmetric A ascending in ev, the eigenvector
+ * of ev[j] in row j of V; scratch: 2 n n. Rotations stop when every off-diagonal entry is below
+ * 1e-18 of |A| (the eigenvalues are then as accurate as LAPACK's, to a few ulps of |A|). */
+static void jacobi_builtin(const double *A, int n, double *ev, double *V, double *scratch)
+{
+    double *a = scratch, *u = scratch + (size_t)n * (size_t)n, fro = 0.0, small;
+    int i, j, k, sweep, rotated = 1;
+    memcpy(a, A, sizeof(double) * (size_t)n * (size_t)n);
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < n; ++j) {
+            u[i * n + j] = i == j ? 1.0 : 0.0;
+            fro += a[i * n + j] * a[i * n + j];
+        }
+    small = 1e-18 * sqrt(fro);
+    for (sweep = 0; sweep < 100 && rotated; ++sweep) {
+        rotated = 0;
+        for (i = 0; i + 1 < n; ++i)
+            for (j = i + 1; j < n; ++j) {
+                double aij = a[i * n + j], theta, t, c, s;
+                if (aij == 0.0)
+                    continue;
+                if (fabs(aij) <= small) {
+                    a[i * n + j] = a[j * n + i] = 0.0;
+                    continue;
+                }
+                rotated = 1;
+                theta = (a[j * n + j] - a[i * n + i]) / (2.0 * aij);
+                t = fabs(theta) > 1e150 ? 0.5 / fabs(theta)
+                                        : 1.0 / (fabs(theta) + sqrt(theta * theta + 1.0));
+                if (theta < 0.0)
+                    t = -t;
+                c = 1.0 / sqrt(t * t + 1.0);
+                s = t * c;
+                a[i * n + i] -= t * aij;
+                a[j * n + j] += t * aij;
+                a[i * n + j] = a[j * n + i] = 0.0;
+                for (k = 0; k < n; ++k) {
+                    double x, y;
+                    if (k != i && k != j) {
+                        x = a[k * n + i];
+                        y = a[k * n + j];
+                        a[k * n + i] = a[i * n + k] = c * x - s * y;
+                        a[k * n + j] = a[j * n + k] = s * x + c * y;
+                    }
+                    x = u[k * n + i];
+                    y = u[k * n + j];
+                    u[k * n + i] = c * x - s * y;
+                    u[k * n + j] = s * x + c * y;
+                }
+            }
+    }
+    /* ascending: the smallest remaining diagonal entry next, its column of u as a row of V */
+    for (j = 0; j < n; ++j)
+        ev[j] = a[j * n + j];
+    for (j = 0; j < n; ++j) {
+        int m = j;
+        double tmp;
+        for (k = j + 1; k < n; ++k)
+            if (ev[k] < ev[m])
+                m = k;
+        tmp = ev[j];
+        ev[j] = ev[m];
+        ev[m] = tmp;
+        for (k = 0; k < n; ++k) {
+            tmp = u[k * n + j];
+            u[k * n + j] = u[k * n + m];
+            u[k * n + m] = tmp;
+        }
+    }
+    for (j = 0; j < n; ++j)
+        for (k = 0; k < n; ++k)
+            V[j * n + k] = u[k * n + j];
+}
+
+/* eigenvalues of the symmetric A ascending in w->ew, the eigenvector of ew[j] in row j of w->eV:
+ * LAPACK's dsyev when given and n is large enough (its column-major eigenvectors are the rows of
+ * the row-major V), else the built-in Jacobi method */
+static void eigen(fg_ws *w, const double *A)
 {
     const fg_problem *p = w->p;
-    int n = w->n, k, i, tries;
-    double history[64];
-    if (max_it > 64)
-        max_it = 64;
+    int n = w->n;
+    if (p->lapack.syev != NULL && n >= p->lapack.min_size) {
+        char jobz = 'V', uplo = 'L';
+        int info = 0, lda = n, lwork = FG_LWORK(n);
+        memcpy(w->eV, A, sizeof(double) * (size_t)n * (size_t)n);
+        p->lapack.syev(&jobz, &uplo, &n, w->eV, &lda, w->ew, w->ework, &lwork, &info);
+        if (info == 0)
+            return;
+    }
+    jacobi_builtin(A, n, w->ew, w->eV, w->ework);
+}
+
+/* the smallest eigenvalue of A (equilibrium._min_eig); its eigenvector is row 0 of w->eV */
+static double min_eig(fg_ws *w, const double *A)
+{
+    eigen(w, A);
+    return w->n > 0 ? w->ew[0] : 0.0;
+}
+
+/* ---- Newton with a line search (equilibrium.py: _Solver.newton, _line_search) ------------- */
+
+/* Newton from *cur (evaluated) at its load factor, using *spare (and, for descent, *extra) for
+ * trial states; on success *cur points at the converged state and the others at spare buffers.
+ * Plain: Newton steps with a backtracking line search on |r|, given up when the residual
+ * stagnates. Descent (extra != NULL): every step a descent direction of Pi (the eigenvalues of K
+ * replaced by their magnitudes, at least 1e-10 of the largest), an Armijo line search on Pi that
+ * also takes a step changing Pi by rounding only if it lowers |r|, and, along negative curvature,
+ * steps doubled while Pi keeps falling; it ends at a stable equilibrium or fails. */
+static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, int max_it,
+                  int *iterations)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, k, i, tries, descent = extra != NULL;
+    double history[8];      /* the relative residuals of the last 8 iterations */
     for (k = 0; k <= max_it; ++k) {
         fg_state *st = *cur;
-        double rn, *d = w->vec3, *qt = w->vec4, alpha = 1.0;
-        int accepted = 0;
+        double rn, slope = 0.0, top = 0.0, *d = w->vec3, *qt = w->vec4, alpha = 1.0;
+        int accepted = 0, indefinite = 0;
         if (st->rel <= p->tol)
             return 1;
         if (k == max_it)
             break;
-        history[k] = st->rel;
-        if (k >= 8 && st->rel > 0.5 * history[k - 6])
+        history[k & 7] = st->rel;
+        if (!descent && k >= 8 && st->rel > 0.5 * history[(k - 6) & 7])
             return 0;
         ++*iterations;
-        if (!lu_solve(p, st->K, w->la, w->piv, n, st->r, d))
-            return 0;
         rn = norm2(st->r, n);
-        for (tries = 0; tries < 30; ++tries) {
-            fg_state *trial = *spare;
-            for (i = 0; i < n; ++i)
-                qt[i] = st->q[i] - alpha * d[i];
-            if (evaluate(w, qt, st->lam, trial)
-                && norm2(trial->r, n) <= (1.0 - 1e-4 * alpha) * rn) {
-                *spare = st;
-                *cur = trial;
-                accepted = 1;
-                break;
+        if (descent) {
+            /* d = -V diag(1 / max(|w|, 1e-10 top)) V^T r */
+            double *ew = w->ew, *V = w->eV, *c = w->cvec;
+            int j;
+            eigen(w, st->K);
+            for (j = 0; j < n; ++j)
+                if (fabs(ew[j]) > top)
+                    top = fabs(ew[j]);
+            if (top < 1e-300)
+                top = 1e-300;
+            indefinite = n > 0 && ew[0] <= 1e-10 * top;
+            for (j = 0; j < n; ++j) {
+                double wm = fabs(ew[j]) > 1e-10 * top ? fabs(ew[j]) : 1e-10 * top;
+                c[j] = dot(V + (size_t)j * (size_t)n, st->r, n) / wm;
             }
-            alpha *= 0.5;
+            for (i = 0; i < n; ++i) {
+                double s = 0.0;
+                for (j = 0; j < n; ++j)
+                    s += V[(size_t)j * (size_t)n + i] * c[j];
+                d[i] = -s;
+            }
+            slope = dot(st->r, d, n);
+        } else if (!lu_solve(p, st->K, w->la, w->piv, n, st->r, d)) {
+            return 0;
+        }
+        for (tries = 0; tries < 30 && !accepted; ++tries, alpha *= 0.5) {
+            fg_state *trial = *spare;
+            if (descent)
+                for (i = 0; i < n; ++i)
+                    qt[i] = st->q[i] + alpha * d[i];
+            else
+                for (i = 0; i < n; ++i)
+                    qt[i] = st->q[i] - alpha * d[i];
+            if (!evaluate(w, qt, st->lam, trial))
+                continue;
+            if (!descent) {
+                if (norm2(trial->r, n) <= (1.0 - 1e-4 * alpha) * rn) {
+                    *spare = st;
+                    *cur = trial;
+                    accepted = 1;
+                }
+                continue;
+            }
+            {
+                int ok = trial->Pi <= st->Pi + 1e-4 * alpha * slope;
+                int roundoff = fabs(trial->Pi - st->Pi) <= 1e-13 * (fabs(st->Pi) + fabs(st->U))
+                               && norm2(trial->r, n) < rn;
+                fg_state *best = trial, *cand = *extra;
+                if (!(ok || roundoff))
+                    continue;
+                if (ok && indefinite && alpha >= 1.0) {
+                    /* negative curvature: expand while the potential keeps falling */
+                    double a = alpha;
+                    int e;
+                    for (e = 0; e < 40; ++e) {
+                        a *= 2.0;
+                        for (i = 0; i < n; ++i)
+                            qt[i] = st->q[i] + a * d[i];
+                        if (!evaluate(w, qt, st->lam, cand) || cand->Pi >= best->Pi)
+                            break;
+                        {
+                            fg_state *tmp = best;
+                            best = cand;
+                            cand = tmp;
+                        }
+                    }
+                }
+                /* best becomes the current state; st and the other buffer the spares */
+                *cur = best;
+                *spare = st;
+                *extra = cand;
+                accepted = 1;
+            }
         }
         if (!accepted)
             return 0;
@@ -809,7 +1004,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     at_lambda(w, c, 1.0);
     if (!cholesky(p, c->K, w->la, n))
         return 0;                 /* the full load may buckle the unloaded state */
-    if (!newton(w, cur, spare, max_it, iterations))
+    if (!newton(w, cur, spare, NULL, max_it, iterations))
         return 0;
     c = *cur;
     if (!cholesky(p, c->K, w->la, n))
@@ -833,13 +1028,194 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     return 1;
 }
 
-/* Load continuation from the stable state **path (lam = 0) to lam = 1 (equilibrium.solve's
+/* ---- stability along the path (equilibrium.py: _is_bifurcation, _cross_bifurcation) ------- */
+
+/* a state of the pool that is none of the given ones (NULL: none given) */
+static fg_state *free_state(fg_ws *w, const fg_state *x0, const fg_state *x1,
+                            const fg_state *x2, const fg_state *x3)
+{
+    int i;
+    for (i = 0; i < FG_NSTATES; ++i) {
+        fg_state *s = &w->st[i];
+        if (s != x0 && s != x1 && s != x2 && s != x3)
+            return s;
+    }
+    return NULL;            /* not reached: FG_NSTATES > 4 */
+}
+
+/* a critical load factor of this kind, in order; 0 if the caller's array is full */
+static int record_critical(fg_answer *out, double lam, int kind)
+{
+    if (out->critical == NULL || out->critical_kind == NULL
+        || out->ncritical >= out->max_critical)
+        return 0;
+    out->critical[out->ncritical] = lam;
+    out->critical_kind[out->ncritical] = kind;
+    ++out->ncritical;
+    return 1;
+}
+
+/* Newton with descent from q at load factor lam, up to 20 max_iterations (the snap-through and
+ * the leaving of an unstable branch in equilibrium.py); the stable equilibrium it ends at, or
+ * NULL. The states keep and keep2 are not touched. */
+static fg_state *descend(fg_ws *w, const double *q, double lam, const fg_state *keep,
+                         const fg_state *keep2, int *iterations)
+{
+    fg_state *a = free_state(w, keep, keep2, NULL, NULL);
+    fg_state *b = free_state(w, keep, keep2, a, NULL);
+    fg_state *c = free_state(w, keep, keep2, a, b);
+    if (!evaluate(w, q, lam, a)
+        || !newton(w, &a, &b, &c, 20 * w->p->max_iterations, iterations)
+        || !cholesky(w->p, a->K, w->la, w->n))
+        return NULL;
+    return a;
+}
+
+/* At a bifurcation the load does no work along the lost mode v (the eigenvector of K's smallest
+ * eigenvalue): |v . Q| <= 1e-6 (|Q| + |lam S|), |lam S| the Frobenius norm of the load part of K.
+ * Its sign does not matter. */
+static int is_bifurcation(fg_ws *w, const fg_state *b)
+{
+    int n = w->n, i;
+    double kg = 0.0, scale;
+    min_eig(w, b->K);
+    for (i = 0; i < n * n; ++i) {
+        double g = b->lam * b->S[i];
+        kg += g * g;
+    }
+    scale = norm2(b->Q, n) + sqrt(kg);
+    return scale > 0.0 ? fabs(dot(w->eV, b->Q, n)) <= 1e-6 * scale : 1;
+}
+
+/* the mean world y and angle of the output points at s's q; 0 if the kinematics fail */
+static int mean_output(fg_ws *w, const fg_state *s, double *y, double *angle)
+{
+    const fg_problem *p = w->p;
+    int j;
+    *y = *angle = 0.0;
+    if (p->noutputs == 0)
+        return 1;
+    if (!kinematics(w, s->q))
+        return 0;
+    for (j = 0; j < p->noutputs; ++j) {
+        *y += w->ppose[3 * p->outputs[j] + 1];
+        *angle += w->ppose[3 * p->outputs[j] + 2];
+    }
+    *y /= p->noutputs;
+    *angle /= p->noutputs;
+    return 1;
+}
+
+/* The path went from the stable *a through a bifurcation to the unstable *b: the critical load
+ * factor by regula falsi (Illinois) on the smallest eigenvalue with Newton at each trial load
+ * factor, then the stable side at b's load factor, by descent from b +- eps v (eps = 1e-3
+ * max(1, |q_b|)): the only stable one found, else the one of lower potential, else (symmetric)
+ * the one whose output points lie higher (mean world y), else the counter-clockwise one. The
+ * chosen state (in the pool) with the critical load factor recorded, or NULL. */
+static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iterations,
+                                   fg_answer *out)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, i, it, side = 0, why;
+    fg_state *lo = a, *hi = b, *s1, *s2, *choice;
+    double mu_lo = min_eig(w, a->K), mu_hi = min_eig(w, b->K);
+    double e_lo = mu_lo, e_hi = mu_hi;       /* the eigenvalues themselves (no Illinois halving) */
+    double lam_c, eps, lam_b = b->lam, *qm = w->t1, *v = w->vmin;
+    for (it = 0; it < 100; ++it) {
+        double t, lam_m, mu_m, kmax = 1.0;
+        fg_state *m, *m2;
+        if (hi->lam - lo->lam <= 1e-13 * (hi->lam > 1.0 ? hi->lam : 1.0))
+            break;
+        t = mu_lo != mu_hi ? mu_lo / (mu_lo - mu_hi) : 0.5;
+        t = t > 0.01 ? t : 0.01;
+        t = t < 0.99 ? t : 0.99;
+        lam_m = lo->lam + t * (hi->lam - lo->lam);
+        for (i = 0; i < n; ++i)
+            qm[i] = lo->q[i] + t * (hi->q[i] - lo->q[i]);
+        m = free_state(w, lo, hi, b, NULL);
+        m2 = free_state(w, lo, hi, b, m);
+        if (!evaluate(w, qm, lam_m, m) || !newton(w, &m, &m2, NULL, p->max_iterations, iterations))
+            break;
+        mu_m = min_eig(w, m->K);
+        if (mu_m == 0.0) {
+            lo = hi = m;
+            e_lo = e_hi = mu_m;
+            break;
+        }
+        if (mu_m > 0.0) {
+            lo = m;
+            mu_lo = e_lo = mu_m;
+            if (side == -1)
+                mu_hi *= 0.5;
+            side = -1;
+        } else {
+            hi = m;
+            mu_hi = e_hi = mu_m;
+            if (side == 1)
+                mu_lo *= 0.5;
+            side = 1;
+        }
+        for (i = 0; i < n * n; ++i)
+            if (fabs(m->K[i]) > kmax)
+                kmax = fabs(m->K[i]);
+        if (fabs(mu_m) <= 1e-13 * kmax)
+            break;
+    }
+    lam_c = e_lo == e_hi ? lo->lam : lo->lam + e_lo / (e_lo - e_hi) * (hi->lam - lo->lam);
+
+    /* leave the unstable branch at b's load factor: descend from b +- eps v */
+    min_eig(w, b->K);
+    memcpy(v, w->eV, sizeof(double) * (size_t)n);
+    eps = 1e-3 * (norm2(b->q, n) > 1.0 ? norm2(b->q, n) : 1.0);
+    for (i = 0; i < n; ++i) {
+        w->qplus[i] = b->q[i] + eps * v[i];
+        w->qminus[i] = b->q[i] + (-eps) * v[i];
+    }
+    s1 = descend(w, w->qplus, lam_b, NULL, NULL, iterations);
+    s2 = descend(w, w->qminus, lam_b, s1, NULL, iterations);
+    if (s1 == NULL && s2 == NULL)
+        return NULL;
+    if (s1 == NULL || s2 == NULL) {
+        choice = s1 != NULL ? s1 : s2;
+        why = FG_BUCKLING_ONLY_SIDE;
+    } else {
+        double scale = 1e-300, y1, y2, th1, th2, ys;
+        if (fabs(s1->Pi) > scale)
+            scale = fabs(s1->Pi);
+        if (fabs(s2->Pi) > scale)
+            scale = fabs(s2->Pi);
+        if (fabs(s1->U) > scale)
+            scale = fabs(s1->U);
+        if (fabs(s2->U) > scale)
+            scale = fabs(s2->U);
+        if (fabs(s1->Pi - s2->Pi) > 1e-9 * scale) {
+            choice = s1->Pi < s2->Pi ? s1 : s2;
+            why = FG_BUCKLING_LOWER_ENERGY;
+        } else {
+            if (!mean_output(w, s1, &y1, &th1) || !mean_output(w, s2, &y2, &th2))
+                return NULL;
+            ys = fabs(y1) > fabs(y2) ? fabs(y1) : fabs(y2);
+            if (fabs(y1 - y2) > 1e-9 * (ys > 1e-300 ? ys : 1e-300)) {
+                choice = y1 > y2 ? s1 : s2;
+                why = FG_BUCKLING_LARGER_Y;
+            } else {
+                choice = th1 >= th2 ? s1 : s2;
+                why = FG_BUCKLING_COUNTER_CLOCKWISE;
+            }
+        }
+    }
+    return record_critical(out, lam_c, why) ? choice : NULL;
+}
+
+/* Load continuation from the stable state *path (lam = 0) to lam = 1 (equilibrium.solve's
  * loop): adaptive steps, a tangent predictor while K is positive definite, Newton at each load
- * factor, a step that changes a coordinate by more than max_dq counts as a jump. 1 with the
- * equilibrium at lam = 1 in **path; 0 (hand back to the Python solver) when a step lands on an
- * unstable state from a stable one (a bifurcation, or the unstable side of a limit point), the
- * path ends, or the step budget runs out: the Python solver locates and reports those. */
-static int continuation(fg_ws *w, fg_state **path, fg_state **a, fg_state **b, int *iterations)
+ * factor, a step that changes a coordinate by more than max_dq counts as a jump. A step from a
+ * stable state onto an unstable one is a bifurcation (crossed: cross_bifurcation) or else the
+ * unstable side of a limit point (a shorter step); where the path ends (no step even at
+ * min_step) the solve descends to the equilibrium it snaps to. The equilibrium at lam = 1 (a
+ * state of the pool), or NULL (hand back to the Python solver: the step budget runs out, no
+ * stable state past a bifurcation or a limit point, the critical array is full). */
+static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answer *out)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, steps = 0;
@@ -847,48 +1223,65 @@ static int continuation(fg_ws *w, fg_state **path, fg_state **a, fg_state **b, i
     while (lam < 1.0) {
         double lam_n = lam + dlam < 1.0 ? lam + dlam : 1.0;
         int it0 = *iterations, used, found = 0, attempt, stable_before;
+        fg_state *a = free_state(w, path, NULL, NULL, NULL);
+        fg_state *b = free_state(w, path, a, NULL, NULL);
         if (++steps > p->max_steps)
-            return 0;
-        stable_before = cholesky(p, (*path)->K, w->la, n);
+            return NULL;
+        stable_before = cholesky(p, path->K, w->la, n);
         for (attempt = 0; attempt < 2 && !found; ++attempt) {
             double *start = w->vec1;
             if (attempt == 0) {            /* the tangent predictor */
                 if (!stable_before)
                     continue;
-                cholesky_solve(p, w->la, n, (*path)->Q, w->t0);
+                cholesky_solve(p, w->la, n, path->Q, w->t0);
                 for (i = 0; i < n; ++i)
-                    start[i] = (*path)->q[i] + (lam_n - lam) * w->t0[i];
+                    start[i] = path->q[i] + (lam_n - lam) * w->t0[i];
             } else {
-                memcpy(start, (*path)->q, sizeof(double) * (size_t)n);
+                memcpy(start, path->q, sizeof(double) * (size_t)n);
             }
-            if (!evaluate(w, start, lam_n, *a) || !newton(w, a, b, p->max_iterations, iterations))
+            if (!evaluate(w, start, lam_n, a)
+                || !newton(w, &a, &b, NULL, p->max_iterations, iterations))
                 continue;
             for (i = 0; i < n; ++i)
-                w->vec2[i] = (*a)->q[i] - (*path)->q[i];
+                w->vec2[i] = a->q[i] - path->q[i];
             found = norm_inf(w->vec2, n) <= p->max_dq;
         }
         used = *iterations - it0;
-        if (found && stable_before && !cholesky(p, (*a)->K, w->la, n))
-            return 0;             /* lost stability: a bifurcation or a limit point */
+        if (found && stable_before && !cholesky(p, a->K, w->la, n)) {
+            if (is_bifurcation(w, a)) {
+                fg_state *next = cross_bifurcation(w, path, a, iterations, out);
+                if (next == NULL)
+                    return NULL;
+                path = next;
+                lam = lam_n;
+                dlam = p->initial_step;
+                continue;
+            }
+            found = 0;            /* the unstable side of a limit point: a shorter step */
+        }
         if (!found) {
+            fg_state *next;
             if (dlam > p->min_step) {
                 dlam = 0.5 * dlam > p->min_step ? 0.5 * dlam : p->min_step;
                 continue;
             }
-            return 0;             /* the path ends (a limit point) */
+            /* the path ends here (a limit point): descend to the equilibrium it snaps to */
+            next = descend(w, path->q, lam_n, path, NULL, iterations);
+            if (next == NULL || !record_critical(out, lam, FG_SNAP_THROUGH))
+                return NULL;
+            path = next;
+            lam = lam_n;
+            dlam = p->initial_step;
+            continue;
         }
         if (used <= 3)
             dlam = 2.0 * dlam < p->max_step ? 2.0 * dlam : p->max_step;
         else if (used <= 6)
             dlam = 1.2 * dlam < p->max_step ? 1.2 * dlam : p->max_step;
-        {
-            fg_state *old = *path;
-            *path = *a;
-            *a = old;
-        }
+        path = a;
         lam = lam_n;
     }
-    return 1;
+    return path;
 }
 
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
@@ -904,13 +1297,14 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     smp = &w->st[3];
     out->iterations = 0;
     out->stable = 0;
+    out->ncritical = 0;
 
     w->switched = 0;
     if (p->q0 != NULL) {
         /* warm start (equilibrium._warm_start): Newton at the full load from q0, accepted if it
          * converges to a stable equilibrium within max_dq of q0 */
         if (!evaluate(w, p->q0, 1.0, cur)
-            || !newton(w, &cur, &spare, p->max_iterations, &iterations)
+            || !newton(w, &cur, &spare, NULL, p->max_iterations, &iterations)
             || !cholesky(p, cur->K, w->la, n))
             return FG_FALLBACK;
         for (i = 0; i < n; ++i)
@@ -930,13 +1324,12 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
         if (direct_solve(w, st0, &cur, &spare, smp, &iterations)) {
             w->switched = 0;      /* trial steps past a kernel's range are no part of the path */
         } else {
-            fg_state *path = st0, *a = cur, *b = spare;
             iterations = 0;       /* a rejected direct attempt leaves no trace */
             w->switched = 0;
-            if (!continuation(w, &path, &a, &b, &iterations))
+            cur = continuation(w, st0, &iterations, out);
+            if (cur == NULL)
                 return FG_FALLBACK;
-            cur = path;
-            spare = a;
+            spare = free_state(w, cur, NULL, NULL, NULL);
         }
     }
     /* any kernel switch on the way (even a trial step): the Python solver warns of it */

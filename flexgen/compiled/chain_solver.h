@@ -15,6 +15,17 @@ typedef int (*fg_range)(const double *q);
 enum { FG_MODEL_KERNEL = 0, FG_MODEL_FEM = 1, FG_MODEL_PRB = 2 };
 enum { FG_SOLVED = 0, FG_FALLBACK = 1, FG_MODEL_ERROR = 2 };
 
+/* the kind of a critical event on the load path (fg_answer.critical_kind): the path ended at a
+ * limit point and the solve snapped through, or it crossed a bifurcation and took the stable side
+ * chosen for this reason (equilibrium.BUCKLING_SIDES[kind - 1] is its text) */
+enum {
+    FG_SNAP_THROUGH = 0,
+    FG_BUCKLING_ONLY_SIDE = 1,          /* the only stable side found */
+    FG_BUCKLING_LOWER_ENERGY = 2,       /* the side of lower potential energy */
+    FG_BUCKLING_LARGER_Y = 3,           /* symmetric: the side of larger world y */
+    FG_BUCKLING_COUNTER_CLOCKWISE = 4   /* symmetric: the counter-clockwise side */
+};
+
 typedef struct {
     int kind;             /* FG_MODEL_* */
     int ndof;             /* its coordinates are q[offset .. offset + ndof) */
@@ -37,6 +48,8 @@ typedef void (*fg_potrs)(char *uplo, int *n, int *nrhs, double *a, int *lda, dou
 typedef void (*fg_getrf)(int *m, int *n, double *a, int *lda, int *ipiv, int *info);
 typedef void (*fg_getrs)(char *trans, int *n, int *nrhs, double *a, int *lda, int *ipiv,
                          double *b, int *ldb, int *info);
+typedef void (*fg_syev)(char *jobz, char *uplo, int *n, double *a, int *lda, double *w,
+                        double *work, int *lwork, int *info);
 
 typedef struct {
     fg_potrf potrf;
@@ -44,6 +57,7 @@ typedef struct {
     fg_getrf getrf;
     fg_getrs getrs;
     int min_size;         /* use them from this many coordinates on */
+    fg_syev syev;         /* symmetric eigen-decomposition (NULL: the built-in Jacobi method) */
 } fg_lapack;
 
 typedef struct {
@@ -79,6 +93,10 @@ typedef struct {
     double *stiffness;    /* ndof x ndof: the stiffness K at the equilibrium (NULL: not wanted) */
     double energy, residual;
     int iterations, stable;
+    double *critical;     /* max_critical: the critical load factors met on the way, in order */
+    int *critical_kind;   /* max_critical: FG_SNAP_THROUGH or FG_BUCKLING_* of each */
+    int max_critical;     /* their capacity (0: the first critical event hands the solve back) */
+    int ncritical;        /* how many were met */
 } fg_answer;
 
 size_t fg_work_size(const fg_problem *p);

@@ -43,7 +43,7 @@ class Point(ctypes.Structure):
 class Lapack(ctypes.Structure):
     _fields_ = [("potrf", ctypes.c_void_p), ("potrs", ctypes.c_void_p),
                 ("getrf", ctypes.c_void_p), ("getrs", ctypes.c_void_p),
-                ("min_size", ctypes.c_int)]
+                ("min_size", ctypes.c_int), ("syev", ctypes.c_void_p)]
 
 
 class Problem(ctypes.Structure):
@@ -63,11 +63,16 @@ class Answer(ctypes.Structure):
     _fields_ = [("q", _c_double_p), ("pose", _c_double_p), ("compliance", _c_double_p),
                 ("stiffness", _c_double_p),
                 ("energy", ctypes.c_double), ("residual", ctypes.c_double),
-                ("iterations", ctypes.c_int), ("stable", ctypes.c_int)]
+                ("iterations", ctypes.c_int), ("stable", ctypes.c_int),
+                ("critical", _c_double_p), ("critical_kind", _c_int_p),
+                ("max_critical", ctypes.c_int), ("ncritical", ctypes.c_int)]
 
 
 MODEL_KERNEL, MODEL_FEM, MODEL_PRB = 0, 1, 2
 SOLVED, FALLBACK, MODEL_ERROR = 0, 1, 2
+# Answer.critical_kind: the path snapped through at a limit point, or crossed a bifurcation and
+# took the side chosen for the reason equilibrium.BUCKLING_SIDES[kind - 1]
+SNAP_THROUGH = 0
 
 
 def cache_dir() -> Path:
@@ -148,8 +153,9 @@ LAPACK_MIN_SIZE = 32
 
 @lru_cache(maxsize=None)
 def lapack() -> Lapack:
-    """SciPy's dpotrf, dpotrs, dgetrf, dgetrs by address (scipy.linalg.cython_lapack exports them
-    as capsules); all None if that fails, and the solver uses its built-in factorizations."""
+    """SciPy's dpotrf, dpotrs, dgetrf, dgetrs and dsyev by address (scipy.linalg.cython_lapack
+    exports them as capsules); all None if that fails, and the solver uses its built-in
+    factorizations and eigen-decomposition (Jacobi)."""
     table = Lapack()
     table.min_size = LAPACK_MIN_SIZE
     try:
@@ -159,11 +165,12 @@ def lapack() -> Lapack:
         pointer = ctypes.pythonapi.PyCapsule_GetPointer
         pointer.restype, pointer.argtypes = ctypes.c_void_p, [ctypes.py_object, ctypes.c_char_p]
         found = {}
-        for routine in ("potrf", "potrs", "getrf", "getrs"):
+        for routine in ("potrf", "potrs", "getrf", "getrs", "syev"):
             capsule = cython_lapack.__pyx_capi__["d" + routine]
             found[routine] = pointer(capsule, name_of(capsule))
     except (ImportError, AttributeError, KeyError, ValueError):
         return table
     table.potrf, table.potrs = found["potrf"], found["potrs"]
     table.getrf, table.getrs = found["getrf"], found["getrs"]
+    table.syev = found["syev"]
     return table

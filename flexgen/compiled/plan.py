@@ -108,6 +108,11 @@ class Plan:
         a.pose = self.pose.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         a.compliance = self.compliance.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         a.stiffness = self.K.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        self.critical = np.empty(MAX_CRITICAL)
+        self.critical_kind = np.empty(MAX_CRITICAL, dtype=np.intc)
+        a.critical = self.critical.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        a.critical_kind = self.critical_kind.ctypes.data_as(ctypes.POINTER(ctypes.c_int))
+        a.max_critical = MAX_CRITICAL
         self.answer = a
         self._args = (ctypes.byref(p), self.work.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
                       self.iwork.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), ctypes.byref(a))
@@ -118,7 +123,9 @@ class Plan:
     def run(self, q0: np.ndarray | None = None) -> int:
         """One solve (from the unloaded state, or Newton at the full load from the packed ``q0``);
         the status (library.SOLVED, FALLBACK or MODEL_ERROR). When SOLVED, ``q``, ``pose``,
-        ``compliance`` and ``answer`` (energy, residual, iterations, stable) hold it."""
+        ``compliance`` and ``answer`` (energy, residual, iterations, stable, ncritical) hold it,
+        and the first ``answer.ncritical`` entries of ``critical`` / ``critical_kind`` the
+        critical load factors met on the way (a bifurcation crossed, a snap-through)."""
         if q0 is not None:
             self.q0[:] = q0
             self.problem.q0 = self._q0_pointer
@@ -128,6 +135,10 @@ class Plan:
             self._warm = False
         return self._solve(*self._args)
 
+
+# the most critical events (bifurcations crossed, snap-throughs) a solve may meet and still be
+# answered in C (more: handed back to the Python solver)
+MAX_CRITICAL = 64
 
 # the solver settings of flexgen.equilibrium.solve that the C solver takes, with its defaults
 DEFAULTS = {"tol": 1e-12, "max_iterations": 50, "max_steps": 500, "initial_step": 0.1,

@@ -1,7 +1,8 @@
 """Solve a scene with the compiled chain solver and build the same Result the Python solver does.
 
 ``solve_compiled`` gives no Result whenever the C solver hands the scene back (``FALLBACK``: a
-case the Python solver reports in full; ``MODEL_ERROR``), a model has no C counterpart, a kernel
+case the Python solver reports in full, such as a kernel switch or a solve that fails;
+``MODEL_ERROR``), a model has no C counterpart, a kernel
 has no C source or gcc is missing: the caller then runs the Python solver (and, for the last two,
 warns that the compiled solver was unavailable).
 
@@ -89,9 +90,19 @@ class FinalState(NamedTuple):
 
 
 def result_of(plan, scene_name: str, slices, info: dict) -> Result:
-    """The Result of a solved Plan (what ``equilibrium._result`` builds from a State)."""
+    """The Result of a solved Plan (what ``equilibrium._result`` builds from a State): the
+    critical load factors the C continuation met, with the Python solver's warnings for them
+    (``equilibrium.buckling_warning``, ``snap_warning``)."""
     a = plan.answer
     warnings: list[str] = []
+    critical: list[float] = []
+    if a.ncritical:
+        from ..equilibrium import BUCKLING_SIDES, buckling_warning, snap_warning
+        for lam, kind in zip(plan.critical[:a.ncritical].tolist(),
+                             plan.critical_kind[:a.ncritical].tolist()):
+            critical.append(lam)
+            warnings.append(snap_warning(lam) if kind == lib.SNAP_THROUGH
+                            else buckling_warning(lam, BUCKLING_SIDES[kind - 1]))
     stable = bool(a.stable)
     if not stable:
         warnings.append(UNSTABLE)
@@ -100,7 +111,7 @@ def result_of(plan, scene_name: str, slices, info: dict) -> Result:
     q = plan.q
     return Result(scene=scene_name, converged=True, stable=stable, iterations=int(a.iterations),
                   model=info, q={name: q[sl].tolist() for name, sl in slices.items()},
-                  points=points, warnings=warnings, reason=None, critical_load_factors=[],
+                  points=points, warnings=warnings, reason=None, critical_load_factors=critical,
                   load_factor=1.0, energy=float(a.energy), residual=float(a.residual),
                   solver="c")
 
