@@ -374,10 +374,9 @@ def render_markdown(speed: dict, lapack: dict, command: str = COMMAND,
     notes = []
     if fallbacks:
         notes.append("*fallback*: `plan.run()` does not return SOLVED for "
-                     + ", ".join(fallbacks) + ": the load continuation loses stability at the "
-                     "buckling bifurcation, and the C solver hands such a scene back. backend c "
-                     "then runs the Python solver, so its time there is the Python solver's plus "
-                     "the C attempt.")
+                     + ", ".join(fallbacks) + ": the C solver hands the scene back (see "
+                     "docs/compiled-solver.md for when). backend c then runs the Python solver, "
+                     "so its time there is the Python solver's plus the C attempt.")
     dq = [r["backend_c_dq"] for r in speed.values() if r["backend_c_dq"] is not None]
     if dq:
         notes.append(f"The backends agree: the largest difference of a coordinate of q between "

@@ -679,8 +679,8 @@ def render_markdown(data: BenchData) -> str:
          "look-up, Result and any hand-back to the Python solver included;",
          "  - *compiled solve*: `plan.run()` of `flexgen.compiled.solver.prepare(scene, ...)`, the "
          "scene flattened once, as a controller loop calls it (ctypes call included). Where the C "
-         "solver hands a scene back to the Python solver (buckling, snap-through, a kernel "
-         "switch), the backend c time of that scene counts instead. Linear algebra: SciPy's "
+         "solver hands a scene back to the Python solver (see docs/compiled-solver.md), the "
+         "backend c time of that scene counts instead. Linear algebra: SciPy's "
          f"LAPACK from {_lapack_min_size()} coordinates on (the same routines numpy.linalg runs "
          "for the Python solver), built-in factorizations below.",
          "- **C ns/call**: one call of the generated C kernel (pose, J, H) in double, timed "

@@ -375,8 +375,8 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     answer, otherwise the solve falls back to the continuation from the unloaded state.
 
     ``backend`` = "c" solves with the compiled chain solver (``flexgen.compiled``) where it can:
-    the same direct attempt, warm start and load continuation as here, bifurcations and
-    snap-throughs included; every case it hands back (any kernel switch, a failed warm start, a
+    the same direct attempt, warm start and load continuation as here, bifurcations,
+    snap-throughs and kernel switches included; every case it hands back (a failed warm start, a
     solve that fails, a model without a C counterpart) runs the Python solver below, so the
     answer is the same.
     """
@@ -607,7 +607,11 @@ def _warm_start(sol: _Solver, chain: Chain, q0, max_dq: float) -> State | None:
 def _kernel_warnings(models, chain: Chain, q) -> list[str]:
     """One warning per flexure whose model switched kernels during the solve (scm "auto": past
     the polynomial kernel's range to the Gauss kernel); q is the equilibrium (None: none found)."""
-    parts = chain.split(q) if q is not None else {}
+    return kernel_warnings(models, chain.split(q) if q is not None else {})
+
+
+def kernel_warnings(models, parts: Mapping[str, np.ndarray]) -> list[str]:
+    """``_kernel_warnings`` with the equilibrium given per flexure (both solvers use it)."""
     out = []
     for name, m in models.items():
         warn = getattr(m, "switch_warning", None)

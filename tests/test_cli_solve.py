@@ -345,5 +345,5 @@ def test_help_explains_the_backend(capsys):
         main(["solve", "--help"])
     out = " ".join(capsys.readouterr().out.split())
     for words in ("--backend {python,c}", "compiled chain solver", "$FLEXGEN_CACHE",
-                  "~/.cache/flexgen", "falls back to python", "Ignored with --model exact"):
+                  "~/.cache/flexgen", "back to python", "Ignored with --model exact"):
         assert words in out

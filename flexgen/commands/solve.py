@@ -41,9 +41,10 @@ def add_backend_option(p) -> None:
     p.add_argument("--backend", choices=BACKENDS, default="python",
                    help="chain solver (default python): python, the reference solver; c, the "
                         "compiled chain solver (flexgen/compiled; needs gcc, compiles once into "
-                        "~/.cache/flexgen or $FLEXGEN_CACHE). Both give the same answer; c falls "
-                        "back to python for buckling, snap-through and kernel switches. Ignored "
-                        "with --model exact")
+                        "~/.cache/flexgen or $FLEXGEN_CACHE). Both give the same answer (c runs "
+                        "the same algorithm, buckling and kernel switches included, and hands "
+                        "a failed solve or a user model back to python). Ignored with "
+                        "--model exact")
 
 
 # extra argparse dests forwarded to flexgen.api.solve_scene (and on to flexgen.equilibrium.solve)

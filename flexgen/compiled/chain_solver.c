@@ -10,10 +10,10 @@
  * by descent, cross_bifurcation) or else overshoots a limit point (a shorter step); where the
  * path ends the solve descends to the equilibrium it snaps to. Each such critical load factor is
  * reported in fg_answer.critical with its kind (the Python side rebuilds the Python solver's
- * warnings from them). Where the Python solver would do more than that -- a kernel switches from
- * the polynomial to the Gauss kernel (the Python solver warns of it), a warm start fails, the
- * critical array is full, no equilibrium is found -- fg_solve returns FG_FALLBACK and the Python
- * solver runs the scene. So the two give the same answers (tests/test_compiled.py).
+ * warnings from them), and so is every flexure whose "auto" model switched to its Gauss kernel
+ * (fg_answer.switched). Where the Python solver would do more than that -- a warm start fails,
+ * the critical array is full, no equilibrium is found -- fg_solve returns FG_FALLBACK and the
+ * Python solver runs the scene. So the two give the same answers (tests/test_compiled.py).
  *
  * Flexure models: the generated smooth curvature kernels (scm{N}, scm{N}_gauss{G}: function
  * pointers, so this file needs no header of theirs), the n-element chain ("fem", the same
@@ -60,7 +60,8 @@ typedef struct {
     double *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
     double *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
-    int switched;           /* an "auto" flexure used its Gauss kernel since this was reset */
+    int *switched;          /* per flexure: an "auto" flexure used its Gauss kernel since the
+                             * flags were last cleared (SCMModel.switched) */
     fg_state st[FG_NSTATES];
 } fg_ws;
 
@@ -95,7 +96,7 @@ size_t fg_work_size(const fg_problem *p)
 
 size_t fg_iwork_size(const fg_problem *p)
 {
-    return (size_t)p->ndof + 1;
+    return (size_t)p->ndof + 1 + (size_t)p->nflex;    /* pivots, kernel-switch flags */
 }
 
 static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
@@ -146,6 +147,7 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
         s->K = x; x += n * n;
     }
     w->piv = iwork;
+    w->switched = iwork + p->ndof + 1;
 }
 
 /* the tip block of flexure i: J (3 k), H (3 k k), RJ (2 k), after the F tip poses */
@@ -282,7 +284,7 @@ static int kinematics(fg_ws *w, const double *q)
                 J[j] -= awy * J[2 * n + j];
                 J[n + j] += awx * J[2 * n + j];
             }
-        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched))
+        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i]))
             return 0;
         th = rp[2];
         c = cos(th);
@@ -1284,11 +1286,25 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
     return path;
 }
 
+static void clear_switched(fg_ws *w)
+{
+    memset(w->switched, 0, sizeof(int) * (size_t)w->p->nflex);
+}
+
+static int any_switched(const fg_ws *w)
+{
+    int i;
+    for (i = 0; i < w->p->nflex; ++i)
+        if (w->switched[i])
+            return 1;
+    return 0;
+}
+
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
 {
     fg_ws ws, *w = &ws;
     fg_state *st0, *cur, *spare, *smp;
-    int n = p->ndof, i, iterations = 0;
+    int n = p->ndof, i, j, iterations = 0;
 
     bind(w, p, work, iwork);
     st0 = &w->st[0];
@@ -1299,7 +1315,7 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     out->stable = 0;
     out->ncritical = 0;
 
-    w->switched = 0;
+    clear_switched(w);
     if (p->q0 != NULL) {
         /* warm start (equilibrium._warm_start): Newton at the full load from q0, accepted if it
          * converges to a stable equilibrium within max_dq of q0 */
@@ -1322,19 +1338,27 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
         if (p->max_steps < 1)
             return FG_FALLBACK;
         if (direct_solve(w, st0, &cur, &spare, smp, &iterations)) {
-            w->switched = 0;      /* trial steps past a kernel's range are no part of the path */
+            clear_switched(w);    /* trial steps past a kernel's range are no part of the path */
         } else {
             iterations = 0;       /* a rejected direct attempt leaves no trace */
-            w->switched = 0;
+            clear_switched(w);
             cur = continuation(w, st0, &iterations, out);
             if (cur == NULL)
                 return FG_FALLBACK;
             spare = free_state(w, cur, NULL, NULL, NULL);
         }
     }
-    /* any kernel switch on the way (even a trial step): the Python solver warns of it */
-    if (w->switched)
-        return FG_FALLBACK;
     i = finish(w, cur, spare, iterations, out);
-    return i == FG_SOLVED && w->switched ? FG_FALLBACK : i;
+    /* a kernel switch on the way (even on a trial step) is reported per flexure, for the
+     * Python solver's warning; a caller that takes no flags gets the solve handed back */
+    if (i == FG_SOLVED && any_switched(w)) {
+        if (out->switched == NULL)
+            return FG_FALLBACK;
+        for (j = 0; j < p->nflex; ++j)
+            out->switched[j] = w->switched[j];
+    } else if (i == FG_SOLVED && out->switched != NULL) {
+        for (j = 0; j < p->nflex; ++j)
+            out->switched[j] = 0;
+    }
+    return i;
 }

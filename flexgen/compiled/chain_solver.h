@@ -97,6 +97,9 @@ typedef struct {
     int *critical_kind;   /* max_critical: FG_SNAP_THROUGH or FG_BUCKLING_* of each */
     int max_critical;     /* their capacity (0: the first critical event hands the solve back) */
     int ncritical;        /* how many were met */
+    int *switched;        /* nflex (in fg_problem.flex order): 1 if that flexure's "auto" model
+                           * used its Gauss kernel during the solve (SCMModel.switched); NULL:
+                           * any kernel switch hands the solve back (FG_FALLBACK) */
 } fg_answer;
 
 size_t fg_work_size(const fg_problem *p);

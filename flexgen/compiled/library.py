@@ -65,7 +65,8 @@ class Answer(ctypes.Structure):
                 ("energy", ctypes.c_double), ("residual", ctypes.c_double),
                 ("iterations", ctypes.c_int), ("stable", ctypes.c_int),
                 ("critical", _c_double_p), ("critical_kind", _c_int_p),
-                ("max_critical", ctypes.c_int), ("ncritical", ctypes.c_int)]
+                ("max_critical", ctypes.c_int), ("ncritical", ctypes.c_int),
+                ("switched", _c_int_p)]
 
 
 MODEL_KERNEL, MODEL_FEM, MODEL_PRB = 0, 1, 2

@@ -113,6 +113,9 @@ class Plan:
         a.critical = self.critical.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         a.critical_kind = self.critical_kind.ctypes.data_as(ctypes.POINTER(ctypes.c_int))
         a.max_critical = MAX_CRITICAL
+        self.flexure_order = list(order)
+        self.switched = np.zeros(len(order), dtype=np.intc)
+        a.switched = self.switched.ctypes.data_as(ctypes.POINTER(ctypes.c_int))
         self.answer = a
         self._args = (ctypes.byref(p), self.work.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
                       self.iwork.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), ctypes.byref(a))
@@ -125,7 +128,9 @@ class Plan:
         the status (library.SOLVED, FALLBACK or MODEL_ERROR). When SOLVED, ``q``, ``pose``,
         ``compliance`` and ``answer`` (energy, residual, iterations, stable, ncritical) hold it,
         and the first ``answer.ncritical`` entries of ``critical`` / ``critical_kind`` the
-        critical load factors met on the way (a bifurcation crossed, a snap-through)."""
+        critical load factors met on the way (a bifurcation crossed, a snap-through);
+        ``switched[i]`` is 1 if flexure ``flexure_order[i]`` ("auto" kernel) used its Gauss
+        kernel on the way."""
         if q0 is not None:
             self.q0[:] = q0
             self.problem.q0 = self._q0_pointer

@@ -75,7 +75,8 @@ def solve_compiled(scene, models, settings: dict, prepare,
                 start[sl.start:sl.start + v.size] = v
         if plan is None or plan.run(start) != lib.SOLVED:
             return None, unavailable
-        res = result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()})
+        res = result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()},
+                        models)
         # the chain and final stiffness, for the validity check to reuse (as equilibrium._result
         # leaves them): q and K copied, the chain and system those of this plan
         res._final = (chain, system, FinalState(plan.q.copy(), 1.0, plan.K.copy()))
@@ -89,10 +90,11 @@ class FinalState(NamedTuple):
     K: np.ndarray
 
 
-def result_of(plan, scene_name: str, slices, info: dict) -> Result:
+def result_of(plan, scene_name: str, slices, info: dict, models=None) -> Result:
     """The Result of a solved Plan (what ``equilibrium._result`` builds from a State): the
     critical load factors the C continuation met, with the Python solver's warnings for them
-    (``equilibrium.buckling_warning``, ``snap_warning``)."""
+    (``equilibrium.buckling_warning``, ``snap_warning``), then the kernel-switch warnings of
+    ``models`` (their ``switched`` flags set from the C solve, as the Python solve sets them)."""
     a = plan.answer
     warnings: list[str] = []
     critical: list[float] = []
@@ -103,6 +105,13 @@ def result_of(plan, scene_name: str, slices, info: dict) -> Result:
             critical.append(lam)
             warnings.append(snap_warning(lam) if kind == lib.SNAP_THROUGH
                             else buckling_warning(lam, BUCKLING_SIDES[kind - 1]))
+    if models is not None and plan.switched.any():
+        from ..equilibrium import kernel_warnings
+        for name, flag in zip(plan.flexure_order, plan.switched.tolist()):
+            if flag:
+                models[name].switched = True
+        q = plan.q
+        warnings += kernel_warnings(models, {name: q[sl] for name, sl in slices.items()})
     stable = bool(a.stable)
     if not stable:
         warnings.append(UNSTABLE)
