@@ -5,14 +5,14 @@ is within the kernel's certified bounds.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from benchmark_modules import load_benchmark
 
 ROOT = Path(__file__).resolve().parent.parent
 KERNEL = "scm3"
@@ -22,12 +22,7 @@ pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 
 @pytest.fixture(scope="module")
 def kb():
-    spec = importlib.util.spec_from_file_location("flexgen_benchmarks_kernels",
-                                                  ROOT / "benchmarks" / "kernels.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod             # dataclasses look their module up there
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("kernels")
 
 
 @pytest.fixture(scope="module")
