@@ -1,10 +1,10 @@
 """Solve a scene with the compiled chain solver and build the same Result the Python solver does.
 
 ``solve_compiled`` gives no Result whenever the C solver hands the scene back (``FALLBACK``: a
-case the Python solver reports in full, such as a kernel switch or a solve that fails;
-``MODEL_ERROR``), a model has no C counterpart, a kernel
-has no C source or gcc is missing: the caller then runs the Python solver (and, for the last two,
-warns that the compiled solver was unavailable).
+case the Python solver reports in full, such as a solve that fails or a warm start not
+accepted; ``MODEL_ERROR``), a model has no C counterpart, a kernel has no C source or gcc is
+missing: the caller then runs the Python solver (and, for the last two, warns that the compiled
+solver was unavailable).
 
 The Plan of a (scene, models, solver settings) is kept (the last ``CACHE_SIZE`` of them, keyed
 by the scene object and the models' parameters), so solving the same scene again, as a
@@ -24,11 +24,13 @@ from . import library as lib
 from .plan import build_plan
 
 CACHE_SIZE = 64
-_plans: OrderedDict = OrderedDict()      # key -> (scene, plan, slices, outputs, info)
+_plans: OrderedDict = OrderedDict()
+# key -> (scene, plan, chain, system, outputs, info, why unavailable)
 _lock = threading.Lock()                 # one solve at a time per process: plans share workspaces
 
 
-def _signature(scene, models) -> tuple | None:
+def _signature(scene, models) -> tuple:
+    """What of the models a plan depends on (with the scene object and the settings: its key)."""
     sig = []
     for f in scene.flexures:
         m = models[f.name]
@@ -65,7 +67,7 @@ def solve_compiled(scene, models, settings: dict, prepare,
             _plans[key] = entry
             if len(_plans) > CACHE_SIZE:
                 _plans.popitem(last=False)
-        scene_, plan, chain, system, outputs, info, unavailable = entry
+        _, plan, chain, system, outputs, info, unavailable = entry
         slices = chain.slices
         start = None
         if plan is not None and q0 is not None:
