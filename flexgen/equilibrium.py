@@ -400,9 +400,8 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
         if getattr(m, "switched", False):
             m.switched = False
 
-    def prepare():
-        return prepare_system(scene, models)
-
+    prepare = functools.partial(prepare_system, scene, models)
+    unavailable = None          # why the compiled solver could not run, if it was asked for
     if backend == "c":
         settings = dict(tol=tol, max_iterations=max_iterations, max_steps=max_steps,
                         initial_step=initial_step, max_step=max_step, min_step=min_step,
@@ -414,7 +413,7 @@ def solve(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
     chain, system, outputs, info = prepare()
     sol = _Solver(system, tol, max_iterations)
     warnings: list[str] = []
-    if backend == "c" and unavailable:
+    if unavailable:
         warnings.append(unavailable)
     critical: list[float] = []
 
