@@ -73,6 +73,15 @@ def load_numpy(name: str, folder: Path = GENERATED) -> ModuleType:
     return module
 
 
+def gcc_shared(source: Path, library, extra_flags: tuple[str, ...] = ()
+               ) -> subprocess.CompletedProcess:
+    """Run gcc with the strict flags on one C source (its folder on the include path) into a
+    shared library; the finished process (stderr captured). OSError if gcc cannot be run."""
+    return subprocess.run(["gcc", *C_FLAGS, *extra_flags, "-shared", "-fPIC",
+                           f"-I{Path(source).parent}", str(source), "-lm", "-o", str(library)],
+                          capture_output=True, text=True)
+
+
 def compile_c(name: str, build_dir: Path, folder: Path = GENERATED,
               extra_flags: tuple[str, ...] = ()) -> ctypes.CDLL:
     """Compile generated/c/<name>.c with the strict flags into a shared library and load it."""
@@ -81,8 +90,7 @@ def compile_c(name: str, build_dir: Path, folder: Path = GENERATED,
         raise KernelNotFound(f"C kernel {name!r} not found in {folder}/c")
     build_dir.mkdir(parents=True, exist_ok=True)
     library = build_dir / f"lib{name}.so"
-    subprocess.run(["gcc", *C_FLAGS, *extra_flags, "-shared", "-fPIC", str(source), "-lm",
-                    "-o", str(library)], check=True, capture_output=True, text=True)
+    gcc_shared(source, library, extra_flags).check_returncode()
     lib = ctypes.CDLL(str(library))
     double_p, float_p = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_float)
     for suffix, ptr in (("", double_p), ("_f", float_p)):

@@ -12,7 +12,6 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import os
-import subprocess
 import tempfile
 from functools import lru_cache
 from pathlib import Path
@@ -103,9 +102,7 @@ def _shared_library(source: Path, headers: tuple[Path, ...] = ()) -> ctypes.CDLL
         fd, tmp = tempfile.mkstemp(suffix=".so", dir=folder)
         os.close(fd)
         try:
-            proc = subprocess.run(["gcc", *kernels.C_FLAGS, "-shared", "-fPIC",
-                                   f"-I{source.parent}", str(source), "-lm", "-o", tmp],
-                                  capture_output=True, text=True)
+            proc = kernels.gcc_shared(source, tmp)
         except OSError as exc:
             os.unlink(tmp)
             raise CompileError(f"cannot compile {source.name}: {exc}") from exc
