@@ -4,14 +4,25 @@ Public API::
 
     flexgen.load_scene(path) -> Scene
     flexgen.solve(scene_or_path, model=None, modes=None, elements=None, **options) -> Result
+    flexgen.Solver(scene_or_path, ...) -> a prepared solver: .solve(loads=..., tensions=...)
+    flexgen.SolverSettings(...)       every solver default and tuning constant (frozen)
     flexgen.generate(modes, kernel="poly", ...) -> {relative path: text}   (needs SymPy)
 
 See docs/solve.md and docs/scene.md.
 """
 from __future__ import annotations
 
+from importlib.metadata import PackageNotFoundError, version
+
+from .api import prepare as Solver
 from .api import solve
 from .scene import SceneError, load_scene, scene_from_dict
+from .settings import SolverSettings
+
+try:
+    __version__ = version("flexgen")
+except PackageNotFoundError:          # pragma: no cover - imported from a tree not installed
+    __version__ = "0+unknown"
 
 
 def generate(modes: int, kernel: str = "poly", range_deg: float | None = None,
@@ -26,4 +37,5 @@ def generate(modes: int, kernel: str = "poly", range_deg: float | None = None,
     return generate_files(KernelSpec(modes, kernel, range_deg, degree, nodes, tol), tuple(langs))
 
 
-__all__ = ["load_scene", "scene_from_dict", "solve", "generate", "SceneError"]
+__all__ = ["load_scene", "scene_from_dict", "solve", "Solver", "SolverSettings", "generate",
+           "SceneError", "__version__"]

@@ -1,16 +1,23 @@
-"""The Python API behind ``flexgen.solve``: scene or path in, Result out, with model overrides.
+"""The front door: ``flexgen.solve`` and ``flexgen.Solver``.
 
-``solve(scene, model=None, modes=None, elements=None, **options)``:
+``solve(scene, model=None, modes=None, elements=None, *, models=None, settings=None, q0=None,
+tolerance=None, **options)``:
 
 - ``scene``: a ``Scene``, a dict (``scene_from_dict``) or a path to a TOML file (``load_scene``);
 - ``model`` / ``modes`` / ``elements``: override every flexure's ``kind`` / ``modes`` /
   ``elements`` (they beat the scene's ``[model]`` and per-flexure keys; ``modes`` also clears a
   ``tolerance``, since the modes are then given);
-- ``options``: passed to ``flexgen.equilibrium.solve`` (``tol``, ``max_steps``, ...); ignored by the
-  exact solver.
+- ``models``: {flexure: FlexureModel} for some flexures (the others from the scene);
+- ``settings``: a ``SolverSettings``; ``options``: any of its fields by name (``tol``,
+  ``max_steps``, ...), checked; ignored by the exact solver;
+- ``q0``: a warm start ({flexure: coordinates});
+- ``tolerance`` (or ``[model] tolerance``): choose the fewest modes per flexure that meet it
+  (``flexgen.select``).
 
 Kind ``"exact"`` must apply to every flexure (the elastica solver solves the whole scene at once);
-it runs ``models.exact.solve_exact`` and converts its answer (``flexgen.exact_result``).
+it runs ``models.exact.solve_exact`` and converts its answer (``flexgen.exact_result``). Every
+other scene is solved by the compiled core (``flexgen.solver.Solver``); the last prepared solvers
+are kept per Scene object, so solving the same scene again costs the core call and the Result.
 
 Every converged chain-model answer is checked against what its models may claim
 (``flexgen.validity``): the validity warnings are appended to ``Result.warnings`` and the
@@ -19,11 +26,16 @@ indicative error class is ``Result.error_class`` (Python API only).
 from __future__ import annotations
 
 import os
+import threading
+from collections import OrderedDict
 from dataclasses import replace
 from typing import Any, Mapping
 
 from .result import Result
 from .scene import MODEL_KINDS, Scene, SceneError, load_scene, scene_from_dict
+from .settings import SolverSettings
+from .solver import Solver, make_settings
+from .validity import check
 
 
 def as_scene(scene: Scene | Mapping[str, Any] | str | os.PathLike) -> Scene:
@@ -76,8 +88,28 @@ def uses_exact(scene: Scene) -> bool:
     return bool(exact) and all(exact)
 
 
-def solve_scene(scene: Scene, **options):
-    """``(Result, exact SceneSolution or None)`` for an already overridden scene.
+# the prepared solvers of the last scenes solved through ``solve`` (keyed by the Scene object,
+# which is immutable, and the settings); one solve at a time through them
+CACHE_SIZE = 64
+_solvers: OrderedDict[tuple, Solver] = OrderedDict()
+_lock = threading.Lock()
+
+
+def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
+    key = (id(scene), settings)
+    solver = _solvers.get(key)
+    if solver is None or solver.scene is not scene:
+        solver = Solver(scene, settings=settings)
+        _solvers[key] = solver
+        if len(_solvers) > CACHE_SIZE:
+            _solvers.popitem(last=False)
+    return solver
+
+
+def solve_scene(scene: Scene, models: Mapping[str, Any] | None = None,
+                settings: SolverSettings | None = None, q0: Mapping[str, Any] | None = None,
+                tolerance: float | None = None, **options: Any):
+    """``(Result, exact SceneSolution or None)`` for an already overridden scene; see ``solve``.
 
     A converged chain-model result also carries the validity warnings of its models
     (``flexgen.validity.check``: appended to ``warnings``) and, for the Python API,
@@ -86,15 +118,43 @@ def solve_scene(scene: Scene, **options):
     if uses_exact(scene):
         from . import exact_result
         return exact_result.solve(scene)
-    from .equilibrium import solve as chain_solve
-    from .validity import check
-    result = chain_solve(scene, **options)
-    check(scene, result, options.get("models"), options.get("model_factory"))
+    settings = make_settings(settings, **options)
+    if tolerance is None and models is None:
+        from .select import scene_tolerance
+        tolerance = scene_tolerance(scene)
+    if tolerance is not None:
+        if models is not None:
+            raise ValueError("solve: tolerance chooses the models; do not also pass models")
+        from .select import solve_to_tolerance
+        result = solve_to_tolerance(scene, tolerance, settings=settings)
+        check(scene, result)
+        return result, None
+    if models is not None:
+        solver = Solver(scene, models, settings)
+        result = solver.solve(q0=q0)
+    else:
+        with _lock:
+            solver = _cached_solver(scene, settings)
+            result = solver.solve(q0=q0)
+    check(scene, result, solver.models)
     return result, None
 
 
-def solve(scene, model: str | None = None, modes: int | None = None,
-          elements: int | None = None, **options) -> Result:
+def solve(scene: Scene | Mapping[str, Any] | str | os.PathLike, model: str | None = None,
+          modes: int | None = None, elements: int | None = None, **options: Any) -> Result:
     """Solve a scene (Scene, dict or TOML path); see the module docstring."""
     sc = override(as_scene(scene), model, modes, elements)
     return solve_scene(sc, **options)[0]
+
+
+def prepare(scene: Scene | Mapping[str, Any] | str | os.PathLike, model: str | None = None,
+            modes: int | None = None, elements: int | None = None,
+            models: Mapping[str, Any] | None = None, settings: SolverSettings | None = None,
+            **options: Any) -> Solver:
+    """A ``Solver`` for repeated solves of one scene (``flexgen.Solver``'s front door: the same
+    scene arguments and overrides as ``solve``). ``Solver.solve(loads=..., tensions=...)``
+    skips the scene handling and the validity check: the core call and the Result only."""
+    sc = override(as_scene(scene), model, modes, elements)
+    if uses_exact(sc):
+        raise SceneError("Solver: the exact model is a reference solver; use flexgen.solve")
+    return Solver(sc, models, make_settings(settings, **options))

@@ -1,5 +1,9 @@
 """Tree kinematics of a scene: the world pose, Jacobian and Hessian of any point.
 
+The solver core (chain_solver.c) has its own, faster kinematics; this module gives the scene's
+structure (body order, the frame each body moves with, the packing of q) to the problem builder,
+and the geometry of an answer to plots and tests (a plain product-rule reference).
+
 A scene is a tree of bodies. The base is the world frame. A flexure's root frame is its ``at``
 offset in its parent body's frame; its tip frame is the root frame composed with the tip transform
 its model gives (``FlexureModel.tip``). A link's frame is its parent flexure's tip frame, so a link
@@ -133,21 +137,11 @@ class Chain:
         self._roots: dict[str, PointKinematics] = {}
         self._points: dict[str, PointKinematics] = {}       # points at the cached q
         self._resolved: dict[str, tuple[str, tuple[float, float]]] = {}
-        # the light path (poses and Jacobians only, Hessians contracted on demand)
         self._frame_of = {BASE: BASE}
         for body in self._order:
             parent = self.body_parent(body)
             self._frame_of[body] = body if body in self.flexures else self._frame_of[parent]
         self._flex_order = [b for b in self._order if b in self.flexures]
-        self._flex_plan = [(b, self._frame_of[self.flexures[b].parent],
-                            *(float(v) for v in self.flexures[b].at), self.slices[b],
-                            self.models[b]) for b in self._flex_order]
-        self._light_key: bytes | None = None
-        self._light: dict[str, tuple] = {}
-        self._light_data: dict[str, tuple] = {}
-        self._light_points: dict[str, tuple] = {}
-        self._KU: np.ndarray | None = None
-        self._light_base: tuple | None = None
 
     # ---- scene structure ------------------------------------------------------------------
 
@@ -278,182 +272,7 @@ class Chain:
     def pose(self, ref: str, q) -> np.ndarray:
         return self.point(ref, q).pose.copy()
 
-    # ---- the light path: poses and Jacobians, Hessians only as contractions ----------------
-
-    def _light_frames(self, q) -> dict[str, tuple]:
-        """Every flexure frame's (pose (3,), J (3, ndof), moving) at q, cached for the last q,
-        with the per-flexure data ``hessian_sum`` needs. The same arithmetic as ``frames`` (so
-        the same poses and Jacobians, bit for bit) without the Hessians."""
-        q = self._check_q(q)
-        key = q.tobytes()
-        if key == self._light_key:
-            return self._light
-        n = self.ndof
-        base = self._light_base
-        if base is None:
-            z3, zJ = np.zeros(3), np.zeros((3, n))
-            z3.flags.writeable = zJ.flags.writeable = False     # shared by every q
-            base = self._light_base = (z3, zJ, False)
-        frames = {BASE: base}
-        data: dict[str, tuple] = {}
-        for body, parent, ax, ay, ath, sl, model in self._flex_plan:
-            pp, PJ, moving = frames[parent]
-            # root = parent composed with the constant (at)
-            th = float(pp[2])
-            c, s = math.cos(th), math.sin(th)
-            awx, awy = c * ax - s * ay, s * ax + c * ay
-            rpose = np.array([pp[0] + awx, pp[1] + awy, th + ath])
-            RJ = PJ.copy()
-            Jth = PJ[2]
-            if moving:
-                RJ[0] -= awy * Jth
-                RJ[1] += awx * Jth
-            # tip = root composed with the flexure's tip transform
-            tk = model.tip(q[sl])
-            tp = np.asarray(tk.pose, dtype=float)
-            tJ, tH = np.asarray(tk.J, dtype=float), np.asarray(tk.H, dtype=float)
-            th = float(rpose[2])
-            c, s = math.cos(th), math.sin(th)
-            v0, v1 = float(tp[0]), float(tp[1])
-            wx, wy = c * v0 - s * v1, s * v0 + c * v1
-            pose = np.array([rpose[0] + wx, rpose[1] + wy, th + float(tp[2])])
-            J = RJ.copy()
-            Jth = RJ[2]
-            if moving:
-                J[0] -= wy * Jth
-                J[1] += wx * Jth
-            RJ0 = c * tJ[0] - s * tJ[1]
-            RJ1 = s * tJ[0] + c * tJ[1]
-            J[0, sl] += RJ0
-            J[1, sl] += RJ1
-            J[2, sl] += tJ[2]
-            frames[body] = (pose, J, moving or bool(tJ[2].any()))
-            data[body] = (moving, Jth, awx, awy, c, s, wx, wy, RJ0, RJ1, tH, sl)
-        self._light_key, self._light, self._light_data = key, frames, data
-        self._light_points = {}
-        return frames
-
-    def light_snapshot(self) -> tuple:
-        """The light path's cache (for the last q); ``light_restore`` makes it current again."""
-        return (self._light_key, self._light, self._light_data, self._light_points)
-
-    def light_restore(self, snap) -> None:
-        self._light_key, self._light, self._light_data, self._light_points = snap
-
-    def point_j(self, ref: str, q) -> tuple[np.ndarray, np.ndarray]:
-        """World pose (3,) and Jacobian (3, ndof) of ``"<body>.<point>"`` (the same numbers as
-        ``point``, without the Hessian; cached per q: treat as read-only)."""
-        self._light_frames(q)
-        return self._pj(ref)
-
-    def _pj(self, ref: str) -> tuple[np.ndarray, np.ndarray]:
-        """point_j at the q of the last ``_light_frames`` call."""
-        got = self._light_points.get(ref)
-        if got is not None:
-            return got
-        body, xy = self._resolve(ref)
-        pp, PJ, moving = self._light[self._frame_of[body]]
-        if xy == (0.0, 0.0):
-            got = (pp, PJ)
-        else:
-            th = float(pp[2])
-            c, s = math.cos(th), math.sin(th)
-            wx, wy = c * xy[0] - s * xy[1], s * xy[0] + c * xy[1]
-            pose = np.array([pp[0] + wx, pp[1] + wy, th + 0.0])
-            J = PJ.copy()
-            if moving:
-                Jth = PJ[2]
-                J[0] -= wy * Jth
-                J[1] += wx * Jth
-            got = (pose, J)
-        self._light_points[ref] = got
-        return got
-
-    def hessian_sum(self, q, coeffs) -> np.ndarray:
-        """sum_p c_p . H_p (ndof, ndof) over ``coeffs`` = [(ref, (c_x, c_y, c_angle)), ...]: the
-        points' Hessians contracted with the given row coefficients, without forming any H_p.
-
-        Reverse accumulation down the tree: a point at offset w (world) from its body frame B
-        has c . H_p = c_x H_B,x + c_y H_B,y + (c_angle - c_x w_y + c_y w_x) H_B,angle
-        - (c_x w_x + c_y w_y) dth_B dth_B^T, so every coefficient moves to its frame; a flexure
-        frame's coefficients move to its root (the tip block and the cross terms of ``_compose``
-        added to the sum) and from there, the same way as a point, to the parent frame."""
-        frames = self._light_frames(q)
-        data = self._light_data
-        n = self.ndof
-        G = np.zeros((n, n))
-        acc: dict[str, list[float]] = {}        # frame -> [c_x, c_y, c_angle, k (dth dth^T)]
-        for ref, cf in coeffs:
-            c0, c1, c2 = float(cf[0]), float(cf[1]), float(cf[2])
-            if c0 == 0.0 and c1 == 0.0 and c2 == 0.0:
-                continue
-            body, xy = self._resolve(ref)
-            fr = self._frame_of[body]
-            if fr == BASE:
-                continue
-            a = acc.get(fr)
-            if a is None:
-                a = acc[fr] = [0.0, 0.0, 0.0, 0.0]
-            a[0] += c0
-            a[1] += c1
-            a[2] += c2
-            if xy != (0.0, 0.0):
-                th = float(frames[fr][0][2])
-                c, s = math.cos(th), math.sin(th)
-                wx, wy = c * xy[0] - s * xy[1], s * xy[0] + c * xy[1]
-                a[2] += c1 * wx - c0 * wy
-                a[3] += c0 * wx + c1 * wy
-        for body in reversed(self._flex_order):
-            a = acc.get(body)
-            if a is None:
-                continue
-            c0, c1, c2, k = a
-            if k != 0.0:
-                Jth = frames[body][1][2]
-                G -= k * np.multiply.outer(Jth, Jth)
-            moving, Jr, awx, awy, c, s, wx, wy, RJ0, RJ1, tH, sl = data[body]
-            k = tH.shape[1]
-            G[sl, sl] += (np.array([c * c0 + s * c1, c * c1 - s * c0, c2])
-                          @ tH.reshape(3, k * k)).reshape(k, k)
-            parent = self._frame_of[self.flexures[body].parent]
-            if parent == BASE or not (c0 or c1 or c2):
-                continue
-            # the root frame's coefficients, then the parent frame's (root = parent o at)
-            r2 = c2 + c1 * wx - c0 * wy
-            kr = c0 * wx + c1 * wy
-            if moving:
-                X = np.multiply.outer(c1 * RJ0 - c0 * RJ1, Jr)
-                G[sl, :] += X
-                G[:, sl] += X.T
-            p = acc.get(parent)
-            if p is None:
-                p = acc[parent] = [0.0, 0.0, 0.0, 0.0]
-            p[0] += c0
-            p[1] += c1
-            p[2] += r2 + c1 * awx - c0 * awy
-            p[3] += kr + c0 * awx + c1 * awy
-        return G
-
     # ---- energy ---------------------------------------------------------------------------
-
-    def energy_terms(self, q) -> tuple[float, np.ndarray, np.ndarray]:
-        """(energy, energy_gradient, energy_hessian) at q in one pass; the Hessian is built once
-        and copied when every model declares it constant (``CONSTANT_HESSIAN``: quadratic
-        energies)."""
-        U, g = 0.0, np.zeros(self.ndof)
-        for n, sl in self.slices.items():
-            m = self.models[n]
-            qs = q[sl]
-            U += m.energy(qs)
-            g[sl] = m.energy_gradient(qs)
-        K = self._KU
-        if K is None:
-            K = self.energy_hessian(q)
-            if all(getattr(m, "CONSTANT_HESSIAN", False) for m in self.models.values()):
-                self._KU = K.copy()
-        else:
-            K = K.copy()
-        return float(U), g, K
 
     def energy(self, q) -> float:
         q = self._check_q(q)

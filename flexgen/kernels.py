@@ -15,7 +15,10 @@ from functools import lru_cache
 from pathlib import Path
 from types import ModuleType
 
-GENERATED = Path(__file__).resolve().parents[1] / "generated"
+_PACKAGE = Path(__file__).resolve().parent
+# installed: the package's own copy (flexgen/generated); a source checkout: the top-level folder
+GENERATED = (_PACKAGE / "generated" if (_PACKAGE / "generated").is_dir()
+             else _PACKAGE.parent / "generated")
 C_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
 _NAME = re.compile(r"^scm(\d+)(?:_gauss(\d+))?$")
 

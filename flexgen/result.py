@@ -51,8 +51,8 @@ class PointResult:
 
 
 def point_result(ref: str, pose, C3: np.ndarray, warnings: list[str]) -> PointResult:
-    """The PointResult of an output point from its pose and 3x3 compliance (both solvers build
-    theirs here); a non-finite compliance adds its warning to ``warnings``."""
+    """The PointResult of an output point from its pose and 3x3 compliance (every chain-model
+    answer is built here); a non-finite compliance adds its warning to ``warnings``."""
     c3 = np.asarray(C3, dtype=float).tolist()       # plain floats (cheaper than numpy here)
     if not all(math.isfinite(v) for row in c3 for v in row):
         warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
@@ -78,21 +78,17 @@ class Result:
     critical_load_factors: list[float] = field(default_factory=list)
     load_factor: float = 1.0          # load factor of the reported state (1 when converged)
     energy: float | None = None       # elastic energy at equilibrium
-    residual: float | None = None     # relative residual at equilibrium (see equilibrium.py)
+    residual: float | None = None     # relative residual at equilibrium (see flexgen/solver.py)
     # set only when a tolerance was requested (flexgen.select): the requested tolerance and the
     # a-posteriori error estimate of the whole answer; model[flexure] then also carries
     # "kernel" and "error_estimate"
     tolerance: float | None = None
     error_estimate: float | None = None
-    # which solver produced it (Python API only): "python", "c" (flexgen.compiled) or "exact"
-    solver: str = "python"
-
-    def __getstate__(self) -> dict[str, Any]:
-        """Pickle and deepcopy without ``_final`` (the solve's chain and final state, set by
-        ``flexgen.equilibrium`` for the validity check to reuse; not part of the result)."""
-        state = dict(self.__dict__)
-        state.pop("_final", None)
-        return state
+    # which solver produced it (Python API only): "core" (flexgen.solver) or "exact"
+    solver: str = "core"
+    # the generalized stiffness at equilibrium, coordinates packed as ``q`` lists them (Python
+    # API only; None when not converged or for the exact solver)
+    stiffness: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """Every field, as plain Python data."""
@@ -125,8 +121,7 @@ class Result:
         """A human-readable summary."""
         lines = [f"scene: {self.scene}"]
         if self.converged:
-            by = {"c": " (compiled solver)"}.get(self.solver, "")
-            lines.append(f"converged in {self.iterations} Newton iterations{by}; "
+            lines.append(f"converged in {self.iterations} Newton iterations; "
                          f"{'stable' if self.stable else 'UNSTABLE'} equilibrium")
         else:
             lines.append(f"NOT converged after {self.iterations} Newton iterations: {self.reason}")

@@ -20,7 +20,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
-MODEL_KINDS = ("scm", "cc", "prb", "fem", "exact")
+from .models.registry import MODEL_KINDS
+
 KERNELS = ("auto", "poly", "gauss")
 BASE = "base"
 TIP = "tip"

@@ -176,13 +176,13 @@ class _Problem:
                 for i, (f, N) in enumerate(zip(self.flex, modes))}
 
     def solve(self, modes: Sequence[int], q0=None) -> Solved:
-        from .equilibrium import solve
+        from .solver import solve_models
         modes = tuple(int(n) for n in modes)
         if modes in self.cache:
             return self.cache[modes]
         models = self.models(modes)
         t0 = time.perf_counter()
-        res = solve(self.scene, models, q0=q0, **self.kw)
+        res = solve_models(self.scene, models, q0=q0, **self.kw)
         dt = time.perf_counter() - t0
         self.solves += 1
         outs = outputs_of(res) if res.stable else None
@@ -516,12 +516,12 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
 def select_models(scene, tolerance: float, /, **solve_kwargs) -> Selection:
     """Choose the fewest modes per flexure that meet ``tolerance`` (see the module docstring).
 
-    ``scene``: a Scene (or a path/dict, as ``flexgen.equilibrium.solve`` takes); ``solve_kwargs`` go to
+    ``scene``: a Scene (or a path/dict, as ``flexgen.solve`` takes); ``solve_kwargs`` go to
     every chain solve (``tol`` there is the residual tolerance of the equilibrium, not this one).
     Raises SelectionError for tolerance <= 0 or a flexure that is not "scm"."""
-    from .equilibrium import _load_scene
+    from .api import as_scene
     tol = check_tolerance(tolerance)
-    scene = _load_scene(scene)
+    scene = as_scene(scene)
     t0 = time.perf_counter()
     table = estimate_table(scene, stop_at=tol, **solve_kwargs)
     return _finish(table, tol, t0)
@@ -537,7 +537,7 @@ def solve_to_tolerance(scene, tolerance: float, /, **solve_kwargs) -> Result:
     ``model[flexure]`` has ``modes``, ``kernel`` and ``error_estimate`` and whose
     ``error_estimate`` covers the whole answer (``to_json`` then includes them). If ``tol`` is
     out of reach the Result has the best estimate and a warning saying so. ``solve_kwargs`` go
-    to every chain solve (``flexgen.equilibrium.solve``: ``tol``, ``max_steps``, ...)."""
+    to every chain solve (``flexgen.solver.solve_models``: ``settings``, ``tol``, ...)."""
     return select_models(scene, tolerance, **solve_kwargs).result
 
 
@@ -560,16 +560,15 @@ def kernel_ops(modes: int, kernel: str) -> int | None:
 def time_per_solve(scene: Scene, modes: Mapping[str, int], repeat: int = 5,
                    **solve_kwargs) -> float:
     """Seconds per solve (equilibrium + compliance, continuation from the unloaded state) with
-    the given modes, the best of ``repeat`` after one untimed call (which, with
-    ``backend="c"``, compiles what the compiled solver needs the first time)."""
-    from .equilibrium import solve
+    the given modes through a prepared solver, the best of ``repeat`` after one untimed call."""
+    from .solver import Solver, make_settings
     pb = _Problem(scene, solve_kwargs)
-    solve(scene, pb.models([modes[n] for n in pb.names]), **pb.kw)
+    solver = Solver(scene, pb.models([modes[n] for n in pb.names]), make_settings(**pb.kw))
+    solver.solve()
     best = math.inf
     for _ in range(max(1, repeat)):
-        models = pb.models([modes[n] for n in pb.names])
         t0 = time.perf_counter()
-        solve(scene, models, **pb.kw)
+        solver.solve()
         best = min(best, time.perf_counter() - t0)
     return best
 

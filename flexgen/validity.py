@@ -534,65 +534,31 @@ def _names(names) -> str:
             else "flexures " + ", ".join(repr(n) for n in names))
 
 
-def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, final=None) -> float:
+def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None) -> float:
     """How far the equilibrium q (full load) is from a critical load: the smallest generalized
     eigenvalue of (K, hess U), i.e. the smallest eigenvalue of L^-1 K L^-T with hess U = L L^T.
     1 unloaded, 1 - P/P_cr on an axial load below buckling, 0 at a critical load, < 0 unstable
     (nan if hess U is not positive definite). Independent of the model's coordinates.
 
-    ``final``: the solve's ``(chain, system, state)`` (``Result._final``); its stiffness is
-    reused when it is the state at q of the same scene with equivalent models (the same K bit
-    for bit), else K is evaluated again."""
-    from flexgen.chain import Chain
-    from flexgen.equilibrium import System
-    st = _reusable_state(scene, models, q, final)
-    if st is not None:
-        chain = final[0]
-    else:
-        chain = Chain(scene, models)
-        st = System(chain).state(chain.pack(q), 1.0)
-    KU = chain.energy_hessian(st.q)
+    ``K``: the stiffness at q (``Result.stiffness``, coordinates packed in the scene's flexure
+    order); None: solved again by the core, warm-started at q."""
+    if K is None:
+        from flexgen.solver import Solver
+        K = Solver(scene, models).solve(q0=q).stiffness
+        if K is None:
+            return math.nan
+    KU = np.zeros_like(K)
+    start = 0
+    for f in scene.flexures:
+        m = models[f.name]
+        k = int(m.n_dof)
+        KU[start:start + k, start:start + k] = m.energy_hessian(np.asarray(q[f.name], float))
+        start += k
     try:
         Li = np.linalg.inv(np.linalg.cholesky(0.5 * (KU + KU.T)))
     except np.linalg.LinAlgError:
         return math.nan
-    return float(np.linalg.eigvalsh(Li @ st.K @ Li.T)[0])
-
-
-_MODEL_KEYS = ("kind", "label", "n_dof", "length", "EI", "kernel", "gauss_name", "elements",
-               "gamma", "K_theta")
-
-
-def _model_key(m) -> tuple:
-    return (type(m),) + tuple(getattr(m, k, None) for k in _MODEL_KEYS)
-
-
-def _reusable_state(scene: Scene, models: Mapping, q: Mapping, final):
-    """The solve's final state if it is the state that ``System(Chain(scene, models)).state(
-    pack(q), 1.0)`` would give: the same scene object, its own loads and tendons, models of the
-    same type and parameters per flexure, the same q bit for bit, load factor 1."""
-    if final is None:
-        return None
-    chain, system, st = final
-    if chain.scene is not scene or st.lam != 1.0 or getattr(system, "chain", None) is not chain:
-        return None
-    if system.loads is None or len(system.loads) != len(scene.loads) or any(
-            ref != ld.point or list(F) != [ld.force[0], ld.force[1], ld.moment]
-            for (ref, F), ld in zip(system.loads, scene.loads)):
-        return None
-    if [(T, tuple(r)) for T, r in system.tendons] != [
-            (float(t.tension), tuple(t.route)) for t in scene.tendons]:
-        return None
-    if set(models) != set(chain.models) or any(
-            _model_key(models[n]) != _model_key(chain.models[n]) for n in models):
-        return None
-    try:
-        packed = chain.pack(q)
-    except Exception:
-        return None
-    if packed.shape != st.q.shape or not np.array_equal(packed, st.q):
-        return None
-    return st
+    return float(np.linalg.eigvalsh(Li @ K @ Li.T)[0])
 
 
 def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str] | None = None,
@@ -616,7 +582,7 @@ def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str]
             beta, beta_at = b, name
         kind = getattr(m, "kind", "")
         if kind == "scm":
-            switched |= bool(getattr(m, "switched", False))
+            switched |= m.gauss is not None and m.poly is not None and not m.poly.in_range(q)
             if m.gauss is None:
                 if not m.poly.in_range(q):
                     oor = True
@@ -649,7 +615,7 @@ def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str]
         warnings.append(
             f"flexure {beta_at!r} ({labels[beta_at]}): bent {_deg(beta)}, past the "
             f"{_deg(BANDS[-1])} the error classes cover; no accuracy is claimed")
-    margin = stiffness_margin(scene, models, result.q, getattr(result, "_final", None))
+    margin = stiffness_margin(scene, models, result.q, getattr(result, "stiffness", None))
     if margin < NEAR_SINGULAR and getattr(result, "stable", True):
         pts = ", ".join(repr(p) for p in getattr(result, "points", {})) or "the output points"
         warnings.append(

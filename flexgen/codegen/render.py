@@ -7,7 +7,10 @@ from pathlib import Path
 
 import jinja2
 
-TEMPLATES = Path(__file__).resolve().parents[2] / "templates"
+_PACKAGE = Path(__file__).resolve().parents[1]
+# installed: the package's own copy (flexgen/templates); a source checkout: the top-level folder
+TEMPLATES = (_PACKAGE / "templates" if (_PACKAGE / "templates").is_dir()
+             else _PACKAGE.parent / "templates")
 
 
 def environment() -> jinja2.Environment:

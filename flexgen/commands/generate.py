@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from flexgen.codegen.spec import FAMILIES, KernelSpec
-from flexgen.commands.common import REPO, UsageError, integer
+from flexgen.commands.common import UsageError, integer
 
 LANGS = ("numpy", "c")
 
@@ -44,8 +44,9 @@ def register(sub) -> None:
     gen.add_argument("--nodes", type=integer(), help="gauss: number of quadrature nodes")
     gen.add_argument("--lang", type=_langs, default=LANGS, metavar="LIST",
                      help="comma-separated backends: numpy,c (default both)")
-    gen.add_argument("--out", type=Path, default=REPO / "generated",
-                     help="output folder (default: the repository's generated/)")
+    gen.add_argument("--out", type=Path, default=Path("generated"),
+                     help="output folder (default: ./generated under the current folder; the "
+                          "kernels shipped inside the package are never overwritten)")
     gen.add_argument("--check", action="store_true",
                      help="write nothing; exit 1 and name the stale files if --out differs")
     gen.set_defaults(run=run)

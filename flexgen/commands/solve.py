@@ -4,8 +4,7 @@ Exit codes: 0 an equilibrium was found; 1 none was found (one line on stderr wit
 with --json the object with "converged": false and "reason" still goes to stdout); 2 bad input
 (raised as SceneError or UsageError, reported by flexgen/cli.py).
 
-``add_model_options`` and ``solve_args`` are shared with `flexgen plot`; ``--backend`` is
-`solve`'s own (``add_backend_option``).
+``add_model_options`` and ``solve_args`` are shared with `flexgen plot`.
 """
 from __future__ import annotations
 
@@ -13,8 +12,7 @@ import sys
 
 from flexgen.commands.common import UsageError, integer, tolerance
 
-KINDS = ("scm", "cc", "prb", "fem", "exact")
-BACKENDS = ("python", "c")       # flexgen.equilibrium.BACKENDS
+from flexgen.models.registry import MODEL_KINDS as KINDS
 
 
 def add_model_options(p) -> None:
@@ -36,19 +34,8 @@ def add_model_options(p) -> None:
                         "result reports the choice and the estimate (docs/selection.md)")
 
 
-def add_backend_option(p) -> None:
-    """--backend: which chain solver (forwarded as ``backend=`` to flexgen.equilibrium.solve)."""
-    p.add_argument("--backend", choices=BACKENDS, default="python",
-                   help="chain solver (default python): python, the reference solver; c, the "
-                        "compiled chain solver (flexgen/compiled; needs gcc, compiles once into "
-                        "~/.cache/flexgen or $FLEXGEN_CACHE). Both give the same answer (c runs "
-                        "the same algorithm, buckling and kernel switches included, and hands "
-                        "a failed solve or a user model back to python). Ignored with "
-                        "--model exact")
-
-
-# extra argparse dests forwarded to flexgen.api.solve_scene (and on to flexgen.equilibrium.solve)
-OPTION_NAMES = ["tolerance", "backend"]
+# extra argparse dests forwarded to flexgen.api.solve_scene
+OPTION_NAMES = ["tolerance"]
 
 
 def solve_args(args):
@@ -78,7 +65,6 @@ def register(sub) -> None:
         "ellipse. Without --json: a table. Exit codes: 0 equilibrium found, 1 no equilibrium "
         "(reason on stderr), 2 bad input (one line on stderr naming the key)."))
     add_model_options(p)
-    add_backend_option(p)
     p.add_argument("--json", action="store_true",
                    help="print the result as one JSON object (the fields of the public contract, "
                         "plus \"reason\" when not converged)")

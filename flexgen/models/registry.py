@@ -1,63 +1,143 @@
-"""Build a FlexureModel for a scene's flexure from its ModelSpec.
+"""The model registry: what each model kind of a scene is, in one table.
 
-The model modules are imported lazily, so a scene that uses only one kind of model needs only that
+``KINDS`` maps a scene's ``kind`` to a ``ModelKind``: how to build the flexure's model from its
+ModelSpec, how the solver core evaluates it (``FG_MODEL_*`` and the fields of its
+``fg_flexure``), and what the Result says of it. Nothing else in the runtime tells models apart
+by kind. The model modules are imported lazily, so a scene that uses one kind needs only that
 module (and the runtime never imports SymPy).
 
-    scm -> flexgen.models.scm.SCMModel(length, EI, modes, kernel, name)
-    cc  -> flexgen.models.scm.SCMModel(length, EI, 1, kernel, name)     (constant curvature)
-    prb -> flexgen.models.prb.PRBModel(length, EI)
-    fem -> flexgen.models.fem.FEMModel(length, EI, elements)
+    scm   -> SCMModel(length, EI, modes, kernel)   the generated kernels (core: FG_MODEL_KERNEL)
+    cc    -> SCMModel(length, EI, 1, kernel)       constant curvature: scm with one mode
+    prb   -> PRBModel(length, EI)                  pseudo-rigid-body 1R (core: FG_MODEL_PRB)
+    fem   -> FEMModel(length, EI, elements)        n rigid segments (core: FG_MODEL_FEM)
+    exact -> no chain model: the elastica reference solves the whole scene (flexgen.models.exact)
+
+To add a model: write its class (``flexgen.models.base.FlexureModel``), its C evaluation in the
+core's ``flexure_tip`` (chain_solver.c) under a new ``FG_MODEL_*``, and a row here.
 """
 from __future__ import annotations
 
 import importlib
-from typing import Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
-from ..scene import Flexure, Scene
+import numpy as np
+
 from .base import FlexureModel
+
+if TYPE_CHECKING:
+    from ..scene import Flexure, Scene
 
 
 class ModelError(ValueError):
     """A flexure model that cannot be built; the message names the flexure."""
 
 
-def _load(module: str, cls: str, flexure: Flexure):
+def _scm(flexure: Flexure, cls: Any) -> FlexureModel:
+    spec = flexure.model
+    modes = 1 if spec.kind == "cc" else int(spec.modes)
+    return cls(float(flexure.length), float(flexure.EI), modes, spec.kernel, name=flexure.name)
+
+
+def _prb(flexure: Flexure, cls: Any) -> FlexureModel:
+    return cls(float(flexure.length), float(flexure.EI))
+
+
+def _fem(flexure: Flexure, cls: Any) -> FlexureModel:
+    return cls(float(flexure.length), float(flexure.EI), int(flexure.model.elements))
+
+
+def _core_scm(model: Any, f: Any) -> np.ndarray:
+    from ..core import kernel_functions, lib
+    f.kind, f.length = lib.FG_MODEL_KERNEL, model.length
+    if model.poly is not None:
+        f.poly, f.in_range = kernel_functions(f"scm{model.n_dof}")
+    if model.gauss is not None:
+        f.gauss, f.gauss_in_range = kernel_functions(model.gauss_name)
+    return model.EI / model.length * np.asarray(model.weights, dtype=float)
+
+
+def _core_fem(model: Any, f: Any) -> np.ndarray:
+    from ..core import lib
+    f.kind, f.length = lib.FG_MODEL_FEM, model.length
+    return np.full(model.n_dof, model.spring)
+
+
+def _core_prb(model: Any, f: Any) -> np.ndarray:
+    from ..core import lib
+    f.kind, f.length, f.gamma = lib.FG_MODEL_PRB, model.length, model.gamma
+    return np.array([model.stiffness])
+
+
+@dataclass(frozen=True)
+class ModelKind:
+    name: str
+    module: str | None                 # where its class lives (None: not a chain model)
+    cls: str | None
+    build: Callable[[Flexure, Any], FlexureModel] | None
+    # fills the model's fg_flexure for the core; returns the diagonal of its energy Hessian
+    core: Callable[[Any, Any], np.ndarray] | None
+    info: Callable[[Any], dict[str, Any]]          # the Result's "model" entry of a flexure
+
+
+KINDS: dict[str, ModelKind] = {
+    "scm": ModelKind("scm", "flexgen.models.scm", "SCMModel", _scm, _core_scm,
+                     lambda m: {"kind": "scm", "modes": int(m.n_dof)}),
+    "cc": ModelKind("cc", "flexgen.models.scm", "SCMModel", _scm, _core_scm,
+                    lambda m: {"kind": "scm", "modes": int(m.n_dof)}),
+    "prb": ModelKind("prb", "flexgen.models.prb", "PRBModel", _prb, _core_prb,
+                     lambda m: {"kind": "prb"}),
+    "fem": ModelKind("fem", "flexgen.models.fem", "FEMModel", _fem, _core_fem,
+                     lambda m: {"kind": "fem", "elements": int(m.n_dof)}),
+    "exact": ModelKind("exact", None, None, None, None, lambda m: {"kind": "exact"}),
+}
+MODEL_KINDS = tuple(KINDS)
+
+
+def _class(kind: ModelKind, flexure: Flexure) -> Any:
+    assert kind.module is not None and kind.cls is not None
     try:
-        mod = importlib.import_module(module)
+        return getattr(importlib.import_module(kind.module), kind.cls)
     except ImportError as exc:
-        raise ModelError(
-            f"flexure {flexure.name!r}: model kind {flexure.model.kind!r} is not available "
-            f"({module} cannot be imported: {exc})") from exc
-    try:
-        return getattr(mod, cls)
-    except AttributeError as exc:
-        raise ModelError(f"flexure {flexure.name!r}: {module} has no {cls}") from exc
+        raise ModelError(f"flexure {flexure.name!r}: model kind {kind.name!r} is not available "
+                         f"({kind.module} cannot be imported: {exc})") from exc
 
 
 def build_model(flexure: Flexure) -> FlexureModel:
     """The FlexureModel that ``flexure.model`` asks for, in the flexure's physical units."""
-    spec = flexure.model
-    kind = spec.kind
-    length, EI = float(flexure.length), float(flexure.EI)
-    if kind in ("scm", "cc"):
-        SCMModel = _load("flexgen.models.scm", "SCMModel", flexure)
-        modes = 1 if kind == "cc" else int(spec.modes)
-        return SCMModel(length, EI, modes, spec.kernel, name=flexure.name)
-    if kind == "prb":
-        PRBModel = _load("flexgen.models.prb", "PRBModel", flexure)
-        return PRBModel(length, EI)
-    if kind == "fem":
-        FEMModel = _load("flexgen.models.fem", "FEMModel", flexure)
-        return FEMModel(length, EI, int(spec.elements))
-    if kind == "exact":
-        raise ModelError(
-            f"flexure {flexure.name!r}: model kind 'exact' is a reference elastica solver, "
-            "not a chain model; use flexgen.models.exact directly")
-    raise ModelError(f"flexure {flexure.name!r}: unknown model kind {kind!r}")
+    kind = KINDS.get(flexure.model.kind)
+    if kind is None:
+        raise ModelError(f"flexure {flexure.name!r}: unknown model kind {flexure.model.kind!r}")
+    if kind.build is None:
+        raise ModelError(f"flexure {flexure.name!r}: model kind {kind.name!r} is a reference "
+                         f"elastica solver, not a chain model; use flexgen.models.exact directly")
+    return kind.build(flexure, _class(kind, flexure))
+
+
+def kind_of(model: Any) -> ModelKind:
+    """The registry row of a built model (by its ``kind`` attribute)."""
+    kind = KINDS.get(getattr(model, "kind", None))      # type: ignore[arg-type]
+    if kind is None or kind.core is None:
+        raise ModelError(f"model {model!r} is not one of the chain model kinds "
+                         f"({', '.join(k for k, v in KINDS.items() if v.core)})")
+    return kind
+
+
+def core_description(model: Any, flexure_struct: Any) -> np.ndarray:
+    """Fill the core's ``fg_flexure`` for ``model``; the diagonal of its energy Hessian."""
+    core = kind_of(model).core
+    assert core is not None
+    return core(model, flexure_struct)
+
+
+def model_info(model: Any) -> dict[str, Any]:
+    """The Result's description of a flexure's model ({"kind": ..., "modes"/"elements": ...})."""
+    return kind_of(model).info(model)
 
 
 def build_models(scene: Scene, overrides: Mapping[str, FlexureModel] | None = None,
-                 factory: Callable[[Flexure], FlexureModel] | None = None) -> dict[str, FlexureModel]:
+                 factory: Callable[[Flexure], FlexureModel] | None = None
+                 ) -> dict[str, FlexureModel]:
     """A model for every flexure of ``scene``: ``overrides[name]`` where given, else ``factory``
     (default ``build_model``) applied to the flexure."""
     overrides = dict(overrides or {})

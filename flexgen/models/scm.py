@@ -4,7 +4,7 @@ q are the Legendre curvature coefficients (kappa L = sum q_n P_n(2s/L - 1)), dim
 q[0] is the tip angle. kernel = "poly" uses the closed-form polynomial kernel scm{N} (valid while
 |phi| <= its PHI_MAX along the flexure); "gauss" the Gauss kernel scm{N}_gauss{G} (any angle,
 certified on its range); "auto" the polynomial while in range and the Gauss kernel past it
-(``switched`` records that it happened, so the solver can warn). With "poly" alone a pose past
+(the core reports each flexure that switched, and the Result warns). With "poly" alone a pose past
 the range raises ValueError naming the flexure (``name``) and the range, so the solver reports no
 equilibrium instead of a wrong one. ``cc`` is this model with one mode.
 """
@@ -52,7 +52,6 @@ class SCMModel:
                     raise
                 self.no_gauss = str(missing)   # "auto": fine while the polynomial is in range
         self.weights = (self.poly or self.gauss).ENERGY_WEIGHTS
-        self.switched = False
         self.name = name
 
     # -- kernels -------------------------------------------------------------------------
@@ -63,25 +62,29 @@ class SCMModel:
             return bool(self.poly.in_range(q))
         return bool(self.gauss.in_range(q))
 
+    def range_error(self) -> str:
+        """Why this flexure cannot be evaluated past its polynomial kernel's range."""
+        why = (f"and {self.no_gauss}" if self.no_gauss else
+               "kernel 'poly' was asked for, 'auto' switches to the Gauss kernel")
+        return (f"flexure {self.name!r}: bent past the range of the polynomial kernel "
+                f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the "
+                f"flexure; {why})")
+
     def kernel_at(self, q):
+        """The kernel that evaluates q: the polynomial while in range, else the Gauss kernel
+        ("auto", "gauss"); ValueError (``range_error``) when there is none."""
         if self.poly is not None and self.gauss is None:
             if not self.poly.in_range(q):
-                why = (f"and {self.no_gauss}" if self.no_gauss else
-                       "kernel 'poly' was asked for, 'auto' switches to the Gauss kernel")
-                raise ValueError(
-                    f"flexure {self.name!r}: bent past the range of the polynomial kernel "
-                    f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the "
-                    f"flexure; {why})")
+                raise ValueError(self.range_error())
             return self.poly
         if self.poly is not None and self.poly.in_range(q):
             return self.poly
-        self.switched = self.switched or self.poly is not None
         return self.gauss
 
     def switch_warning(self, q=None) -> str | None:
         """The warning for a solve in which this flexure left the polynomial kernel's range
-        (None if it never did); ``q`` is the equilibrium, if one was found."""
-        if not (self.switched and self.poly is not None):
+        (the core reports that it did); ``q`` is the equilibrium, if one was found."""
+        if self.poly is None:
             return None
         if q is None:
             where = "during the solve"

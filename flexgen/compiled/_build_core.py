@@ -1,0 +1,72 @@
+"""Build recipe of the extension module ``flexgen._core`` (run by setuptools at install time).
+
+cffi in API mode compiles the chain solver (``chain_solver.c``) and every shipped C kernel
+(``generated/c/*.c``) into one extension module, so an installed flexgen needs no compiler and
+loads no library from any folder but its own. ``chain_solver.h`` is the one definition of the
+solver's structs: its text (preprocessor lines removed) is the cffi declaration, so Python fills
+the structs by field name and nothing mirrors them by hand. The kernels are declared by name
+(``<kernel>_evaluate``, ``<kernel>_in_range``): the solver takes them as function pointers.
+
+Used from setup.py (``cffi_modules``); paths are relative to the project root, as setuptools
+wants them.
+"""
+from __future__ import annotations
+
+import hashlib
+import re
+from pathlib import Path
+
+from cffi import FFI
+
+ROOT = Path(__file__).resolve().parents[2]
+SOLVER = Path("flexgen") / "compiled"
+KERNELS = Path("generated") / "c"
+
+
+def kernel_names() -> list[str]:
+    """The shipped C kernels (generated/c/<name>.c with its header), sorted."""
+    return sorted(p.stem for p in (ROOT / KERNELS).glob("scm*.c")
+                  if (ROOT / KERNELS / f"{p.stem}.h").is_file())
+
+
+def solver_declarations() -> str:
+    """chain_solver.h without its preprocessor lines and C++ guards (cffi's cdef syntax)."""
+    text = (ROOT / SOLVER / "chain_solver.h").read_text()
+    text = re.sub(r"#ifdef __cplusplus.*?#endif", "", text, flags=re.S)
+    return "\n".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
+
+
+def kernel_declarations(names: list[str]) -> str:
+    return "\n".join(f"void {n}_evaluate(const double *q, double *pose, double *J, double *H);\n"
+                     f"int {n}_in_range(const double *q);" for n in names)
+
+
+def sources_digest() -> str:
+    """SHA-256 over the C sources, compiled into the core: ``flexgen.core.check_fresh`` compares
+    it with the sources of a checkout, so a stale build is an error, not an old answer."""
+    digest = hashlib.sha256()
+    for path in sorted((ROOT / SOLVER).glob("chain_solver.[ch]")) + sorted(
+            (ROOT / KERNELS).glob("scm*.[ch]")):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+def make_ffi() -> FFI:
+    names = kernel_names()
+    ffi = FFI()
+    ffi.cdef(solver_declarations() + "\n" + kernel_declarations(names)
+             + "\nconst char *fg_sources_digest(void);")
+    includes = "\n".join(f'#include "{n}.h"' for n in ["chain_solver", *names])
+    includes += ('\nconst char *fg_sources_digest(void) { return "%s"; }' % sources_digest())
+    ffi.set_source("flexgen._core", includes,
+                   sources=[str(SOLVER / "chain_solver.c"),
+                            *(str(KERNELS / f"{n}.c") for n in names)],
+                   include_dirs=[str(SOLVER), str(KERNELS)],
+                   libraries=["m"])
+    return ffi
+
+
+ffibuilder = make_ffi()
+
+if __name__ == "__main__":
+    ffibuilder.compile(verbose=True)

@@ -1,0 +1,157 @@
+"""A scene and its flexure models as the solver core's problem: flat arrays, constant per scene.
+
+``Problem`` is the model in Pinocchio's sense: topology, geometry, stiffness, kernels, loads and
+tendons, and the solver settings, held in the C structs of ``chain_solver.h`` (filled by field
+name through cffi) and the NumPy arrays they point into. ``Workspace`` is the data: the scratch
+memory and answer buffers of one solve, owned by the caller. Neither holds solver state between
+solves; the answer of a solve is read from the workspace right after it.
+
+Flexures are listed in body order (every parent before its children, as the core's kinematics
+and its reverse Hessian accumulation need), each with the offset of its coordinates in the packed
+q (the scene's flexure order, ``Chain.slices``). Points are those the loads, tendons and outputs
+name, each on the flexure frame that carries it (-1: the base).
+"""
+from __future__ import annotations
+
+from dataclasses import fields
+from typing import Any, Mapping
+
+import numpy as np
+
+from .chain import BASE, Chain
+from .core import ffi, lapack
+from .models.registry import core_description
+from .scene import Scene
+from .settings import SolverSettings
+
+# the most critical events (bifurcations crossed, snap-throughs) a solve reports one by one
+MAX_CRITICAL = 64
+
+
+def output_points(scene: Scene, chain: Chain) -> list[str]:
+    """The scene's [output] points; else every loaded point; else the tips of the flexures that
+    carry no other flexure."""
+    if scene.outputs:
+        return list(scene.outputs)
+    refs = list(dict.fromkeys(ld.point for ld in scene.loads))
+    if refs:
+        return refs
+    carriers = {chain.frame_of(f.parent) for f in scene.flexures}
+    return [f"{f.name}.tip" for f in scene.flexures if f.name not in carriers]
+
+
+class Problem:
+    """The constant part of a solve: ``problem.struct`` (an ``fg_problem *``) and what it points
+    into. ``loads`` (nloads x 3: fx, fy, moment, world frame) and ``tensions`` are the arrays
+    the core reads: write into them to solve the same mechanism under other loads."""
+
+    def __init__(self, scene: Scene, models: Mapping[str, Any], settings: SolverSettings):
+        chain = Chain(scene, models)
+        self.scene, self.models, self.chain, self.settings = scene, dict(models), chain, settings
+        self.outputs = output_points(scene, chain)
+        order = chain.flexure_order
+        self.flexure_order = order
+        index = {name: i for i, name in enumerate(order)}
+        refs = list(dict.fromkeys([ld.point for ld in scene.loads]
+                                  + [ref for t in scene.tendons for ref in t.route]
+                                  + self.outputs))
+        pindex = {ref: i for i, ref in enumerate(refs)}
+        self._keep: list[Any] = []                   # what the structs point into
+
+        flex = ffi.new("fg_flexure[]", max(len(order), 1))
+        self.stiffness = np.zeros(chain.ndof)        # diagonal of the elastic energy's Hessian
+        for i, name in enumerate(order):
+            fl, f = chain.flexures[name], flex[i]
+            frame = chain.frame_of(fl.parent)
+            sl = chain.slices[name]
+            f.ndof, f.offset = sl.stop - sl.start, sl.start
+            f.parent = -1 if frame == BASE else index[frame]
+            f.at = [float(v) for v in fl.at]
+            self.stiffness[sl] = core_description(models[name], f)
+        points = ffi.new("fg_point[]", max(len(refs), 1))
+        for i, ref in enumerate(refs):
+            body, xy = chain.resolve_point(ref)
+            frame = chain.frame_of(body)
+            points[i].frame = -1 if frame == BASE else index[frame]
+            points[i].x, points[i].y = float(xy[0]), float(xy[1])
+        self._keep += [flex, points]
+
+        self.loads = np.array([[ld.force[0], ld.force[1], ld.moment] for ld in scene.loads],
+                              dtype=float).reshape(-1, 3)
+        self.tensions = np.array([t.tension for t in scene.tendons], dtype=float)
+        routes = [[pindex[ref] for ref in t.route] for t in scene.tendons]
+        p = ffi.new("fg_problem *")
+        p.ndof, p.nflex, p.npoints = chain.ndof, len(order), len(refs)
+        p.nloads, p.ntendons, p.noutputs = len(scene.loads), len(scene.tendons), len(self.outputs)
+        p.flex, p.points = flex, points
+        p.load_point = self._ints([pindex[ld.point] for ld in scene.loads])
+        p.load = self._doubles(self.loads)
+        p.tension = self._doubles(self.tensions)
+        p.route_start = self._ints(np.cumsum([0] + [len(r) for r in routes])[:-1])
+        p.route_len = self._ints([len(r) for r in routes])
+        p.route = self._ints([i for r in routes for i in r])
+        p.outputs = self._ints([pindex[ref] for ref in self.outputs])
+        p.stiffness = self._doubles(self.stiffness)
+        copy_settings(settings, p)
+        for routine, fn in lapack().items():
+            setattr(p.lapack, routine, fn)
+        p.lapack.min_size = settings.lapack_min_size
+        self.struct = p
+
+    def _ints(self, values) -> Any:
+        a = np.ascontiguousarray(np.asarray(values, dtype=np.intc).ravel())
+        if a.size == 0:
+            a = np.zeros(1, dtype=np.intc)
+        self._keep.append(a)
+        return ffi.cast("int *", a.ctypes.data)
+
+    def _doubles(self, a: np.ndarray) -> Any:
+        # the array itself (not a copy): loads, tensions and stiffness are read by the core
+        if a.size == 0:
+            a = np.zeros(1)
+            self._keep.append(a)
+        assert a.flags.c_contiguous and a.dtype == np.float64
+        return ffi.cast("double *", a.ctypes.data)
+
+    def split(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """The packed q per flexure (scene order)."""
+        return {name: q[sl] for name, sl in self.chain.slices.items()}
+
+
+def copy_settings(settings: SolverSettings, struct: Any) -> None:
+    """Every field of ``settings`` into the ``fg_problem``'s fields of the same name (the C
+    struct has no defaults of its own)."""
+    for f in fields(settings):
+        if f.name != "lapack_min_size":
+            setattr(struct, f.name, getattr(settings, f.name))
+
+
+class Workspace:
+    """Scratch memory and answer buffers for solves of one ``Problem`` (one solve at a time)."""
+
+    def __init__(self, problem: Problem):
+        from .core import lib
+        p = problem.struct
+        n, m = int(p.ndof), max(int(p.noutputs), 1)
+        self.work = np.empty(max(int(lib.fg_work_size(p)), 1))
+        self.iwork = np.empty(max(int(lib.fg_iwork_size(p)), 1), dtype=np.intc)
+        self.q = np.empty(n)
+        self.pose = np.empty((m, 3))
+        self.compliance = np.empty((m, 3, 3))
+        self.K = np.empty((n, n))
+        self.critical = np.empty(MAX_CRITICAL)
+        self.critical_kind = np.empty(MAX_CRITICAL, dtype=np.intc)
+        self.switched = np.zeros(max(int(p.nflex), 1), dtype=np.intc)
+        self.q0 = np.zeros(max(n, 1))
+        a = ffi.new("fg_answer *")
+        dbl = lambda x: ffi.cast("double *", x.ctypes.data)   # noqa: E731
+        a.q, a.pose, a.compliance, a.stiffness = dbl(self.q), dbl(self.pose), \
+            dbl(self.compliance), dbl(self.K)
+        a.critical = dbl(self.critical)
+        a.critical_kind = ffi.cast("int *", self.critical_kind.ctypes.data)
+        a.max_critical = MAX_CRITICAL
+        a.switched = ffi.cast("int *", self.switched.ctypes.data)
+        self.answer = a
+        self.work_ptr = dbl(self.work)
+        self.iwork_ptr = ffi.cast("int *", self.iwork.ctypes.data)
+        self.q0_ptr = dbl(self.q0)

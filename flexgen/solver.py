@@ -1,0 +1,189 @@
+"""Solve a scene with the compiled core: the prepared ``Solver`` and the Result it builds.
+
+The algorithm is written once, in C (``flexgen/compiled/chain_solver.c``; read its header
+comment for the method: the direct full-load Newton solve, the load continuation with its
+bifurcations and snap-throughs, kernel switches, the warm start, polishing, compliance). This
+module turns a scene into the core's ``Problem`` (``flexgen.problem``), calls the core, and turns
+its answer into a ``Result``: the warnings for critical load factors and kernel switches, the
+reason when no equilibrium was found. When the core cannot finish it says why; nothing is solved
+twice.
+
+    s = flexgen.Solver("examples/two_link_finger.toml")      # prepared once
+    for f in forces:
+        r = s.solve(loads=[[0.0, -f, 0.0]])                   # one row per [[load]], scene order
+
+``flexgen.solve`` (``flexgen.api``) keeps the last prepared solvers, so solving the same Scene
+object again costs the core call and the Result.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import fields, replace
+from typing import Any, Mapping
+
+import numpy as np
+
+from . import core
+from .models.base import FlexureModel
+from .models.registry import build_models, model_info
+from .problem import MAX_CRITICAL, Problem, Workspace
+from .result import UNSTABLE, Result, point_result
+from .scene import Scene
+from .settings import DEFAULT, SolverSettings
+
+# Why the solve took the side it did past a bifurcation (the core reports the index plus one:
+# chain_solver.h's FG_BUCKLING_*).
+BUCKLING_SIDES = ("the only stable side found",
+                  "the side of lower potential energy",
+                  "symmetric: the side of larger world y, by convention",
+                  "symmetric: the counter-clockwise side, by convention")
+
+
+def buckling_warning(lam_c: float, why: str) -> str:
+    """The warning of a bifurcation crossed at critical load factor ``lam_c``."""
+    return (f"buckling: bifurcation at critical load factor {lam_c:.10g} (the stiffness "
+            f"matrix lost positive definiteness); continued on the stable post-buckled "
+            f"branch ({why})")
+
+
+def snap_warning(lam: float) -> str:
+    """The warning of a path that ends at a limit point near load factor ``lam``."""
+    return (f"snap-through: the equilibrium path ends at a limit point near load factor "
+            f"{lam:.6g}; the solve continued from the stable equilibrium it jumps to")
+
+
+def make_settings(settings: SolverSettings | None = None, **options: Any) -> SolverSettings:
+    """``settings`` (default: the defaults) with ``options`` replacing fields of the same name;
+    an unknown name is a TypeError naming it, a bad value a ValueError naming it."""
+    base = DEFAULT if settings is None else settings
+    if not isinstance(base, SolverSettings):
+        raise TypeError(f"settings: expected a flexgen.SolverSettings, got "
+                        f"{type(base).__name__}")
+    if not options:
+        return base
+    names = {f.name for f in fields(SolverSettings)}
+    unknown = sorted(set(options) - names)
+    if unknown:
+        raise TypeError(f"unknown solver setting {unknown[0]!r} (the settings: "
+                        f"{', '.join(sorted(names))})")
+    return replace(base, **options)
+
+
+class Solver:
+    """A scene prepared for repeated solves: its ``Problem`` and a ``Workspace``.
+
+    ``models`` gives the FlexureModel of some or all flexures (the others are built from the
+    scene's model keys); ``settings`` a ``SolverSettings``. ``solve`` may change the loads and
+    tendon tensions (not the geometry). One solve at a time per Solver (the workspace is shared
+    by its solves): use one Solver per thread.
+    """
+
+    def __init__(self, scene: Scene, models: Mapping[str, FlexureModel] | None = None,
+                 settings: SolverSettings | None = None):
+        self.scene = scene
+        self.settings = make_settings(settings)
+        self.models = build_models(scene, models)
+        self.problem = Problem(scene, self.models, self.settings)
+        self.workspace = Workspace(self.problem)
+        self._info = {name: model_info(m) for name, m in self.models.items()}
+        self._scene_loads = self.problem.loads.copy()
+        self._scene_tensions = self.problem.tensions.copy()
+        self._slices = list(self.problem.chain.slices.items())
+
+    @property
+    def outputs(self) -> list[str]:
+        """The output points, in the order of ``Result.points``."""
+        return list(self.problem.outputs)
+
+    def solve(self, loads: Any = None, tensions: Any = None,
+              q0: Mapping[str, Any] | None = None) -> Result:
+        """Equilibrium, stability and compliance under ``loads`` (one (fx, fy, moment) row per
+        ``[[load]]`` of the scene, in its order, world frame; None: the scene's) and
+        ``tensions`` (one per ``[[tendon]]``; None: the scene's). ``q0`` ({flexure:
+        coordinates}, e.g. the previous answer's ``q``) is a warm start: Newton at the full load
+        from q0, accepted if it converges to a stable equilibrium within ``max_dq`` of it, else
+        the solve starts from the unloaded state."""
+        p = self.problem
+        self._set(p.loads, self._scene_loads if loads is None else loads, "loads")
+        self._set(p.tensions, self._scene_tensions if tensions is None else tensions, "tensions")
+        ws = self.workspace
+        if q0 is not None:
+            ws.q0[:] = 0.0
+            for name, sl in self._slices:
+                v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]
+                ws.q0[sl.start:sl.start + v.size] = v
+            p.struct.q0 = ws.q0_ptr
+        else:
+            p.struct.q0 = core.ffi.NULL
+        status = core.lib.fg_solve(p.struct, ws.work_ptr, ws.iwork_ptr, ws.answer)
+        return self._result(status)
+
+    @staticmethod
+    def _set(target: np.ndarray, values: Any, what: str) -> None:
+        if values is target:
+            return
+        a = np.asarray(values, dtype=float)
+        if a.size != target.size:
+            raise ValueError(f"{what}: expected {target.shape} values (the scene's "
+                             f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), "
+                             f"got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{what}: every value must be finite")
+        target.reshape(-1)[:] = a.reshape(-1)
+
+    # ---- the answer -------------------------------------------------------------------------
+
+    def _result(self, status: int) -> Result:
+        ws, p = self.workspace, self.problem
+        a = ws.answer
+        info = {name: dict(v) for name, v in self._info.items()}
+        warnings: list[str] = []
+        critical: list[float] = []
+        for lam, kind in zip(ws.critical[:min(a.ncritical, MAX_CRITICAL)].tolist(),
+                             ws.critical_kind[:min(a.ncritical, MAX_CRITICAL)].tolist()):
+            critical.append(lam)
+            warnings.append(snap_warning(lam) if kind == core.SNAP_THROUGH
+                            else buckling_warning(lam, BUCKLING_SIDES[kind - 1]))
+        if a.ncritical > MAX_CRITICAL:
+            warnings.append(f"{a.ncritical - MAX_CRITICAL} more critical events on the load "
+                            f"path are not listed")
+        solved = status == core.SOLVED
+        q = ws.q
+        if ws.switched.any():
+            for name, flag in zip(p.flexure_order, ws.switched.tolist()):
+                if flag:
+                    sl = p.chain.slices[name]
+                    msg = self.models[name].switch_warning(q[sl] if solved else None)
+                    if msg:
+                        warnings.append(msg)
+        if not solved:
+            return Result(scene=self.scene.name, converged=False, stable=False,
+                          iterations=int(a.iterations), model=info, q={}, points={},
+                          warnings=warnings, reason=self._reason(status),
+                          critical_load_factors=critical,
+                          load_factor=float(getattr(a, "failure_load_factor", math.nan)))
+        stable = bool(a.stable)
+        if not stable:
+            warnings.append(UNSTABLE)
+        points = {ref: point_result(ref, ws.pose[i], ws.compliance[i], warnings)
+                  for i, ref in enumerate(p.outputs)}
+        return Result(scene=self.scene.name, converged=True, stable=stable,
+                      iterations=int(a.iterations), model=info,
+                      q={name: q[sl].tolist() for name, sl in self._slices},
+                      points=points, warnings=warnings, reason=None,
+                      critical_load_factors=critical, load_factor=1.0,
+                      energy=float(a.energy), residual=float(a.residual), solver="core",
+                      stiffness=ws.K.copy())
+
+    def _reason(self, status: int) -> str:
+        from .reasons import failure_reason
+        return failure_reason(self, status)
+
+
+def solve_models(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
+                 q0: Mapping[str, Any] | None = None, settings: SolverSettings | None = None,
+                 **options: Any) -> Result:
+    """One solve of ``scene`` with these flexure models (the others from the scene), no
+    validity check and no cache: what model selection and the benchmarks call."""
+    return Solver(scene, models, make_settings(settings, **options)).solve(q0=q0)
