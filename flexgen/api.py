@@ -136,7 +136,7 @@ def solve_scene(scene: Scene, models: Mapping[str, Any] | None = None,
         with _lock:
             solver = _cached_solver(scene, settings)
             result = solver.solve(q0=q0)
-    check(scene, result, solver.models)
+    check(scene, result, solver.models, energy_diagonal=solver.problem.stiffness)
     return result, None
 
 

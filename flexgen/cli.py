@@ -26,10 +26,19 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("flexgen")
+    except PackageNotFoundError:        # pragma: no cover - run from a tree not installed
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="flexgen", description=(
         "Smooth curvature model of planar flexures: generate NumPy and C99 kernels from the "
         "SymPy derivation, and solve scenes of flexures, links, loads and tendons."))
+    parser.add_argument("--version", action="version", version=f"flexgen {_version()}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in COMMANDS:
         importlib.import_module(f"flexgen.commands.{name}").register(sub)

@@ -21,9 +21,9 @@ def ellipse(C) -> dict[str, float]:
     Closed form (a 2x2 needs no eigen-solver): with C = [[a, b], [b, d]] symmetrized,
     major = (a + d)/2 + hypot((a - d)/2, b), minor = det C / major (no cancellation when the
     ellipse is thin and the major eigenvalue positive), angle = atan2(2 b, a - d) / 2."""
-    (a, b1), (b2, d) = ((float(C[0][0]), float(C[0][1])), (float(C[1][0]), float(C[1][1])))
-    b = 0.5 * (b1 + b2)
-    if not all(math.isfinite(v) for v in (a, b, d)):
+    (a, b1), (b2, d) = C[0][:2], C[1][:2]
+    a, b, d = float(a), 0.5 * (float(b1) + float(b2)), float(d)
+    if not math.isfinite(a + b + d):
         return {"major": math.nan, "minor": math.nan, "angle": math.nan}
     half = math.hypot(0.5 * (a - d), b)
     mean = 0.5 * (a + d)
@@ -38,7 +38,7 @@ def ellipse(C) -> dict[str, float]:
     return {"major": major, "minor": minor, "angle": float(angle)}
 
 
-@dataclass
+@dataclass(slots=True)
 class PointResult:
     pose: list[float]                 # world x, y and body angle
     compliance: list[list[float]]     # 2x2 d(position)/d(force at the point)
@@ -50,21 +50,21 @@ class PointResult:
                 "ellipse": dict(self.ellipse)}
 
 
-def point_result(ref: str, pose, C3: np.ndarray, warnings: list[str]) -> PointResult:
-    """The PointResult of an output point from its pose and 3x3 compliance (every chain-model
-    answer is built here); a non-finite compliance adds its warning to ``warnings``."""
-    c3 = np.asarray(C3, dtype=float).tolist()       # plain floats (cheaper than numpy here)
-    if not all(math.isfinite(v) for row in c3 for v in row):
+def point_result(ref: str, pose: list[float], c3: list[list[float]],
+                 warnings: list[str]) -> PointResult:
+    """The PointResult of an output point from its pose and 3x3 compliance as plain lists
+    (every chain-model answer is built here; plain floats are cheaper than numpy at this size);
+    a non-finite compliance adds its warning to ``warnings``."""
+    if not math.isfinite(sum(c3[0]) + sum(c3[1]) + sum(c3[2])):
         warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
     c2 = [c3[0][:2], c3[1][:2]]
-    return PointResult(pose=[float(x) for x in pose], compliance=c2, ellipse=ellipse(c2),
-                       compliance3=c3)
+    return PointResult(pose=pose, compliance=c2, ellipse=ellipse(c2), compliance3=c3)
 
 
 UNSTABLE = "the equilibrium is unstable: the stiffness matrix is not positive definite"
 
 
-@dataclass
+@dataclass(slots=True)
 class Result:
     scene: str
     converged: bool
@@ -89,6 +89,8 @@ class Result:
     # the generalized stiffness at equilibrium, coordinates packed as ``q`` lists them (Python
     # API only; None when not converged or for the exact solver)
     stiffness: np.ndarray | None = field(default=None, compare=False, repr=False)
+    # the indicative error class {"pose", "compliance"} of flexgen.validity (Python API only)
+    error_class: dict[str, float] | None = field(default=None, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """Every field, as plain Python data."""

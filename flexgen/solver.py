@@ -89,7 +89,12 @@ class Solver:
         self._info = {name: model_info(m) for name, m in self.models.items()}
         self._scene_loads = self.problem.loads.copy()
         self._scene_tensions = self.problem.tensions.copy()
+        self._changed_loads = self._changed_tensions = False
         self._slices = list(self.problem.chain.slices.items())
+        # flexures whose model may switch kernels (the others never set the core's flag)
+        self._switchable = any(getattr(m, "gauss", None) is not None
+                               and getattr(m, "poly", None) is not None
+                               for m in self.models.values())
 
     @property
     def outputs(self) -> list[str]:
@@ -105,8 +110,13 @@ class Solver:
         from q0, accepted if it converges to a stable equilibrium within ``max_dq`` of it, else
         the solve starts from the unloaded state."""
         p = self.problem
-        self._set(p.loads, self._scene_loads if loads is None else loads, "loads")
-        self._set(p.tensions, self._scene_tensions if tensions is None else tensions, "tensions")
+        if loads is not None or self._changed_loads:      # None: the scene's own
+            self._changed_loads = loads is not None
+            self._set(p.loads, self._scene_loads if loads is None else loads, "loads")
+        if tensions is not None or self._changed_tensions:
+            self._changed_tensions = tensions is not None
+            self._set(p.tensions, self._scene_tensions if tensions is None else tensions,
+                      "tensions")
         ws = self.workspace
         if q0 is not None:
             ws.q0[:] = 0.0
@@ -140,18 +150,21 @@ class Solver:
         info = {name: dict(v) for name, v in self._info.items()}
         warnings: list[str] = []
         critical: list[float] = []
-        for lam, kind in zip(ws.critical[:min(a.ncritical, MAX_CRITICAL)].tolist(),
-                             ws.critical_kind[:min(a.ncritical, MAX_CRITICAL)].tolist()):
-            critical.append(lam)
-            warnings.append(snap_warning(lam) if kind == core.SNAP_THROUGH
-                            else buckling_warning(lam, BUCKLING_SIDES[kind - 1]))
-        if a.ncritical > MAX_CRITICAL:
-            warnings.append(f"{a.ncritical - MAX_CRITICAL} more critical events on the load "
-                            f"path are not listed")
+        ncritical = a.ncritical
+        if ncritical:
+            for lam, kind in zip(ws.critical[:min(ncritical, MAX_CRITICAL)].tolist(),
+                                 ws.critical_kind[:min(ncritical, MAX_CRITICAL)].tolist()):
+                critical.append(lam)
+                warnings.append(snap_warning(lam) if kind == core.SNAP_THROUGH
+                                else buckling_warning(lam, BUCKLING_SIDES[kind - 1]))
+            if ncritical > MAX_CRITICAL:
+                warnings.append(f"{ncritical - MAX_CRITICAL} more critical events on the load "
+                                f"path are not listed")
         solved = status == core.SOLVED
         q = ws.q
-        if ws.switched.any():
-            for name, flag in zip(p.flexure_order, ws.switched.tolist()):
+        switched = ws.switched.tolist() if self._switchable else ()
+        if any(switched):
+            for name, flag in zip(p.flexure_order, switched):
                 if flag:
                     sl = p.chain.slices[name]
                     msg = self.models[name].switch_warning(q[sl] if solved else None)
@@ -166,14 +179,16 @@ class Solver:
         stable = bool(a.stable)
         if not stable:
             warnings.append(UNSTABLE)
-        points = {ref: point_result(ref, ws.pose[i], ws.compliance[i], warnings)
+        poses, compliances = ws.pose.tolist(), ws.compliance.tolist()
+        points = {ref: point_result(ref, poses[i], compliances[i], warnings)
                   for i, ref in enumerate(p.outputs)}
+        qs = q.tolist()
         return Result(scene=self.scene.name, converged=True, stable=stable,
-                      iterations=int(a.iterations), model=info,
-                      q={name: q[sl].tolist() for name, sl in self._slices},
+                      iterations=a.iterations, model=info,
+                      q={name: qs[sl] for name, sl in self._slices},
                       points=points, warnings=warnings, reason=None,
                       critical_load_factors=critical, load_factor=1.0,
-                      energy=float(a.energy), residual=float(a.residual), solver="core",
+                      energy=a.energy, residual=a.residual, solver="core",
                       stiffness=ws.K.copy())
 
     def _reason(self, status: int) -> str:

@@ -468,6 +468,20 @@ def load_level(scene: Scene) -> float:
             + max(f.length / f.EI for f in scene.flexures) * moments)
 
 
+_SCENE_CONSTANTS: dict[int, tuple] = {}
+
+
+def _scene_constants(scene: Scene) -> tuple[float, str | None]:
+    """(load_level, _prb_case_problem) of a scene, kept for the last scenes checked (a Scene
+    is immutable; the entry holds the scene, so its id is not reused while kept)."""
+    got = _SCENE_CONSTANTS.get(id(scene))
+    if got is None or got[0] is not scene:
+        if len(_SCENE_CONSTANTS) >= 64:
+            _SCENE_CONSTANTS.clear()
+        got = _SCENE_CONSTANTS[id(scene)] = (scene, load_level(scene), _prb_case_problem(scene))
+    return got[1], got[2]
+
+
 def prb_load_case(scene: Scene) -> bool:
     """The case the PRB constants are fitted for: one flexure, loads only at its tip, no moment,
     no tendon."""
@@ -534,14 +548,23 @@ def _names(names) -> str:
             else "flexures " + ", ".join(repr(n) for n in names))
 
 
-def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None) -> float:
+def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None,
+                     energy_diagonal=None) -> float:
     """How far the equilibrium q (full load) is from a critical load: the smallest generalized
     eigenvalue of (K, hess U), i.e. the smallest eigenvalue of L^-1 K L^-T with hess U = L L^T.
     1 unloaded, 1 - P/P_cr on an axial load below buckling, 0 at a critical load, < 0 unstable
     (nan if hess U is not positive definite). Independent of the model's coordinates.
 
     ``K``: the stiffness at q (``Result.stiffness``, coordinates packed in the scene's flexure
-    order); None: solved again by the core, warm-started at q."""
+    order); None: solved again by the core, warm-started at q. ``energy_diagonal``: the
+    diagonal of hess U when it is diagonal (``Problem.stiffness``: every built-in model's is),
+    which makes L^-1 K L^-T a scaling."""
+    if energy_diagonal is not None and K is not None:
+        d = np.asarray(energy_diagonal, dtype=float)
+        if not np.all(d > 0):
+            return math.nan
+        s = 1.0 / np.sqrt(d)
+        return float(np.linalg.eigvalsh(K * np.multiply.outer(s, s))[0])
     if K is None:
         from flexgen.solver import Solver
         K = Solver(scene, models).solve(q0=q).stiffness
@@ -562,7 +585,7 @@ def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None) -> float
 
 
 def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str] | None = None,
-           calibrated: bool = True) -> Claim:
+           calibrated: bool = True, energy_diagonal=None) -> Claim:
     """The claim and the validity warnings of a converged ``solve`` result whose flexure models
     are ``models`` ({flexure: model}, as passed to solve). ``label``: the CLAIMS label of every
     flexure's model (a str for all, or {flexure: label}; default ``model_label`` of each).
@@ -582,15 +605,16 @@ def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str]
             beta, beta_at = b, name
         kind = getattr(m, "kind", "")
         if kind == "scm":
-            switched |= m.gauss is not None and m.poly is not None and not m.poly.in_range(q)
+            poly_ok = m.poly is not None and bool(m.poly.in_range(q))
+            switched |= m.gauss is not None and m.poly is not None and not poly_ok
             if m.gauss is None:
-                if not m.poly.in_range(q):
+                if not poly_ok:
                     oor = True
                     warnings.append(
                         f"flexure {name!r} ({labels[name]}): bend {_deg(b)} is past the "
                         f"{math.degrees(m.poly.PHI_MAX):.0f} deg range of the polynomial kernel "
                         f"scm{m.n_dof}; the answer may be wrong by any amount")
-            elif not m.kernel_at(q).in_range(q):
+            elif not poly_ok and not m.gauss.in_range(q):
                 oor = True
                 warnings.append(
                     f"flexure {name!r} ({labels[name]}): bend {_deg(b)} is past the certified "
@@ -604,7 +628,7 @@ def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str]
                     f"flexure {name!r} (prb): pin rotation {_deg(b)} is past the pseudo-rigid-"
                     f"body model's {_deg(PRB_LIMIT)} validity; no accuracy is claimed for it")
     if prb:
-        why = _prb_case_problem(scene)
+        why = _scene_constants(scene)[1]
         if why is not None:
             unclaimed.update(prb)
             warnings.append(
@@ -615,14 +639,15 @@ def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str]
         warnings.append(
             f"flexure {beta_at!r} ({labels[beta_at]}): bent {_deg(beta)}, past the "
             f"{_deg(BANDS[-1])} the error classes cover; no accuracy is claimed")
-    margin = stiffness_margin(scene, models, result.q, getattr(result, "stiffness", None))
+    margin = stiffness_margin(scene, models, result.q, getattr(result, "stiffness", None),
+                              energy_diagonal)
     if margin < NEAR_SINGULAR and getattr(result, "stable", True):
         pts = ", ".join(repr(p) for p in getattr(result, "points", {})) or "the output points"
         warnings.append(
             f"near a critical load: the stiffness is {margin:.1%} from singular (the limit is "
             f"{NEAR_SINGULAR:.0%}), so the compliance at {pts} amplifies any model error by "
             f"about {1 / max(margin, 1e-300):.3g}x")
-    lam = load_level(scene)
+    lam = _scene_constants(scene)[0]
     if calibrated and lam > LOAD_BANDS[-1]:
         unclaimed.update(models)
         warnings.append(
@@ -677,7 +702,8 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
     return build_models(scene, None, factory)
 
 
-def check(scene: Scene, result, models: Mapping | None = None, model_factory=None):
+def check(scene: Scene, result, models: Mapping | None = None, model_factory=None,
+          energy_diagonal=None):
     """Append the validity warnings of a converged chain-model ``result`` to
     ``result.warnings`` (no duplicates) and set ``result.error_class`` ({"pose", "compliance"}:
     the indicative error class, inf where nothing is claimed; None when a tolerance was
@@ -687,7 +713,8 @@ def check(scene: Scene, result, models: Mapping | None = None, model_factory=Non
         result.error_class = None
         return None
     ms = models_of(scene, result, models, model_factory)
-    claim = assess(scene, result, ms, calibrated=result.tolerance is None)
+    claim = assess(scene, result, ms, calibrated=result.tolerance is None,
+                   energy_diagonal=energy_diagonal)
     for w in claim.warnings:
         if w not in result.warnings:
             result.warnings.append(w)
