@@ -1,10 +1,18 @@
 # flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
 PYTHON ?= python3
 
-.PHONY: setup test regen check-generated bench bench-kernels bench-growth bench-models bench-solver demo
+.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver demo
 
+# Installs flexgen editable with its test and lint tools; builds the compiled core (flexgen._core)
+# from flexgen/compiled and generated/c. Run it again after editing any C source.
 setup:
-	$(PYTHON) -m pip install --quiet -e ".[test]"
+	$(PYTHON) -m pip install --quiet -e ".[test,lint,plot]"
+
+# ruff (lint and format check) and mypy, configured in pyproject.toml: zero findings expected
+lint:
+	$(PYTHON) -m ruff check .
+	$(PYTHON) -m ruff format --check .
+	$(PYTHON) -m mypy
 
 test:
 	$(PYTHON) -m pytest -q
