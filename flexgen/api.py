@@ -32,21 +32,10 @@ from dataclasses import replace
 from typing import Any, Mapping
 
 from .result import Result
-from .scene import MODEL_KINDS, Scene, SceneError, load_scene, scene_from_dict
+from .scene import MODEL_KINDS, Scene, SceneError, as_scene
 from .settings import SolverSettings
 from .solver import Solver, make_settings
 from .validity import check
-
-
-def as_scene(scene: Scene | Mapping[str, Any] | str | os.PathLike) -> Scene:
-    """A validated Scene from a Scene, a dict or a TOML path (SceneError on bad input)."""
-    if isinstance(scene, Scene):
-        return scene
-    if isinstance(scene, Mapping):
-        return scene_from_dict(scene)
-    if isinstance(scene, (str, os.PathLike)):
-        return load_scene(scene)
-    raise SceneError(f"scene: expected a Scene, a dict or a path, got {type(scene).__name__}")
 
 
 def _count(value, key: str) -> int | None:

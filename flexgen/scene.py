@@ -11,6 +11,7 @@ frame. Every flexure has the point ``"<flexure>.tip"`` = (0, 0) in its tip frame
 from __future__ import annotations
 
 import difflib
+import os
 import math
 import re
 import tomllib
@@ -629,3 +630,14 @@ class _Parser:
         else:
             refs = [ld.point for ld in loads]
         return tuple(dict.fromkeys(refs))
+
+
+def as_scene(scene: Scene | Mapping[str, Any] | str | os.PathLike) -> Scene:
+    """A validated Scene from a Scene, a dict or a TOML path (SceneError on bad input)."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, Mapping):
+        return scene_from_dict(scene)
+    if isinstance(scene, (str, os.PathLike)):
+        return load_scene(scene)
+    raise SceneError(f"scene: expected a Scene, a dict or a path, got {type(scene).__name__}")

@@ -519,7 +519,7 @@ def select_models(scene, tolerance: float, /, **solve_kwargs) -> Selection:
     ``scene``: a Scene (or a path/dict, as ``flexgen.solve`` takes); ``solve_kwargs`` go to
     every chain solve (``tol`` there is the residual tolerance of the equilibrium, not this one).
     Raises SelectionError for tolerance <= 0 or a flexure that is not "scm"."""
-    from .api import as_scene
+    from .scene import as_scene
     tol = check_tolerance(tolerance)
     scene = as_scene(scene)
     t0 = time.perf_counter()

@@ -431,21 +431,12 @@ class Claim:
         return {"pose": self.pose, "compliance": self.comp}
 
 
-@lru_cache(maxsize=None)
-def _angle_samples(modes: int) -> np.ndarray:
-    from flexgen.models.scm import angle_basis
-    return angle_basis(modes, np.linspace(0.0, 1.0, 65))
-
-
 def bend(model, q) -> float:
     """max |phi(s)| of one flexure at coordinates q (relative to its root frame)."""
-    q = np.asarray(q, dtype=float)
-    kind = getattr(model, "kind", "")
-    if kind == "scm":
-        return float(np.max(np.abs(_angle_samples(len(q)) @ q)))
-    if kind == "fem":
-        return float(np.max(np.abs(np.cumsum(q)), initial=0.0))
-    return float(np.max(np.abs(q), initial=0.0))
+    from flexgen.models.registry import kind_of
+    bend_of = kind_of(model).bend
+    assert bend_of is not None
+    return bend_of(model, np.asarray(q, dtype=float))
 
 
 def band_index(beta: float, lam: float) -> tuple[int, int] | None:
@@ -504,13 +495,8 @@ def _prb_case_problem(scene: Scene) -> str | None:
 
 def model_label(model) -> str:
     """The CLAIMS label of a flexure model: "cc", "prb", "scm3 auto", "fem16", ..."""
-    kind = getattr(model, "kind", "?")
-    if kind == "scm":
-        n = int(model.n_dof)
-        return "cc" if n == 1 else f"scm{n} {model.kernel}"
-    if kind == "fem":
-        return f"fem{int(model.n_dof)}"
-    return str(getattr(model, "label", kind))
+    from flexgen.models.registry import kind_of
+    return kind_of(model).label(model)
 
 
 def claim_table(label: str) -> tuple[tuple | None, str | None]:

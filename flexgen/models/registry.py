@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 import numpy as np
@@ -69,6 +70,24 @@ def _core_prb(model: Any, f: Any) -> np.ndarray:
     return np.array([model.stiffness])
 
 
+@lru_cache(maxsize=None)
+def _angle_samples(modes: int) -> np.ndarray:
+    from .scm import angle_basis
+    return angle_basis(modes, np.linspace(0.0, 1.0, 65))
+
+
+def _bend_scm(model: Any, q: np.ndarray) -> float:
+    return float(np.max(np.abs(_angle_samples(len(q)) @ q)))
+
+
+def _bend_fem(model: Any, q: np.ndarray) -> float:
+    return float(np.max(np.abs(np.cumsum(q)), initial=0.0))
+
+
+def _bend_prb(model: Any, q: np.ndarray) -> float:
+    return float(np.max(np.abs(q), initial=0.0))
+
+
 @dataclass(frozen=True)
 class ModelKind:
     name: str
@@ -78,18 +97,26 @@ class ModelKind:
     # fills the model's fg_flexure for the core; returns the diagonal of its energy Hessian
     core: Callable[[Any, Any], np.ndarray] | None
     info: Callable[[Any], dict[str, Any]]          # the Result's "model" entry of a flexure
+    label: Callable[[Any], str]        # "scm3 auto", "cc", "fem16", "prb": validity's CLAIMS rows
+    bend: Callable[[Any, np.ndarray], float] | None   # max |phi(s)| along the flexure at q
+
+
+def _scm_label(m: Any) -> str:
+    return "cc" if int(m.n_dof) == 1 else f"scm{int(m.n_dof)} {m.kernel}"
 
 
 KINDS: dict[str, ModelKind] = {
     "scm": ModelKind("scm", "flexgen.models.scm", "SCMModel", _scm, _core_scm,
-                     lambda m: {"kind": "scm", "modes": int(m.n_dof)}),
+                     lambda m: {"kind": "scm", "modes": int(m.n_dof)}, _scm_label, _bend_scm),
     "cc": ModelKind("cc", "flexgen.models.scm", "SCMModel", _scm, _core_scm,
-                    lambda m: {"kind": "scm", "modes": int(m.n_dof)}),
+                    lambda m: {"kind": "scm", "modes": int(m.n_dof)}, _scm_label, _bend_scm),
     "prb": ModelKind("prb", "flexgen.models.prb", "PRBModel", _prb, _core_prb,
-                     lambda m: {"kind": "prb"}),
+                     lambda m: {"kind": "prb"}, lambda m: "prb", _bend_prb),
     "fem": ModelKind("fem", "flexgen.models.fem", "FEMModel", _fem, _core_fem,
-                     lambda m: {"kind": "fem", "elements": int(m.n_dof)}),
-    "exact": ModelKind("exact", None, None, None, None, lambda m: {"kind": "exact"}),
+                     lambda m: {"kind": "fem", "elements": int(m.n_dof)},
+                     lambda m: f"fem{int(m.n_dof)}", _bend_fem),
+    "exact": ModelKind("exact", None, None, None, None, lambda m: {"kind": "exact"},
+                       lambda m: "exact", None),
 }
 MODEL_KINDS = tuple(KINDS)
 
