@@ -10,6 +10,7 @@ Public API::
 
 See docs/solve.md and docs/scene.md.
 """
+
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
@@ -21,21 +22,36 @@ from .settings import SolverSettings
 
 try:
     __version__ = version("flexgen")
-except PackageNotFoundError:          # pragma: no cover - imported from a tree not installed
+except PackageNotFoundError:  # pragma: no cover - imported from a tree not installed
     __version__ = "0+unknown"
 
 
-def generate(modes: int, kernel: str = "poly", range_deg: float | None = None,
-             degree: int | None = None, nodes: int | None = None, tol: float = 1e-10,
-             langs=("numpy", "c")) -> dict[str, str]:
+def generate(
+    modes: int,
+    kernel: str = "poly",
+    range_deg: float | None = None,
+    degree: int | None = None,
+    nodes: int | None = None,
+    tol: float = 1e-10,
+    langs=("numpy", "c"),
+) -> dict[str, str]:
     """Generate one flexure kernel: {relative path: source text} (nothing is written).
 
     Same arguments as ``flexgen generate`` (``kernel`` "poly" or "gauss"; ``langs`` from
     "numpy", "c"). Imports SymPy, so only when called."""
     from .codegen.generate import generate_files
     from .codegen.spec import KernelSpec
+
     return generate_files(KernelSpec(modes, kernel, range_deg, degree, nodes, tol), tuple(langs))
 
 
-__all__ = ["load_scene", "scene_from_dict", "solve", "Solver", "SolverSettings", "generate",
-           "SceneError", "__version__"]
+__all__ = [
+    "load_scene",
+    "scene_from_dict",
+    "solve",
+    "Solver",
+    "SolverSettings",
+    "generate",
+    "SceneError",
+    "__version__",
+]

@@ -23,13 +23,15 @@ Every converged chain-model answer is checked against what its models may claim
 (``flexgen.validity``): the validity warnings are appended to ``Result.warnings`` and the
 indicative error class is ``Result.error_class`` (Python API only).
 """
+
 from __future__ import annotations
 
 import os
 import threading
 from collections import OrderedDict
+from collections.abc import Mapping
 from dataclasses import replace
-from typing import Any, Mapping
+from typing import Any
 
 from .result import Result
 from .scene import MODEL_KINDS, Scene, SceneError, as_scene
@@ -46,8 +48,9 @@ def _count(value, key: str) -> int | None:
     return value
 
 
-def override(scene: Scene, model: str | None = None, modes: int | None = None,
-             elements: int | None = None) -> Scene:
+def override(
+    scene: Scene, model: str | None = None, modes: int | None = None, elements: int | None = None
+) -> Scene:
     """``scene`` with every flexure's model kind, modes and elements replaced where given."""
     if model is not None and model not in MODEL_KINDS:
         raise SceneError(f"model: unknown kind {model!r} (choose from {', '.join(MODEL_KINDS)})")
@@ -71,9 +74,11 @@ def uses_exact(scene: Scene) -> bool:
     exact = [f.model.kind == "exact" for f in scene.flexures]
     if any(exact) and not all(exact):
         i = exact.index(True)
-        raise SceneError(f"flexure[{i}].kind: 'exact' solves the whole scene; give it to every "
-                         f"flexure ([model].kind = \"exact\" or --model exact), got it for "
-                         f"{scene.flexures[i].name!r} only")
+        raise SceneError(
+            f"flexure[{i}].kind: 'exact' solves the whole scene; give it to every "
+            f'flexure ([model].kind = "exact" or --model exact), got it for '
+            f"{scene.flexures[i].name!r} only"
+        )
     return bool(exact) and all(exact)
 
 
@@ -95,9 +100,14 @@ def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
     return solver
 
 
-def solve_scene(scene: Scene, models: Mapping[str, Any] | None = None,
-                settings: SolverSettings | None = None, q0: Mapping[str, Any] | None = None,
-                tolerance: float | None = None, **options: Any):
+def solve_scene(
+    scene: Scene,
+    models: Mapping[str, Any] | None = None,
+    settings: SolverSettings | None = None,
+    q0: Mapping[str, Any] | None = None,
+    tolerance: float | None = None,
+    **options: Any,
+):
     """``(Result, exact SceneSolution or None)`` for an already overridden scene; see ``solve``.
 
     A converged chain-model result also carries the validity warnings of its models
@@ -106,15 +116,18 @@ def solve_scene(scene: Scene, models: Mapping[str, Any] | None = None,
     chose the models: ``error_estimate`` is then the claim; not part of the JSON contract)."""
     if uses_exact(scene):
         from . import exact_result
+
         return exact_result.solve(scene)
     settings = make_settings(settings, **options)
     if tolerance is None and models is None:
         from .select import scene_tolerance
+
         tolerance = scene_tolerance(scene)
     if tolerance is not None:
         if models is not None:
             raise ValueError("solve: tolerance chooses the models; do not also pass models")
         from .select import solve_to_tolerance
+
         result = solve_to_tolerance(scene, tolerance, settings=settings)
         check(scene, result)
         return result, None
@@ -129,17 +142,27 @@ def solve_scene(scene: Scene, models: Mapping[str, Any] | None = None,
     return result, None
 
 
-def solve(scene: Scene | Mapping[str, Any] | str | os.PathLike, model: str | None = None,
-          modes: int | None = None, elements: int | None = None, **options: Any) -> Result:
+def solve(
+    scene: Scene | Mapping[str, Any] | str | os.PathLike,
+    model: str | None = None,
+    modes: int | None = None,
+    elements: int | None = None,
+    **options: Any,
+) -> Result:
     """Solve a scene (Scene, dict or TOML path); see the module docstring."""
     sc = override(as_scene(scene), model, modes, elements)
     return solve_scene(sc, **options)[0]
 
 
-def prepare(scene: Scene | Mapping[str, Any] | str | os.PathLike, model: str | None = None,
-            modes: int | None = None, elements: int | None = None,
-            models: Mapping[str, Any] | None = None, settings: SolverSettings | None = None,
-            **options: Any) -> Solver:
+def prepare(
+    scene: Scene | Mapping[str, Any] | str | os.PathLike,
+    model: str | None = None,
+    modes: int | None = None,
+    elements: int | None = None,
+    models: Mapping[str, Any] | None = None,
+    settings: SolverSettings | None = None,
+    **options: Any,
+) -> Solver:
     """A ``Solver`` for repeated solves of one scene (``flexgen.Solver``'s front door: the same
     scene arguments and overrides as ``solve``). ``Solver.solve(loads=..., tensions=...)``
     skips the scene handling and the validity check: the core call and the Result only."""

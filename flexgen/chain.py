@@ -24,11 +24,12 @@ derivatives may depend on q::
 The tendon potential ``T l(q)`` (``l`` the sum of straight segment lengths between the route points)
 and its exact gradient and Hessian follow from the points' Jacobians and Hessians by the chain rule.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -36,7 +37,7 @@ from .models.base import FlexureModel
 from .scene import Scene
 
 BASE = "base"
-_S = np.array([[0.0, -1.0], [1.0, 0.0]])   # rotation by +90 degrees
+_S = np.array([[0.0, -1.0], [1.0, 0.0]])  # rotation by +90 degrees
 
 
 class ChainError(ValueError):
@@ -47,9 +48,9 @@ class ChainError(ValueError):
 class PointKinematics:
     """World pose ``(x, y, body angle)`` of a point and its derivatives in the packed ``q``."""
 
-    pose: np.ndarray   # (3,)
-    J: np.ndarray      # (3, ndof)
-    H: np.ndarray      # (3, ndof, ndof)
+    pose: np.ndarray  # (3,)
+    J: np.ndarray  # (3, ndof)
+    H: np.ndarray  # (3, ndof, ndof)
 
 
 def _rot(th: float) -> np.ndarray:
@@ -57,8 +58,9 @@ def _rot(th: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-def _compose(parent: PointKinematics, v, phi: float = 0.0, tip=None,
-             sl: slice | None = None) -> PointKinematics:
+def _compose(
+    parent: PointKinematics, v, phi: float = 0.0, tip=None, sl: slice | None = None
+) -> PointKinematics:
     """Parent frame composed with the local transform (translation v, rotation phi).
 
     ``tip`` (a TipKinematics with J (3, k), H (3, k, k)) gives the local transform's derivatives
@@ -70,12 +72,12 @@ def _compose(parent: PointKinematics, v, phi: float = 0.0, tip=None,
     th = float(pp[2])
     c, s = math.cos(th), math.sin(th)
     v0, v1 = float(v[0]), float(v[1])
-    wx, wy = c * v0 - s * v1, s * v0 + c * v1          # w = R v; S w = (-wy, wx)
+    wx, wy = c * v0 - s * v1, s * v0 + c * v1  # w = R v; S w = (-wy, wx)
     pose = np.array([pp[0] + wx, pp[1] + wy, th + phi])
     J = parent.J.copy()
     H = parent.H.copy()
     Jth, Hth = parent.J[2], parent.H[2]
-    moving = bool(Jth.any())                          # the parent's angle depends on q
+    moving = bool(Jth.any())  # the parent's angle depends on q
     curved = bool(Hth.any())
     if moving:
         J[0] -= wy * Jth
@@ -93,14 +95,14 @@ def _compose(parent: PointKinematics, v, phi: float = 0.0, tip=None,
         H[1] += wx * Hth
     if tip is not None:
         tJ, tH = np.asarray(tip.J, dtype=float), np.asarray(tip.H, dtype=float)
-        RJ0 = c * tJ[0] - s * tJ[1]                   # R dv (rows x, y) on the block sl
+        RJ0 = c * tJ[0] - s * tJ[1]  # R dv (rows x, y) on the block sl
         RJ1 = s * tJ[0] + c * tJ[1]
         J[0, sl] += RJ0
         J[1, sl] += RJ1
         J[2, sl] += tJ[2]
-        if moving:                                    # S R dv dth^T + its transpose
+        if moving:  # S R dv dth^T + its transpose
             for a, row in ((0, -RJ1), (1, RJ0)):
-                X = np.multiply.outer(row, Jth)       # (k, n)
+                X = np.multiply.outer(row, Jth)  # (k, n)
                 H[a, sl, :] += X
                 H[a, :, sl] += X.T
         H[0, sl, sl] += c * tH[0] - s * tH[1]
@@ -135,7 +137,7 @@ class Chain:
         self._cache_key: bytes | None = None
         self._cache: dict[str, PointKinematics] = {}
         self._roots: dict[str, PointKinematics] = {}
-        self._points: dict[str, PointKinematics] = {}       # points at the cached q
+        self._points: dict[str, PointKinematics] = {}  # points at the cached q
         self._resolved: dict[str, tuple[str, tuple[float, float]]] = {}
         self._frame_of = {BASE: BASE}
         for body in self._order:

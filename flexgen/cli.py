@@ -4,6 +4,7 @@ messages and exit codes.
 Exit codes: 0 success, 1 the work ran but failed (stale files, no equilibrium), 2 bad input.
 Nothing below this module prints errors or exits: the commands raise, and main() reports.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -22,22 +23,27 @@ USER_ERRORS: tuple[type[Exception], ...] = (UsageError, SpecError)
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message):          # one line, no usage dump
+    def error(self, message):  # one line, no usage dump
         raise UsageError(message)
 
 
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
+
     try:
         return version("flexgen")
-    except PackageNotFoundError:        # pragma: no cover - run from a tree not installed
+    except PackageNotFoundError:  # pragma: no cover - run from a tree not installed
         return "unknown"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="flexgen", description=(
-        "Smooth curvature model of planar flexures: generate NumPy and C99 kernels from the "
-        "SymPy derivation, and solve scenes of flexures, links, loads and tendons."))
+    parser = _Parser(
+        prog="flexgen",
+        description=(
+            "Smooth curvature model of planar flexures: generate NumPy and C99 kernels from the "
+            "SymPy derivation, and solve scenes of flexures, links, loads and tendons."
+        ),
+    )
     parser.add_argument("--version", action="version", version=f"flexgen {_version()}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in COMMANDS:
@@ -47,8 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _user_errors() -> tuple[type[Exception], ...]:
     errors = list(USER_ERRORS)
-    try:                                  # the runtime's input errors, when present
+    try:  # the runtime's input errors, when present
         from flexgen.scene import SceneError
+
         errors.append(SceneError)
     except ImportError:
         pass

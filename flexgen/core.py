@@ -10,10 +10,11 @@ This module only finds things in the extension: a kernel's function pointers, Sc
 routines by address, the status codes. Building a problem is ``flexgen.problem``; solving it is
 ``flexgen.solver``.
 """
+
 from __future__ import annotations
 
 import hashlib
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -26,10 +27,11 @@ class CoreUnavailable(ImportError):
 
 try:
     from flexgen._core import ffi, lib
-except ImportError as exc:          # pragma: no cover - an install without its extension
+except ImportError as exc:  # pragma: no cover - an install without its extension
     raise CoreUnavailable(
         "flexgen's compiled core (flexgen._core) is not built: install flexgen with pip "
-        "(`pip install .`, or `make setup` in a checkout)") from exc
+        "(`pip install .`, or `make setup` in a checkout)"
+    ) from exc
 
 PACKAGE = Path(__file__).resolve().parent
 SOURCES = PACKAGE / "compiled"
@@ -43,7 +45,8 @@ def built_sources_digest() -> str:
     """SHA-256 over the C sources the extension is built from, as ``_build_core`` hashes them."""
     digest = hashlib.sha256()
     for path in sorted(SOURCES.glob("chain_solver.[ch]")) + sorted(
-            (kernels.GENERATED / "c").glob("scm*.[ch]")):
+        (kernels.GENERATED / "c").glob("scm*.[ch]")
+    ):
         digest.update(path.name.encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()
 
@@ -53,11 +56,13 @@ def check_fresh() -> None:
     ``flexgen._core`` was built: a stale core would silently solve with the old code."""
     built = ffi.string(lib.fg_sources_digest()).decode()
     if built != built_sources_digest():
-        raise CoreUnavailable("flexgen._core is older than its C sources "
-                              "(flexgen/compiled, generated/c): rebuild it with `make setup`")
+        raise CoreUnavailable(
+            "flexgen._core is older than its C sources "
+            "(flexgen/compiled, generated/c): rebuild it with `make setup`"
+        )
 
 
-@lru_cache(maxsize=None)
+@cache
 def kernel_functions(name: str) -> tuple[Any, Any]:
     """The C function pointers ``<name>_evaluate`` and ``<name>_in_range`` of a shipped kernel."""
     try:
@@ -65,7 +70,8 @@ def kernel_functions(name: str) -> tuple[Any, Any]:
     except AttributeError:
         raise kernels.KernelNotFound(
             f"kernel {name!r} is not compiled into flexgen's core (its shipped kernels: "
-            f"{', '.join(compiled_kernels())})") from None
+            f"{', '.join(compiled_kernels())})"
+        ) from None
 
 
 def compiled_kernels() -> list[str]:
@@ -73,14 +79,16 @@ def compiled_kernels() -> list[str]:
     return sorted({n[: -len("_evaluate")] for n in dir(lib) if n.endswith("_evaluate")})
 
 
-@lru_cache(maxsize=None)
+@cache
 def lapack() -> dict[str, Any]:
     """SciPy's dpotrf, dpotrs, dgetrf, dgetrs and dsyev as C function pointers
     (``scipy.linalg.cython_lapack`` exports them as capsules), or {} if that fails: the core
     then uses its built-in factorizations and eigen-decomposition."""
     import ctypes
+
     try:
         from scipy.linalg import cython_lapack
+
         name_of = ctypes.pythonapi.PyCapsule_GetName
         name_of.restype, name_of.argtypes = ctypes.c_char_p, [ctypes.py_object]
         pointer = ctypes.pythonapi.PyCapsule_GetPointer
@@ -94,5 +102,5 @@ def lapack() -> dict[str, Any]:
     return found
 
 
-if (PACKAGE.parent / "pyproject.toml").is_file():     # a source checkout: is the core current?
+if (PACKAGE.parent / "pyproject.toml").is_file():  # a source checkout: is the core current?
     check_fresh()

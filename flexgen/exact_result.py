@@ -10,6 +10,7 @@ model), so "exact" applies to every flexure of a scene at once. The Result it be
   NaN in the angle row and column: the exact solver gives position compliance only);
 - ``critical_load_factors``: the bifurcation or limit point it crossed, if any.
 """
+
 from __future__ import annotations
 
 import math
@@ -26,39 +27,76 @@ def to_result(scene: Scene, sol) -> Result:
     warnings = list(sol.warnings)
     critical = [] if sol.critical_load_factor is None else [float(sol.critical_load_factor)]
     if not sol.converged:
-        reason = (f"exact solver: no equilibrium found beyond load factor {sol.load_factor:.6g}"
-                  + (f" ({warnings[0]})" if warnings else ""))
-        return Result(scene=scene.name, solver="exact", converged=False, stable=False,
-                      iterations=int(sol.iterations), model=info, q={}, points={},
-                      warnings=warnings, reason=reason, critical_load_factors=critical,
-                      load_factor=float(sol.load_factor))
+        reason = f"exact solver: no equilibrium found beyond load factor {sol.load_factor:.6g}" + (
+            f" ({warnings[0]})" if warnings else ""
+        )
+        return Result(
+            scene=scene.name,
+            solver="exact",
+            converged=False,
+            stable=False,
+            iterations=int(sol.iterations),
+            model=info,
+            q={},
+            points={},
+            warnings=warnings,
+            reason=reason,
+            critical_load_factors=critical,
+            load_factor=float(sol.load_factor),
+        )
     points = {}
     for ref, pose in sol.poses.items():
         C2 = np.asarray(sol.compliance[ref], dtype=float)
         C2 = 0.5 * (C2 + C2.T)
         C3 = np.full((3, 3), math.nan)
         C3[:2, :2] = C2
-        points[ref] = PointResult(pose=[float(x) for x in pose], compliance=C2.tolist(),
-                                  ellipse=ellipse(C2), compliance3=C3.tolist())
+        points[ref] = PointResult(
+            pose=[float(x) for x in pose],
+            compliance=C2.tolist(),
+            ellipse=ellipse(C2),
+            compliance3=C3.tolist(),
+        )
     if not sol.stable:
-        warnings.append("the equilibrium is unstable (exact solver: the shooting Jacobian's "
-                        "determinant changed sign along the load path)")
+        warnings.append(
+            "the equilibrium is unstable (exact solver: the shooting Jacobian's "
+            "determinant changed sign along the load path)"
+        )
     q = {name: [float(x) for x in v] for name, v in sol.root_loads.items()}
-    return Result(scene=scene.name, solver="exact", converged=True, stable=bool(sol.stable),
-                  iterations=int(sol.iterations), model=info, q=q, points=points,
-                  warnings=warnings, reason=None, critical_load_factors=critical,
-                  load_factor=float(sol.load_factor))
+    return Result(
+        scene=scene.name,
+        solver="exact",
+        converged=True,
+        stable=bool(sol.stable),
+        iterations=int(sol.iterations),
+        model=info,
+        q=q,
+        points=points,
+        warnings=warnings,
+        reason=None,
+        critical_load_factors=critical,
+        load_factor=float(sol.load_factor),
+    )
 
 
 def solve(scene: Scene):
     """Solve ``scene`` with the exact elastica solver: ``(Result, SceneSolution or None)``.
     A solver failure (integration or shooting breaking down) is a Result with converged False."""
     from .models.exact import solve_exact
+
     try:
         sol = solve_exact(scene)
     except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
         info = {f.name: {"kind": "exact"} for f in scene.flexures}
-        return Result(scene=scene.name, solver="exact", converged=False, stable=False, iterations=0, model=info,
-                      q={}, points={}, reason=f"exact solver failed: {exc}",
-                      load_factor=0.0), None
+        return Result(
+            scene=scene.name,
+            solver="exact",
+            converged=False,
+            stable=False,
+            iterations=0,
+            model=info,
+            q={},
+            points={},
+            reason=f"exact solver failed: {exc}",
+            load_factor=0.0,
+        ), None
     return to_result(scene, sol), sol

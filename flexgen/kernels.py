@@ -4,6 +4,7 @@ Generated modules never import flexgen; flexgen loads them from ``generated/`` b
 they need not be on sys.path. Kernel names: ``scm{N}`` (polynomial, 90 degrees) and
 ``scm{N}_gauss{G}`` (Gauss-Legendre quadrature).
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -11,14 +12,15 @@ import importlib.util
 import os
 import re
 import subprocess
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 from types import ModuleType
 
 _PACKAGE = Path(__file__).resolve().parent
 # installed: the package's own copy (flexgen/generated); a source checkout: the top-level folder
-GENERATED = (_PACKAGE / "generated" if (_PACKAGE / "generated").is_dir()
-             else _PACKAGE.parent / "generated")
+GENERATED = (
+    _PACKAGE / "generated" if (_PACKAGE / "generated").is_dir() else _PACKAGE.parent / "generated"
+)
 C_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
 _NAME = re.compile(r"^scm(\d+)(?:_gauss(\d+))?$")
 
@@ -55,38 +57,60 @@ _NUMPY_DIRS: dict = {}
 def _gauss_kernel_name(modes: int, folder: Path, stamp) -> str:
     found = [n for n in available(folder) if _NAME.match(n)[1] == str(modes) and "_gauss" in n]
     if not found:
-        raise KernelNotFound(f"no Gauss kernel for {modes} modes in {folder}/numpy; run "
-                             f"`flexgen generate --modes {modes} --kernel gauss`")
+        raise KernelNotFound(
+            f"no Gauss kernel for {modes} modes in {folder}/numpy; run "
+            f"`flexgen generate --modes {modes} --kernel gauss`"
+        )
     return max(found, key=lambda n: int(_NAME.match(n)[2]))
 
 
-@lru_cache(maxsize=None)
+@cache
 def load_numpy(name: str, folder: Path = GENERATED) -> ModuleType:
     """Import generated/numpy/<name>.py as a module."""
     path = folder / "numpy" / f"{name}.py"
     if not path.is_file():
         match = _NAME.match(name)
-        hint = (f"`flexgen generate --modes {match[1]}"
-                + (f" --kernel gauss --nodes {match[2]}`" if match and match[2] else "`")
-                if match else "a name like scm3 or scm3_gauss25")
-        raise KernelNotFound(f"kernel {name!r} not found in {folder}/numpy; generate it with {hint}")
+        hint = (
+            f"`flexgen generate --modes {match[1]}"
+            + (f" --kernel gauss --nodes {match[2]}`" if match and match[2] else "`")
+            if match
+            else "a name like scm3 or scm3_gauss25"
+        )
+        raise KernelNotFound(
+            f"kernel {name!r} not found in {folder}/numpy; generate it with {hint}"
+        )
     spec = importlib.util.spec_from_file_location(f"flexgen_generated_{name}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-def gcc_shared(source: Path, library, extra_flags: tuple[str, ...] = ()
-               ) -> subprocess.CompletedProcess:
+def gcc_shared(
+    source: Path, library, extra_flags: tuple[str, ...] = ()
+) -> subprocess.CompletedProcess:
     """Run gcc with the strict flags on one C source (its folder on the include path) into a
     shared library; the finished process (stderr captured). OSError if gcc cannot be run."""
-    return subprocess.run(["gcc", *C_FLAGS, *extra_flags, "-shared", "-fPIC",
-                           f"-I{Path(source).parent}", str(source), "-lm", "-o", str(library)],
-                          capture_output=True, text=True)
+    return subprocess.run(
+        [
+            "gcc",
+            *C_FLAGS,
+            *extra_flags,
+            "-shared",
+            "-fPIC",
+            f"-I{Path(source).parent}",
+            str(source),
+            "-lm",
+            "-o",
+            str(library),
+        ],
+        capture_output=True,
+        text=True,
+    )
 
 
-def compile_c(name: str, build_dir: Path, folder: Path = GENERATED,
-              extra_flags: tuple[str, ...] = ()) -> ctypes.CDLL:
+def compile_c(
+    name: str, build_dir: Path, folder: Path = GENERATED, extra_flags: tuple[str, ...] = ()
+) -> ctypes.CDLL:
     """Compile generated/c/<name>.c with the strict flags into a shared library and load it."""
     source = folder / "c" / f"{name}.c"
     if not source.is_file():

@@ -9,6 +9,7 @@ drawing; the legend states it.
 
 matplotlib (Agg, no pyplot) is imported only when drawing.
 """
+
 from __future__ import annotations
 
 import math
@@ -27,9 +28,9 @@ SUFFIXES = (".png", ".svg")
 class Geometry:
     """World geometry of a scene in one configuration."""
 
-    frames: dict[str, np.ndarray]     # body -> (x, y, angle) of its frame (links: parent's tip)
-    roots: dict[str, np.ndarray]      # flexure -> (x, y, angle) of its root frame
-    shapes: dict[str, np.ndarray]     # flexure -> (num, 2) centreline, root first
+    frames: dict[str, np.ndarray]  # body -> (x, y, angle) of its frame (links: parent's tip)
+    roots: dict[str, np.ndarray]  # flexure -> (x, y, angle) of its root frame
+    shapes: dict[str, np.ndarray]  # flexure -> (num, 2) centreline, root first
 
     def point(self, scene: Scene, ref: str) -> np.ndarray:
         body, (px, py) = scene.resolve_point(ref)
@@ -78,6 +79,7 @@ def loaded(scene: Scene, result: Result, exact_solution=None, num: int = 64) -> 
         return Geometry(frames, _roots(scene, frames), shapes)
     from .chain import Chain
     from .models.registry import build_models
+
     scene = _as_solved(scene, result)
     chain = Chain(scene, build_models(scene))
     q = chain.pack(result.q)
@@ -113,6 +115,7 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
     if not result.converged:
         raise ValueError(f"no equilibrium to draw: {result.reason}")
     import matplotlib
+
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
@@ -120,26 +123,38 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
 
     g0 = unloaded(scene)
     g1 = loaded(scene, result, exact_solution)
-    pts = np.vstack([s for g in (g0, g1) for s in g.shapes.values()]
-                    + [g.point(scene, r) for g in (g0, g1) for l in scene.links
-                       for r in (f"{l.name}.{p}" for p in l.points)]
-                    + [g0.point(scene, f"base.{p}") for p in scene.base_points]
-                    ).reshape(-1, 2)
+    pts = np.vstack(
+        [s for g in (g0, g1) for s in g.shapes.values()]
+        + [
+            g.point(scene, r)
+            for g in (g0, g1)
+            for l in scene.links
+            for r in (f"{l.name}.{p}" for p in l.points)
+        ]
+        + [g0.point(scene, f"base.{p}") for p in scene.base_points]
+    ).reshape(-1, 2)
     size = float(np.max(np.ptp(pts, axis=0))) or 1.0
 
     fig = Figure(figsize=(7.5, 6.0), layout="constrained")
     ax = fig.add_subplot()
     handles = []
-    for g, style, label in ((g0, dict(color="0.6", ls="--", lw=1.2), "unloaded"),
-                            (g1, dict(color="C0", ls="-", lw=2.2), "loaded")):
+    for g, style, label in (
+        (g0, dict(color="0.6", ls="--", lw=1.2), "unloaded"),
+        (g1, dict(color="C0", ls="-", lw=2.2), "loaded"),
+    ):
         for shape in g.shapes.values():
             ax.plot(shape[:, 0], shape[:, 1], **style)
         for link in scene.links:
             o = g.frames[link.name][:2]
             for p in link.points:
                 xy = g.point(scene, f"{link.name}.{p}")
-                ax.plot([o[0], xy[0]], [o[1], xy[1]], color="0.2" if g is g1 else "0.7",
-                        ls=style["ls"], lw=1.5 if g is g1 else 1.0)
+                ax.plot(
+                    [o[0], xy[0]],
+                    [o[1], xy[1]],
+                    color="0.2" if g is g1 else "0.7",
+                    ls=style["ls"],
+                    lw=1.5 if g is g1 else 1.0,
+                )
         handles.append(Line2D([], [], **style, label=f"{label} flexures"))
     if scene.links:
         handles.append(Line2D([], [], color="0.2", lw=1.5, label="rigid links (loaded)"))
@@ -153,8 +168,9 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
         ax.plot(route[:, 0], route[:, 1], color="C3", lw=1.2, marker=".", ms=6)
     if scene.tendons:
         tensions = ", ".join(f"{t.tension:g}" for t in scene.tendons)
-        handles.append(Line2D([], [], color="C3", lw=1.2, marker=".",
-                              label=f"tendon (tension {tensions})"))
+        handles.append(
+            Line2D([], [], color="C3", lw=1.2, marker=".", label=f"tendon (tension {tensions})")
+        )
 
     fmax = max((math.hypot(*ld.force) for ld in scene.loads), default=0.0)
     for ld in scene.loads:
@@ -162,34 +178,82 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
         f = np.asarray(ld.force, float)
         if fmax > 0 and np.any(f):
             tail = xy - 0.18 * size * f / fmax
-            ax.annotate("", xy=xy, xytext=tail,
-                        arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.8))
+            ax.annotate(
+                "", xy=xy, xytext=tail, arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.8)
+            )
         if ld.moment:
             sgn = 1.0 if ld.moment > 0 else -1.0
             a, b = xy + 0.05 * size * np.array([1, -sgn]), xy + 0.05 * size * np.array([1, sgn])
-            ax.annotate("", xy=b, xytext=a, arrowprops=dict(
-                arrowstyle="-|>", color="C2", lw=1.5, connectionstyle=f"arc3,rad={sgn * 0.9}"))
-            ax.annotate(f"M = {ld.moment:.4g}", xy, xytext=(10, 16), textcoords="offset points",
-                        color="C2", fontsize=8)
+            ax.annotate(
+                "",
+                xy=b,
+                xytext=a,
+                arrowprops=dict(
+                    arrowstyle="-|>", color="C2", lw=1.5, connectionstyle=f"arc3,rad={sgn * 0.9}"
+                ),
+            )
+            ax.annotate(
+                f"M = {ld.moment:.4g}",
+                xy,
+                xytext=(10, 16),
+                textcoords="offset points",
+                color="C2",
+                fontsize=8,
+            )
     if scene.loads:
-        handles.append(Line2D([], [], color="C2", lw=1.8, marker=">", label="dead loads" + (
-            f" (largest force {fmax:.3g})" if fmax > 0 else "")))
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color="C2",
+                lw=1.8,
+                marker=">",
+                label="dead loads" + (f" (largest force {fmax:.3g})" if fmax > 0 else ""),
+            )
+        )
 
-    majors = [p.ellipse["major"] for p in result.points.values()
-              if math.isfinite(p.ellipse["major"]) and p.ellipse["major"] > 0]
+    majors = [
+        p.ellipse["major"]
+        for p in result.points.values()
+        if math.isfinite(p.ellipse["major"]) and p.ellipse["major"] > 0
+    ]
     if majors:
         F = 0.1 * size / max(majors)
         for ref, p in result.points.items():
             e = p.ellipse
             if not (math.isfinite(e["major"]) and e["major"] > 0):
                 continue
-            ax.add_patch(Ellipse(tuple(p.pose[:2]), 2 * F * e["major"], 2 * F * max(e["minor"], 0.0),
-                                 angle=math.degrees(e["angle"]), fill=False, color="C1", lw=1.6))
+            ax.add_patch(
+                Ellipse(
+                    tuple(p.pose[:2]),
+                    2 * F * e["major"],
+                    2 * F * max(e["minor"], 0.0),
+                    angle=math.degrees(e["angle"]),
+                    fill=False,
+                    color="C1",
+                    lw=1.6,
+                )
+            )
             ax.plot(*p.pose[:2], "o", color="C1", ms=3)
-            ax.annotate(ref, tuple(p.pose[:2]), xytext=(6, -12), textcoords="offset points",
-                        fontsize=8, color="C1")
-        handles.append(Line2D([], [], color="C1", lw=1.6, label=(
-            f"compliance ellipses: displacement under a force of {F:.3g} in every direction")))
+            ax.annotate(
+                ref,
+                tuple(p.pose[:2]),
+                xytext=(6, -12),
+                textcoords="offset points",
+                fontsize=8,
+                color="C1",
+            )
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color="C1",
+                lw=1.6,
+                label=(
+                    f"compliance ellipses: displacement under a force of {F:.3g} in every direction"
+                ),
+            )
+        )
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.4, alpha=0.5)
     ax.set_xlabel("x")

@@ -11,10 +11,12 @@ and its reverse Hessian accumulation need), each with the offset of its coordina
 q (the scene's flexure order, ``Chain.slices``). Points are those the loads, tendons and outputs
 name, each on the flexure frame that carries it (-1: the base).
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import fields
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -52,14 +54,18 @@ class Problem:
         order = chain.flexure_order
         self.flexure_order = order
         index = {name: i for i, name in enumerate(order)}
-        refs = list(dict.fromkeys([ld.point for ld in scene.loads]
-                                  + [ref for t in scene.tendons for ref in t.route]
-                                  + self.outputs))
+        refs = list(
+            dict.fromkeys(
+                [ld.point for ld in scene.loads]
+                + [ref for t in scene.tendons for ref in t.route]
+                + self.outputs
+            )
+        )
         pindex = {ref: i for i, ref in enumerate(refs)}
-        self._keep: list[Any] = []                   # what the structs point into
+        self._keep: list[Any] = []  # what the structs point into
 
         flex = ffi.new("fg_flexure[]", max(len(order), 1))
-        self.stiffness = np.zeros(chain.ndof)        # diagonal of the elastic energy's Hessian
+        self.stiffness = np.zeros(chain.ndof)  # diagonal of the elastic energy's Hessian
         for i, name in enumerate(order):
             fl, f = chain.flexures[name], flex[i]
             frame = chain.frame_of(fl.parent)
@@ -76,8 +82,9 @@ class Problem:
             points[i].x, points[i].y = float(xy[0]), float(xy[1])
         self._keep += [flex, points]
 
-        self.loads = np.array([[ld.force[0], ld.force[1], ld.moment] for ld in scene.loads],
-                              dtype=float).reshape(-1, 3)
+        self.loads = np.array(
+            [[ld.force[0], ld.force[1], ld.moment] for ld in scene.loads], dtype=float
+        ).reshape(-1, 3)
         self.tensions = np.array([t.tension for t in scene.tendons], dtype=float)
         routes = [[pindex[ref] for ref in t.route] for t in scene.tendons]
         p = ffi.new("fg_problem *")
@@ -131,6 +138,7 @@ class Workspace:
 
     def __init__(self, problem: Problem):
         from .core import lib
+
         p = problem.struct
         n, m = int(p.ndof), max(int(p.noutputs), 1)
         self.work = np.empty(max(int(lib.fg_work_size(p)), 1))
@@ -144,9 +152,13 @@ class Workspace:
         self.switched = np.zeros(max(int(p.nflex), 1), dtype=np.intc)
         self.q0 = np.zeros(max(n, 1))
         a = ffi.new("fg_answer *")
-        dbl = lambda x: ffi.cast("double *", x.ctypes.data)   # noqa: E731
-        a.q, a.pose, a.compliance, a.stiffness = dbl(self.q), dbl(self.pose), \
-            dbl(self.compliance), dbl(self.K)
+        dbl = lambda x: ffi.cast("double *", x.ctypes.data)  # noqa: E731
+        a.q, a.pose, a.compliance, a.stiffness = (
+            dbl(self.q),
+            dbl(self.pose),
+            dbl(self.compliance),
+            dbl(self.K),
+        )
         a.critical = dbl(self.critical)
         a.critical_kind = ffi.cast("int *", self.critical_kind.ctypes.data)
         a.max_critical = MAX_CRITICAL

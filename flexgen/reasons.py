@@ -5,6 +5,7 @@ The core (chain_solver.h) reports what failed (``failure``: FG_FAIL_*, at
 the load factor and relative residual it happened at) and the flexure whose kernel could not be
 evaluated last (``model_error_flexure``). The words live here, once.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -16,13 +17,13 @@ def _last_error(a: Any, settings: Any) -> str:
     lam, rel = a.last_error_load_factor, a.last_error_residual
     table = {
         lib.FG_ERR_STAGNATION: f"Newton stagnates at load factor {lam:.6g} "
-                               f"(relative residual {rel:.2e})",
+        f"(relative residual {rel:.2e})",
         lib.FG_ERR_NOT_CONVERGED: f"Newton did not converge in {settings.max_iterations} "
-                                  f"iterations (relative residual {rel:.2e})",
+        f"iterations (relative residual {rel:.2e})",
         lib.FG_ERR_LINE_SEARCH: f"line search failed at load factor {lam:.6g} "
-                                f"(relative residual {rel:.2e})",
+        f"(relative residual {rel:.2e})",
         lib.FG_ERR_JUMP: f"the path jumped by more than {settings.max_dq} in q at load factor "
-                         f"{lam:.6g}",
+        f"{lam:.6g}",
         lib.FG_ERR_NONFINITE: "a model returned a non-finite value",
         lib.FG_ERR_TENDON: "a tendon segment has zero length",
     }
@@ -49,9 +50,9 @@ def failure_reason(solver: Any, status: int) -> str:
     what = {
         lib.FG_FAIL_UNLOADED: "no equilibrium of the unloaded scene",
         lib.FG_FAIL_STEPS: f"load continuation needed more than {solver.settings.max_steps} "
-                           f"steps (reached load factor {lam:.6g})",
+        f"steps (reached load factor {lam:.6g})",
         lib.FG_FAIL_BIFURCATION: f"no stable equilibrium found past the bifurcation near load "
-                                 f"factor {lam:.6g}",
+        f"factor {lam:.6g}",
         lib.FG_FAIL_LIMIT: f"no equilibrium found beyond load factor {lam:.6g}",
     }.get(a.failure, f"no equilibrium found (core status {status})")
     reason = f"{what}: {last}" if last and a.failure != lib.FG_FAIL_STEPS else what

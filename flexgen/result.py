@@ -4,6 +4,7 @@
 ``"reason"`` when not converged); ``Result`` itself carries a few more for the Python API
 (full 3x3 compliance, critical load factors, the load factor reached).
 """
+
 from __future__ import annotations
 
 import json
@@ -40,18 +41,22 @@ def ellipse(C) -> dict[str, float]:
 
 @dataclass(slots=True)
 class PointResult:
-    pose: list[float]                 # world x, y and body angle
-    compliance: list[list[float]]     # 2x2 d(position)/d(force at the point)
-    ellipse: dict[str, float]         # major, minor, angle
-    compliance3: list[list[float]]    # 3x3 d(x, y, angle)/d(fx, fy, moment)
+    pose: list[float]  # world x, y and body angle
+    compliance: list[list[float]]  # 2x2 d(position)/d(force at the point)
+    ellipse: dict[str, float]  # major, minor, angle
+    compliance3: list[list[float]]  # 3x3 d(x, y, angle)/d(fx, fy, moment)
 
     def contract(self) -> dict[str, Any]:
-        return {"pose": list(self.pose), "compliance": [list(r) for r in self.compliance],
-                "ellipse": dict(self.ellipse)}
+        return {
+            "pose": list(self.pose),
+            "compliance": [list(r) for r in self.compliance],
+            "ellipse": dict(self.ellipse),
+        }
 
 
-def point_result(ref: str, pose: list[float], c3: list[list[float]],
-                 warnings: list[str]) -> PointResult:
+def point_result(
+    ref: str, pose: list[float], c3: list[list[float]], warnings: list[str]
+) -> PointResult:
     """The PointResult of an output point from its pose and 3x3 compliance as plain lists
     (every chain-model answer is built here; plain floats are cheaper than numpy at this size);
     a non-finite compliance adds its warning to ``warnings``."""
@@ -76,9 +81,9 @@ class Result:
     warnings: list[str] = field(default_factory=list)
     reason: str | None = None
     critical_load_factors: list[float] = field(default_factory=list)
-    load_factor: float = 1.0          # load factor of the reported state (1 when converged)
-    energy: float | None = None       # elastic energy at equilibrium
-    residual: float | None = None     # relative residual at equilibrium (see flexgen/solver.py)
+    load_factor: float = 1.0  # load factor of the reported state (1 when converged)
+    energy: float | None = None  # elastic energy at equilibrium
+    residual: float | None = None  # relative residual at equilibrium (see flexgen/solver.py)
     # set only when a tolerance was requested (flexgen.select): the requested tolerance and the
     # a-posteriori error estimate of the whole answer; model[flexure] then also carries
     # "kernel" and "error_estimate"
@@ -111,8 +116,9 @@ class Result:
         if not self.converged:
             out["reason"] = self.reason or "not converged"
         if self.tolerance is not None:
-            out["error_estimate"] = (math.inf if self.error_estimate is None
-                                     else float(self.error_estimate))
+            out["error_estimate"] = (
+                math.inf if self.error_estimate is None else float(self.error_estimate)
+            )
         return out
 
     def to_json(self, indent: int | None = None) -> str:
@@ -123,24 +129,36 @@ class Result:
         """A human-readable summary."""
         lines = [f"scene: {self.scene}"]
         if self.converged:
-            lines.append(f"converged in {self.iterations} Newton iterations; "
-                         f"{'stable' if self.stable else 'UNSTABLE'} equilibrium")
+            lines.append(
+                f"converged in {self.iterations} Newton iterations; "
+                f"{'stable' if self.stable else 'UNSTABLE'} equilibrium"
+            )
         else:
             lines.append(f"NOT converged after {self.iterations} Newton iterations: {self.reason}")
         for name, spec in self.model.items():
             detail = ", ".join(f"{k}={v}" for k, v in spec.items() if k != "kind")
             qs = " ".join(f"{x:+.6g}" for x in self.q.get(name, []))
-            lines.append(f"  {name}: {spec.get('kind')}" + (f" ({detail})" if detail else "")
-                         + (f"  {'root loads [Fx Fy M0]' if spec.get('kind') == 'exact' else 'q'}"
-                            f" = [{qs}]" if qs else ""))
+            lines.append(
+                f"  {name}: {spec.get('kind')}"
+                + (f" ({detail})" if detail else "")
+                + (
+                    f"  {'root loads [Fx Fy M0]' if spec.get('kind') == 'exact' else 'q'} = [{qs}]"
+                    if qs
+                    else ""
+                )
+            )
         if self.points:
             w = max(len(ref) for ref in self.points)
-            lines.append(f"  {'point':<{w}}  {'x':>12} {'y':>12} {'angle':>10}  "
-                         f"{'major':>11} {'minor':>11} {'ell. angle':>10}")
+            lines.append(
+                f"  {'point':<{w}}  {'x':>12} {'y':>12} {'angle':>10}  "
+                f"{'major':>11} {'minor':>11} {'ell. angle':>10}"
+            )
             for ref, p in self.points.items():
                 e = p.ellipse
-                lines.append(f"  {ref:<{w}}  {p.pose[0]:>12.6g} {p.pose[1]:>12.6g} {p.pose[2]:>10.5f}  "
-                             f"{e['major']:>11.5g} {e['minor']:>11.5g} {e['angle']:>10.5f}")
+                lines.append(
+                    f"  {ref:<{w}}  {p.pose[0]:>12.6g} {p.pose[1]:>12.6g} {p.pose[2]:>10.5f}  "
+                    f"{e['major']:>11.5g} {e['minor']:>11.5g} {e['angle']:>10.5f}"
+                )
         if self.tolerance is not None:
             est = math.inf if self.error_estimate is None else self.error_estimate
             lines.append(f"  error estimate {est:.2g} (tolerance {self.tolerance:.2g})")

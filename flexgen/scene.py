@@ -8,18 +8,20 @@ Frames: the base frame is the world frame. A flexure's root frame is ``at`` in i
 frame; its tip frame follows from its deformation. A link's frame is its parent flexure's tip
 frame. Every flexure has the point ``"<flexure>.tip"`` = (0, 0) in its tip frame.
 """
+
 from __future__ import annotations
 
 import difflib
-import os
 import math
+import os
 import re
 import tomllib
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 from .models.registry import MODEL_KINDS
 
@@ -44,17 +46,17 @@ class SceneError(ValueError):
 
 @dataclass(frozen=True)
 class ModelSpec:
-    kind: str = "scm"            # one of MODEL_KINDS
-    modes: int = 3               # scm: Legendre curvature modes
-    elements: int = 16           # fem: rigid elements per flexure
-    kernel: str = "auto"         # scm: "poly", "gauss" or "auto" (poly while in range)
-    tolerance: float | None = None   # choose modes per flexure to meet this accuracy
+    kind: str = "scm"  # one of MODEL_KINDS
+    modes: int = 3  # scm: Legendre curvature modes
+    elements: int = 16  # fem: rigid elements per flexure
+    kernel: str = "auto"  # scm: "poly", "gauss" or "auto" (poly while in range)
+    tolerance: float | None = None  # choose modes per flexure to meet this accuracy
 
 
 @dataclass(frozen=True)
 class Flexure:
     name: str
-    parent: str                  # body name: "base", a link, or another flexure (its tip frame)
+    parent: str  # body name: "base", a link, or another flexure (its tip frame)
     at: tuple[float, float, float]  # root frame (x, y, angle) in the parent's frame
     length: float
     EI: float
@@ -64,13 +66,13 @@ class Flexure:
 @dataclass(frozen=True)
 class Link:
     name: str
-    parent: str                  # a flexure name: the link's frame is that flexure's tip frame
+    parent: str  # a flexure name: the link's frame is that flexure's tip frame
     points: Mapping[str, tuple[float, float]]
 
 
 @dataclass(frozen=True)
 class Load:
-    point: str                   # "<body>.<point>"
+    point: str  # "<body>.<point>"
     force: tuple[float, float]
     moment: float = 0.0
 
@@ -78,7 +80,7 @@ class Load:
 @dataclass(frozen=True)
 class Tendon:
     tension: float
-    route: tuple[str, ...]       # point references, at least two
+    route: tuple[str, ...]  # point references, at least two
 
 
 @dataclass(frozen=True)
@@ -117,9 +119,15 @@ class Scene:
             parent = parents.get(name)
             if parent in children:
                 children[parent].append(name)
-        return {"kinds": kinds, "parents": parents, "points": points, "flex": flex,
-                "links": links, "order": order,
-                "children": {k: tuple(v) for k, v in children.items()}}
+        return {
+            "kinds": kinds,
+            "parents": parents,
+            "points": points,
+            "flex": flex,
+            "links": links,
+            "order": order,
+            "children": {k: tuple(v) for k, v in children.items()},
+        }
 
     def _known(self, name: str) -> None:
         if name not in self._index["kinds"]:
@@ -131,7 +139,7 @@ class Scene:
         return (BASE,) + tuple(self._index["order"])
 
     def body_kind(self, name: str) -> str:
-        """"base", "flexure" or "link"."""
+        """ "base", "flexure" or "link"."""
         self._known(name)
         return self._index["kinds"][name]
 
@@ -154,15 +162,17 @@ class Scene:
         try:
             return self._index["flex"][name]
         except KeyError:
-            raise SceneError(f"unknown flexure {name!r} (known: "
-                             f"{', '.join(self._index['flex']) or 'none'})") from None
+            raise SceneError(
+                f"unknown flexure {name!r} (known: {', '.join(self._index['flex']) or 'none'})"
+            ) from None
 
     def link(self, name: str) -> Link:
         try:
             return self._index["links"][name]
         except KeyError:
-            raise SceneError(f"unknown link {name!r} (known: "
-                             f"{', '.join(self._index['links']) or 'none'})") from None
+            raise SceneError(
+                f"unknown link {name!r} (known: {', '.join(self._index['links']) or 'none'})"
+            ) from None
 
     def flexure_order(self) -> tuple[Flexure, ...]:
         """All flexures, parents before children (depth-first from the base, siblings in
@@ -251,8 +261,9 @@ def load_scene(path: str | Path) -> Scene:
     return scene_from_dict(d, order=_declaration_order(text, d), default_name=path.stem)
 
 
-def scene_from_dict(d: Mapping[str, Any], *, order: Sequence[str] | None = None,
-                    default_name: str = "scene") -> Scene:
+def scene_from_dict(
+    d: Mapping[str, Any], *, order: Sequence[str] | None = None, default_name: str = "scene"
+) -> Scene:
     """Validate a scene given as a dict (the structure ``tomllib`` returns).
 
     ``order`` is the file order of the flexure and link tables as a sequence of "flexure" and
@@ -285,8 +296,11 @@ def _is_number(v: Any) -> bool:
 
 def _number(v: Any, key: str, sign: str = "") -> float:
     """sign: "" any finite, "+" positive, "0+" non-negative."""
-    desc = {"": "a finite number", "+": "a positive finite number",
-            "0+": "a non-negative finite number"}[sign]
+    desc = {
+        "": "a finite number",
+        "+": "a positive finite number",
+        "0+": "a non-negative finite number",
+    }[sign]
     if not _is_number(v):
         raise _fail(key, f"must be {desc}", v)
     if not math.isfinite(v) or (sign == "+" and v <= 0) or (sign == "0+" and v < 0):
@@ -402,10 +416,13 @@ class _Parser:
         self.owner: dict[str, str] = {BASE: "the ground"}
         flex_names = [self._name(t, f"flexure[{i}]") for i, t in enumerate(flex_tbls)]
         link_names = [self._name(t, f"link[{i}]") for i, t in enumerate(link_tbls)]
-        self.kinds = {BASE: "base", **{n: "flexure" for n in flex_names},
-                      **{n: "link" for n in link_names}}
+        self.kinds = {
+            BASE: "base",
+            **{n: "flexure" for n in flex_names},
+            **{n: "link" for n in link_names},
+        }
 
-        declared: list[tuple[str, int]] = []   # (kind, index) in file order, if known
+        declared: list[tuple[str, int]] = []  # (kind, index) in file order, if known
         if self.order is not None:
             counters = {"flexure": 0, "link": 0}
             for kind in self.order:
@@ -432,9 +449,17 @@ class _Parser:
             decl = tuple((flex_names if k == "flexure" else link_names)[i] for k, i in declared)
         else:
             decl = tuple(flex_names) + tuple(link_names)
-        self.scene = Scene(name=name, model=self.model, base_points=base_points,
-                           flexures=flexures, links=links, loads=loads, tendons=tendons,
-                           outputs=outputs, declaration_order=decl)
+        self.scene = Scene(
+            name=name,
+            model=self.model,
+            base_points=base_points,
+            flexures=flexures,
+            links=links,
+            loads=loads,
+            tendons=tendons,
+            outputs=outputs,
+            declaration_order=decl,
+        )
 
     # -- pieces --
 
@@ -443,10 +468,15 @@ class _Parser:
         if order is None:
             return (("flexure",) * n_flex) if n_link == 0 else None
         order = tuple(order)
-        if (any(k not in ("flexure", "link") for k in order)
-                or order.count("flexure") != n_flex or order.count("link") != n_link):
-            raise SceneError(f"order: must list 'flexure' {n_flex} times and 'link' {n_link} "
-                             f"times, got {_fmt(list(order))}")
+        if (
+            any(k not in ("flexure", "link") for k in order)
+            or order.count("flexure") != n_flex
+            or order.count("link") != n_link
+        ):
+            raise SceneError(
+                f"order: must list 'flexure' {n_flex} times and 'link' {n_link} "
+                f"times, got {_fmt(list(order))}"
+            )
         return order
 
     def _name(self, tbl: Mapping[str, Any], prefix: str) -> str:
@@ -454,8 +484,9 @@ class _Parser:
             raise _fail(f"{prefix}.name", "missing required key")
         name = _identifier(tbl["name"], f"{prefix}.name", "a name")
         if name in self.owner:
-            raise _fail(f"{prefix}.name", f"duplicate name {name!r} (already used by "
-                        f"{self.owner[name]})")
+            raise _fail(
+                f"{prefix}.name", f"duplicate name {name!r} (already used by {self.owner[name]})"
+            )
         self.owner[name] = prefix
         return name
 
@@ -470,21 +501,28 @@ class _Parser:
     def _flexure(self, tbl: Mapping[str, Any], i: int, flex_names: list[str]) -> Flexure:
         prefix = f"flexure[{i}]"
         if "points" in tbl:
-            raise _fail(f"{prefix}.points", "a flexure has only the point 'tip'; put named "
-                        "points on a [[link]] attached to it", tbl["points"])
+            raise _fail(
+                f"{prefix}.points",
+                "a flexure has only the point 'tip'; put named points on a [[link]] attached to it",
+                tbl["points"],
+            )
         _check_keys(tbl, prefix, FLEXURE_KEYS)
         name = flex_names[i]
 
         if "parent" in tbl:
             parent = _string(tbl["parent"], f"{prefix}.parent")
             if parent not in self.kinds:
-                raise _fail(f"{prefix}.parent", f"unknown body {parent!r} (known: "
-                            f"{', '.join(self.kinds)})")
+                raise _fail(
+                    f"{prefix}.parent", f"unknown body {parent!r} (known: {', '.join(self.kinds)})"
+                )
         elif i == 0:
             parent = BASE
         elif self.order is None:
-            raise _fail(f"{prefix}.parent", "missing, and the declaration order of flexures "
-                        "and links is unknown (set parent, or pass order= to scene_from_dict)")
+            raise _fail(
+                f"{prefix}.parent",
+                "missing, and the declaration order of flexures "
+                "and links is unknown (set parent, or pass order= to scene_from_dict)",
+            )
         else:
             parent = self._previous("flexure", i, want_flexure=False) or BASE
 
@@ -500,8 +538,9 @@ class _Parser:
             _check_keys(sub, f"{prefix}.model", MODEL_KEYS)
             for k in sub:
                 if k in tbl:
-                    raise _fail(f"{prefix}.model.{k}", f"also given as {prefix}.{k}; give it "
-                                "once", sub[k])
+                    raise _fail(
+                        f"{prefix}.model.{k}", f"also given as {prefix}.{k}; give it once", sub[k]
+                    )
             fields |= _model_fields(sub, f"{prefix}.model.")
         model = replace(self.model, **fields)
         return Flexure(name=name, parent=parent, at=at, length=length, EI=EI, model=model)
@@ -529,39 +568,52 @@ class _Parser:
                     raise _fail(f"{prefix}.{missing}", f"missing required key ({how})")
             EI = given["E"] * given["width"] * given["thickness"] ** 3 / 12.0
         if not (math.isfinite(EI) and EI > 0):
-            raise _fail(f"{prefix}.EI", "computed bending stiffness must be a positive finite "
-                        "number", EI)
+            raise _fail(
+                f"{prefix}.EI", "computed bending stiffness must be a positive finite number", EI
+            )
         return EI
 
-    def _link(self, tbl: Mapping[str, Any], i: int, flex_names: list[str],
-              link_names: list[str]) -> Link:
+    def _link(
+        self, tbl: Mapping[str, Any], i: int, flex_names: list[str], link_names: list[str]
+    ) -> Link:
         prefix = f"link[{i}]"
         _check_keys(tbl, prefix, LINK_KEYS)
         if "parent" in tbl:
             parent = _string(tbl["parent"], f"{prefix}.parent")
             kind = self.kinds.get(parent)
             if kind is None:
-                raise _fail(f"{prefix}.parent", f"unknown body {parent!r} (known flexures: "
-                            f"{', '.join(flex_names)})")
+                raise _fail(
+                    f"{prefix}.parent",
+                    f"unknown body {parent!r} (known flexures: {', '.join(flex_names)})",
+                )
             if kind != "flexure":
-                raise _fail(f"{prefix}.parent", f"must be a flexure, but {parent!r} is "
-                            f"{'the base' if kind == 'base' else 'a link'} (known flexures: "
-                            f"{', '.join(flex_names)})")
+                raise _fail(
+                    f"{prefix}.parent",
+                    f"must be a flexure, but {parent!r} is "
+                    f"{'the base' if kind == 'base' else 'a link'} (known flexures: "
+                    f"{', '.join(flex_names)})",
+                )
         elif self.order is None:
-            raise _fail(f"{prefix}.parent", "missing, and the declaration order of flexures "
-                        "and links is unknown (set parent, or pass order= to scene_from_dict)")
+            raise _fail(
+                f"{prefix}.parent",
+                "missing, and the declaration order of flexures "
+                "and links is unknown (set parent, or pass order= to scene_from_dict)",
+            )
         else:
             parent = self._previous("link", i, want_flexure=True)
             if parent is None:
-                raise _fail(f"{prefix}.parent", "missing, and no flexure is declared before "
-                            "this link")
+                raise _fail(
+                    f"{prefix}.parent", "missing, and no flexure is declared before this link"
+                )
         points = _points(tbl.get("points", {}), f"{prefix}.points")
         return Link(name=link_names[i], parent=parent, points=points)
 
     @property
     def names(self) -> dict[str, list[str]]:
-        return {"flexure": [n for n, k in self.kinds.items() if k == "flexure"],
-                "link": [n for n, k in self.kinds.items() if k == "link"]}
+        return {
+            "flexure": [n for n, k in self.kinds.items() if k == "flexure"],
+            "link": [n for n, k in self.kinds.items() if k == "link"],
+        }
 
     @staticmethod
     def _check_cycles(parents: dict[str, str], keys: dict[str, str]) -> None:
@@ -571,9 +623,12 @@ class _Parser:
             node = start
             while node not in done:
                 if node in path:
-                    cycle = path[path.index(node):] + [node]
-                    raise _fail(f"{keys[node]}.parent", "parents form a cycle ("
-                                f"{' -> '.join(cycle)})", parents[node])
+                    cycle = path[path.index(node) :] + [node]
+                    raise _fail(
+                        f"{keys[node]}.parent",
+                        f"parents form a cycle ({' -> '.join(cycle)})",
+                        parents[node],
+                    )
                 path.append(node)
                 node = parents[node]
             done.update(path)
@@ -584,8 +639,10 @@ class _Parser:
             raise _fail(key, "must be a point reference '<body>.<point>'", v)
         body, point = v.split(".")
         if body not in self.points:
-            raise _fail(key, f"unknown body {body!r} in point {v!r} (known bodies: "
-                        f"{', '.join(self.points)})")
+            raise _fail(
+                key,
+                f"unknown body {body!r} in point {v!r} (known bodies: {', '.join(self.points)})",
+            )
         if point not in self.points[body]:
             known = ", ".join(f"{body}.{p}" for p in self.points[body]) or "none"
             raise _fail(key, f"unknown point {v!r} (known: {known})")
@@ -615,8 +672,11 @@ class _Parser:
         refs = tuple(self._ref(r, f"{prefix}.route[{j}]") for j, r in enumerate(route))
         for j in range(1, len(refs)):
             if refs[j] == refs[j - 1]:
-                raise _fail(f"{prefix}.route[{j}]", "repeats the previous route point "
-                            "(a segment needs two distinct points)", refs[j])
+                raise _fail(
+                    f"{prefix}.route[{j}]",
+                    "repeats the previous route point (a segment needs two distinct points)",
+                    refs[j],
+                )
         return Tendon(tension=tension, route=refs)
 
     def _outputs(self, v: Any, loads: tuple[Load, ...]) -> tuple[str, ...]:

@@ -15,12 +15,13 @@ twice.
 ``flexgen.solve`` (``flexgen.api``) keeps the last prepared solvers, so solving the same Scene
 object again costs the core call and the Result.
 """
+
 from __future__ import annotations
 
 import math
-import threading
+from collections.abc import Mapping
 from dataclasses import fields, replace
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -34,23 +35,29 @@ from .settings import DEFAULT, SolverSettings
 
 # Why the solve took the side it did past a bifurcation (the core reports the index plus one:
 # chain_solver.h's FG_BUCKLING_*).
-BUCKLING_SIDES = ("the only stable side found",
-                  "the side of lower potential energy",
-                  "symmetric: the side of larger world y, by convention",
-                  "symmetric: the counter-clockwise side, by convention")
+BUCKLING_SIDES = (
+    "the only stable side found",
+    "the side of lower potential energy",
+    "symmetric: the side of larger world y, by convention",
+    "symmetric: the counter-clockwise side, by convention",
+)
 
 
 def buckling_warning(lam_c: float, why: str) -> str:
     """The warning of a bifurcation crossed at critical load factor ``lam_c``."""
-    return (f"buckling: bifurcation at critical load factor {lam_c:.10g} (the stiffness "
-            f"matrix lost positive definiteness); continued on the stable post-buckled "
-            f"branch ({why})")
+    return (
+        f"buckling: bifurcation at critical load factor {lam_c:.10g} (the stiffness "
+        f"matrix lost positive definiteness); continued on the stable post-buckled "
+        f"branch ({why})"
+    )
 
 
 def snap_warning(lam: float) -> str:
     """The warning of a path that ends at a limit point near load factor ``lam``."""
-    return (f"snap-through: the equilibrium path ends at a limit point near load factor "
-            f"{lam:.6g}; the solve continued from the stable equilibrium it jumps to")
+    return (
+        f"snap-through: the equilibrium path ends at a limit point near load factor "
+        f"{lam:.6g}; the solve continued from the stable equilibrium it jumps to"
+    )
 
 
 def make_settings(settings: SolverSettings | None = None, **options: Any) -> SolverSettings:
@@ -58,15 +65,15 @@ def make_settings(settings: SolverSettings | None = None, **options: Any) -> Sol
     an unknown name is a TypeError naming it, a bad value a ValueError naming it."""
     base = DEFAULT if settings is None else settings
     if not isinstance(base, SolverSettings):
-        raise TypeError(f"settings: expected a flexgen.SolverSettings, got "
-                        f"{type(base).__name__}")
+        raise TypeError(f"settings: expected a flexgen.SolverSettings, got {type(base).__name__}")
     if not options:
         return base
     names = {f.name for f in fields(SolverSettings)}
     unknown = sorted(set(options) - names)
     if unknown:
-        raise TypeError(f"unknown solver setting {unknown[0]!r} (the settings: "
-                        f"{', '.join(sorted(names))})")
+        raise TypeError(
+            f"unknown solver setting {unknown[0]!r} (the settings: {', '.join(sorted(names))})"
+        )
     return replace(base, **options)
 
 
@@ -79,8 +86,12 @@ class Solver:
     by its solves): use one Solver per thread.
     """
 
-    def __init__(self, scene: Scene, models: Mapping[str, FlexureModel] | None = None,
-                 settings: SolverSettings | None = None):
+    def __init__(
+        self,
+        scene: Scene,
+        models: Mapping[str, FlexureModel] | None = None,
+        settings: SolverSettings | None = None,
+    ):
         self.scene = scene
         self.settings = make_settings(settings)
         self.models = build_models(scene, models)
@@ -92,17 +103,19 @@ class Solver:
         self._changed_loads = self._changed_tensions = False
         self._slices = list(self.problem.chain.slices.items())
         # flexures whose model may switch kernels (the others never set the core's flag)
-        self._switchable = any(getattr(m, "gauss", None) is not None
-                               and getattr(m, "poly", None) is not None
-                               for m in self.models.values())
+        self._switchable = any(
+            getattr(m, "gauss", None) is not None and getattr(m, "poly", None) is not None
+            for m in self.models.values()
+        )
 
     @property
     def outputs(self) -> list[str]:
         """The output points, in the order of ``Result.points``."""
         return list(self.problem.outputs)
 
-    def solve(self, loads: Any = None, tensions: Any = None,
-              q0: Mapping[str, Any] | None = None) -> Result:
+    def solve(
+        self, loads: Any = None, tensions: Any = None, q0: Mapping[str, Any] | None = None
+    ) -> Result:
         """Equilibrium, stability and compliance under ``loads`` (one (fx, fy, moment) row per
         ``[[load]]`` of the scene, in its order, world frame; None: the scene's) and
         ``tensions`` (one per ``[[tendon]]``; None: the scene's). ``q0`` ({flexure:
@@ -110,19 +123,20 @@ class Solver:
         from q0, accepted if it converges to a stable equilibrium within ``max_dq`` of it, else
         the solve starts from the unloaded state."""
         p = self.problem
-        if loads is not None or self._changed_loads:      # None: the scene's own
+        if loads is not None or self._changed_loads:  # None: the scene's own
             self._changed_loads = loads is not None
             self._set(p.loads, self._scene_loads if loads is None else loads, "loads")
         if tensions is not None or self._changed_tensions:
             self._changed_tensions = tensions is not None
-            self._set(p.tensions, self._scene_tensions if tensions is None else tensions,
-                      "tensions")
+            self._set(
+                p.tensions, self._scene_tensions if tensions is None else tensions, "tensions"
+            )
         ws = self.workspace
         if q0 is not None:
             ws.q0[:] = 0.0
             for name, sl in self._slices:
                 v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]
-                ws.q0[sl.start:sl.start + v.size] = v
+                ws.q0[sl.start : sl.start + v.size] = v
             p.struct.q0 = ws.q0_ptr
         else:
             p.struct.q0 = core.ffi.NULL
@@ -135,9 +149,11 @@ class Solver:
             return
         a = np.asarray(values, dtype=float)
         if a.size != target.size:
-            raise ValueError(f"{what}: expected {target.shape} values (the scene's "
-                             f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), "
-                             f"got shape {a.shape}")
+            raise ValueError(
+                f"{what}: expected {target.shape} values (the scene's "
+                f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), "
+                f"got shape {a.shape}"
+            )
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{what}: every value must be finite")
         target.reshape(-1)[:] = a.reshape(-1)
@@ -152,14 +168,21 @@ class Solver:
         critical: list[float] = []
         ncritical = a.ncritical
         if ncritical:
-            for lam, kind in zip(ws.critical[:min(ncritical, MAX_CRITICAL)].tolist(),
-                                 ws.critical_kind[:min(ncritical, MAX_CRITICAL)].tolist()):
+            for lam, kind in zip(
+                ws.critical[: min(ncritical, MAX_CRITICAL)].tolist(),
+                ws.critical_kind[: min(ncritical, MAX_CRITICAL)].tolist(),
+            ):
                 critical.append(lam)
-                warnings.append(snap_warning(lam) if kind == core.SNAP_THROUGH
-                                else buckling_warning(lam, BUCKLING_SIDES[kind - 1]))
+                warnings.append(
+                    snap_warning(lam)
+                    if kind == core.SNAP_THROUGH
+                    else buckling_warning(lam, BUCKLING_SIDES[kind - 1])
+                )
             if ncritical > MAX_CRITICAL:
-                warnings.append(f"{ncritical - MAX_CRITICAL} more critical events on the load "
-                                f"path are not listed")
+                warnings.append(
+                    f"{ncritical - MAX_CRITICAL} more critical events on the load "
+                    f"path are not listed"
+                )
         solved = status == core.SOLVED
         q = ws.q
         switched = ws.switched.tolist() if self._switchable else ()
@@ -171,34 +194,60 @@ class Solver:
                     if msg:
                         warnings.append(msg)
         if not solved:
-            return Result(scene=self.scene.name, converged=False, stable=False,
-                          iterations=int(a.iterations), model=info, q={}, points={},
-                          warnings=warnings, reason=self._reason(status),
-                          critical_load_factors=critical,
-                          load_factor=float(getattr(a, "failure_load_factor", math.nan)))
+            return Result(
+                scene=self.scene.name,
+                converged=False,
+                stable=False,
+                iterations=int(a.iterations),
+                model=info,
+                q={},
+                points={},
+                warnings=warnings,
+                reason=self._reason(status),
+                critical_load_factors=critical,
+                load_factor=float(getattr(a, "failure_load_factor", math.nan)),
+            )
         stable = bool(a.stable)
         if not stable:
             warnings.append(UNSTABLE)
         poses, compliances = ws.pose.tolist(), ws.compliance.tolist()
-        points = {ref: point_result(ref, poses[i], compliances[i], warnings)
-                  for i, ref in enumerate(p.outputs)}
+        points = {
+            ref: point_result(ref, poses[i], compliances[i], warnings)
+            for i, ref in enumerate(p.outputs)
+        }
         qs = q.tolist()
-        return Result(scene=self.scene.name, converged=True, stable=stable,
-                      iterations=a.iterations, model=info,
-                      q={name: qs[sl] for name, sl in self._slices},
-                      points=points, warnings=warnings, reason=None,
-                      critical_load_factors=critical, load_factor=1.0,
-                      energy=a.energy, residual=a.residual, solver="core",
-                      stiffness=ws.K.copy())
+        return Result(
+            scene=self.scene.name,
+            converged=True,
+            stable=stable,
+            iterations=a.iterations,
+            model=info,
+            q={name: qs[sl] for name, sl in self._slices},
+            points=points,
+            warnings=warnings,
+            reason=None,
+            critical_load_factors=critical,
+            load_factor=1.0,
+            energy=a.energy,
+            residual=a.residual,
+            solver="core",
+            stiffness=ws.K.copy(),
+        )
 
     def _reason(self, status: int) -> str:
         from .reasons import failure_reason
+
         return failure_reason(self, status)
 
 
-def solve_models(scene: Scene, models: Mapping[str, FlexureModel] | None = None, *,
-                 q0: Mapping[str, Any] | None = None, settings: SolverSettings | None = None,
-                 **options: Any) -> Result:
+def solve_models(
+    scene: Scene,
+    models: Mapping[str, FlexureModel] | None = None,
+    *,
+    q0: Mapping[str, Any] | None = None,
+    settings: SolverSettings | None = None,
+    **options: Any,
+) -> Result:
     """One solve of ``scene`` with these flexure models (the others from the scene), no
     validity check and no cache: what model selection and the benchmarks call."""
     return Solver(scene, models, make_settings(settings, **options)).solve(q0=q0)

@@ -3,8 +3,8 @@
 ``generate_files(spec, langs)`` returns {relative path: text} for one kernel; nothing touches the
 disk until ``render.write_files``. The checked-in set is ``CHECKED_IN``.
 """
-from __future__ import annotations
 
+from __future__ import annotations
 
 import mpmath
 import sympy as sp
@@ -19,7 +19,8 @@ from flexgen.symbolic.flexure import RANGE_SAMPLES, FlexureKernel
 # kernels, certified on 180 degrees, for 1..6 modes:
 # the runtime falls back to them past the polynomial range.
 CHECKED_IN = tuple(KernelSpec(n) for n in range(1, 9)) + tuple(
-    KernelSpec(n, "gauss") for n in range(1, 7))
+    KernelSpec(n, "gauss") for n in range(1, 7)
+)
 
 
 def command_line(kernel: FlexureKernel) -> str:
@@ -32,20 +33,27 @@ def command_line(kernel: FlexureKernel) -> str:
 
 def _common(kernel: FlexureKernel) -> dict:
     s = kernel.spec
-    what = ("closed-form polynomial (cos, sin -> Chebyshev interpolants of degree "
-            f"{kernel.degree} on [-{s.range_deg:g}, {s.range_deg:g}] deg)"
-            if s.family == "poly" else f"{kernel.nodes}-node Gauss-Legendre quadrature")
+    what = (
+        "closed-form polynomial (cos, sin -> Chebyshev interpolants of degree "
+        f"{kernel.degree} on [-{s.range_deg:g}, {s.range_deg:g}] deg)"
+        if s.family == "poly"
+        else f"{kernel.nodes}-node Gauss-Legendre quadrature"
+    )
     return {
         "title": f"{kernel.name}: tip pose, Jacobian and Hessian of a {s.modes}-mode smooth "
-                 f"curvature flexure, {what}.",
+        f"curvature flexure, {what}.",
         "description": (
             "The flexure's angle is phi(s) = sum_n q_n B_n(s/L), B_n the integral of the shifted "
             "Legendre polynomial P_n(2t - 1); its tip is x = L int cos(phi), y = L int sin(phi), "
-            "theta = q_0." + (
+            "theta = q_0."
+            + (
                 f" The polynomial is evaluated exactly in nodal form: {kernel.nodes} Gauss nodes "
                 "integrate the degree "
-                f"{kernel.degree * s.modes} polynomial in s without error." if s.family == "poly"
-                else " Valid at any angle; the error bound is certified on |phi| <= PHI_MAX.")),
+                f"{kernel.degree * s.modes} polynomial in s without error."
+                if s.family == "poly"
+                else " Valid at any angle; the error bound is certified on |phi| <= PHI_MAX."
+            )
+        ),
         "command": command_line(kernel),
         "N": s.modes,
         "family": s.family,
@@ -58,7 +66,7 @@ def _common(kernel: FlexureKernel) -> dict:
     }
 
 
-TRIG_ROWS = ("c", "dc", "ddc", "s", "ds", "dds")     # the row order of _trig's stacked result
+TRIG_ROWS = ("c", "dc", "ddc", "s", "ds", "dds")  # the row order of _trig's stacked result
 
 
 def trig_coefficients(kernel: FlexureKernel) -> tuple[list[list[float]], list[bool]]:
@@ -66,9 +74,9 @@ def trig_coefficients(kernel: FlexureKernel) -> tuple[list[list[float]], list[bo
     u = phi^2, highest power first (zero-padded to one length), and which rows are odd in phi
     (those are multiplied by phi after the Horner steps in u)."""
     rows, odd = [], []
-    for name, coeffs in (("c", kernel.trig.cos), ("s", kernel.trig.sin)):
+    for _name, coeffs in (("c", kernel.trig.cos), ("s", kernel.trig.sin)):
         poly = [mpmath.mpf(c) for c in coeffs]
-        for _ in range(3):                                  # value, first, second derivative
+        for _ in range(3):  # value, first, second derivative
             parity = next(k for k, c in enumerate(poly) if c != 0) % 2
             rows.append([float(c) for c in poly[parity::2]][::-1])
             odd.append(bool(parity))
@@ -82,15 +90,17 @@ def numpy_files(kernel: FlexureKernel) -> dict[str, str]:
     with mpmath.workdps(40):
         w, b = kernel.weights, kernel.node_basis
         jw = [[float(w[g] * b[g][i]) for i in range(N)] for g in range(G)]
-        hw = [[float(w[g] * b[g][i] * b[g][j]) for i in range(N) for j in range(N)]
-              for g in range(G)]
+        hw = [
+            [float(w[g] * b[g][i] * b[g][j]) for i in range(N) for j in range(N)] for g in range(G)
+        ]
     S, m = kernel.range_check
     # the six polynomials as printed Horner forms sharing phi^2 (CSE): fastest on blocks of rows
     printer = NumPyPrinter()
     phi = sp.Symbol("phi")
     trig = kernel.trig_polynomials(phi)
-    temps, reduced = sp.cse([trig[k] for k in TRIG_ROWS], symbols=sp.numbered_symbols("u"),
-                            order="none")
+    temps, reduced = sp.cse(
+        [trig[k] for k in TRIG_ROWS], symbols=sp.numbered_symbols("u"), order="none"
+    )
     lines = [f"{sym} = {printer.doprint(expr)}" for sym, expr in temps]
     lines += [f"{k} = {printer.doprint(e)}" for k, e in zip(TRIG_ROWS, reduced)]
     lines.append(f"return {', '.join(TRIG_ROWS)}")
@@ -107,9 +117,11 @@ def numpy_files(kernel: FlexureKernel) -> dict[str, str]:
     }
     if kernel.spec.family == "poly":
         coeffs, odd = trig_coefficients(kernel)
-        context |= {"trig_coeffs": numpy_array(coeffs),
-                    "trig_odd": "[" + ", ".join(str(x) for x in odd) + "]",
-                    "horner_steps": len(coeffs[0]) - 1}
+        context |= {
+            "trig_coeffs": numpy_array(coeffs),
+            "trig_odd": "[" + ", ".join(str(x) for x in odd) + "]",
+            "horner_steps": len(coeffs[0]) - 1,
+        }
     folder = BACKENDS["numpy"].folder
     return {f"{folder}/{kernel.name}.py": render("numpy/kernel.py.jinja", context)}
 
@@ -119,19 +131,28 @@ def c_files(kernel: FlexureKernel) -> dict[str, str]:
     variants = []
     for ctype, suffix in (("double", ""), ("float", "_f")):
         printer = CPrinter(ctype)
-        variants.append({
-            "type": ctype,
-            "suffix": suffix,
-            "temporaries": [(str(sym), printer.doprint(expr)) for sym, expr in lowered.temporaries],
-            "outputs": [(o.array, o.index, printer.doprint(o.expr)) for o in lowered.outputs],
-        })
+        variants.append(
+            {
+                "type": ctype,
+                "suffix": suffix,
+                "temporaries": [
+                    (str(sym), printer.doprint(expr)) for sym, expr in lowered.temporaries
+                ],
+                "outputs": [(o.array, o.index, printer.doprint(o.expr)) for o in lowered.outputs],
+            }
+        )
     printer = CPrinter("double")
     S, m = kernel.range_check
     q = kernel.q
-    range_lines = [printer.doprint(sp.Add(*[sp.Float(v, 17) * qn for v, qn in zip(row, q) if v]))
-                   if any(row) else "0.0" for row in S]
-    margin_terms = [f"{printer.doprint(sp.Float(mn, 17))}*fabs(q[{n}])"
-                    for n, mn in enumerate(m) if mn]
+    range_lines = [
+        printer.doprint(sp.Add(*[sp.Float(v, 17) * qn for v, qn in zip(row, q) if v]))
+        if any(row)
+        else "0.0"
+        for row in S
+    ]
+    margin_terms = [
+        f"{printer.doprint(sp.Float(mn, 17))}*fabs(q[{n}])" for n, mn in enumerate(m) if mn
+    ]
     prefix = kernel.name
     context = _common(kernel) | {
         "prefix": prefix,

@@ -1,4 +1,5 @@
 """Lowering: the unique output expressions of a kernel, common subexpressions, op counts."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -12,7 +13,7 @@ from flexgen.symbolic.flexure import FlexureKernel
 class OpCount:
     adds: int
     muls: int
-    calls: int          # cos/sin calls (gauss kernels)
+    calls: int  # cos/sin calls (gauss kernels)
 
     @property
     def total(self) -> int:
@@ -25,7 +26,8 @@ class OpCount:
 @dataclass(frozen=True)
 class Output:
     """One scalar output slot: its array and flat row-major index, and its expression."""
-    array: str          # "pose", "J" or "H"
+
+    array: str  # "pose", "J" or "H"
     index: int
     expr: sp.Expr
 
@@ -44,8 +46,12 @@ def outputs_of(kernel: FlexureKernel) -> list[Output]:
     e = kernel.expressions
     out = [Output("pose", r, e["pose"][r]) for r in range(3)]
     out += [Output("J", r * N + i, e["J"][r][i]) for r in range(3) for i in range(N)]
-    out += [Output("H", (r * N + i) * N + j, e["H"][r][i][j])
-            for r in range(3) for i in range(N) for j in range(N)]
+    out += [
+        Output("H", (r * N + i) * N + j, e["H"][r][i][j])
+        for r in range(3)
+        for i in range(N)
+        for j in range(N)
+    ]
     return out
 
 
@@ -60,8 +66,9 @@ def lower(kernel: FlexureKernel) -> LoweredKernel:
             unique.append(o.expr)
     temps, reduced = sp.cse(unique, symbols=sp.numbered_symbols("t"), order="none")
     by_id = {key: reduced[i] for key, i in seen.items()}
-    lowered = [Output(o.array, o.index, o.expr if o.expr.is_Number else by_id[id(o.expr)])
-               for o in outputs]
+    lowered = [
+        Output(o.array, o.index, o.expr if o.expr.is_Number else by_id[id(o.expr)]) for o in outputs
+    ]
     ops = count_ops([e for _, e in temps] + reduced)
     return LoweredKernel(kernel, temps, lowered, ops)
 

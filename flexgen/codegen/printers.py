@@ -4,6 +4,7 @@ Small classes in the SymPy style: a ``_print_<Node>`` method per node that needs
 lookup tables instead of branches. Integer powers print as products in C (``x*x*x``, not
 ``pow(x, 3)``); floating constants print as the shortest text that round-trips to the target type.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,8 +15,11 @@ from sympy.printing.pycode import PythonCodePrinter
 # per C type: literal suffix and the names of the libm functions we call
 C_TYPES = {
     "double": {"suffix": "", "to_float": float, "functions": {"cos": "cos", "sin": "sin"}},
-    "float": {"suffix": "f", "to_float": lambda x: float(np.float32(x)),
-              "functions": {"cos": "cosf", "sin": "sinf"}},
+    "float": {
+        "suffix": "f",
+        "to_float": lambda x: float(np.float32(x)),
+        "functions": {"cos": "cosf", "sin": "sinf"},
+    },
 }
 
 
@@ -23,9 +27,13 @@ def float_literal(value, ctype: str = "double") -> str:
     """Shortest round-trip decimal of value rounded to ctype, with the C suffix."""
     info = C_TYPES[ctype]
     x = info["to_float"](value)
-    text = repr(x) if ctype == "double" else np.format_float_positional(
-        np.float32(x), unique=True, trim="0") if abs(x) >= 1e-4 or x == 0 else \
-        np.format_float_scientific(np.float32(x), unique=True, trim="0")
+    text = (
+        repr(x)
+        if ctype == "double"
+        else np.format_float_positional(np.float32(x), unique=True, trim="0")
+        if abs(x) >= 1e-4 or x == 0
+        else np.format_float_scientific(np.float32(x), unique=True, trim="0")
+    )
     if text.endswith("."):
         text += "0"
     if "." not in text and "e" not in text and "inf" not in text:
@@ -52,8 +60,9 @@ class CPrinter(C99CodePrinter):
     def _print_Pow(self, expr):
         base, exp = expr.args
         if exp.is_Integer and exp > 0:
-            return "*".join([self.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"])]
-                            * int(exp))
+            return "*".join(
+                [self.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"])] * int(exp)
+            )
         raise NotImplementedError(f"the C printer takes only positive integer powers: {expr}")
 
     def _print_Function(self, expr):
@@ -65,7 +74,7 @@ class CPrinter(C99CodePrinter):
     def _print_Symbol(self, expr):
         name = expr.name
         if name.startswith("q") and name[1:].isdigit():
-            return f"q[{name[1:]}]"         # the input array
+            return f"q[{name[1:]}]"  # the input array
         return name
 
 
@@ -78,8 +87,9 @@ class NumPyPrinter(PythonCodePrinter):
     def _print_Pow(self, expr):
         base, exp = expr.args
         if exp.is_Integer and exp > 0:
-            return "*".join([self.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"])]
-                            * int(exp))
+            return "*".join(
+                [self.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"])] * int(exp)
+            )
         return super()._print_Pow(expr)
 
     def _print_cos(self, expr):

@@ -1,4 +1,5 @@
 """Render: the Jinja2 environment over templates/, and deterministic writing and checking."""
+
 from __future__ import annotations
 
 import os
@@ -9,8 +10,9 @@ import jinja2
 
 _PACKAGE = Path(__file__).resolve().parents[1]
 # installed: the package's own copy (flexgen/templates); a source checkout: the top-level folder
-TEMPLATES = (_PACKAGE / "templates" if (_PACKAGE / "templates").is_dir()
-             else _PACKAGE.parent / "templates")
+TEMPLATES = (
+    _PACKAGE / "templates" if (_PACKAGE / "templates").is_dir() else _PACKAGE.parent / "templates"
+)
 
 
 def environment() -> jinja2.Environment:

@@ -1,4 +1,5 @@
 """What to generate: one KernelSpec per kernel, one small config dataclass per backend."""
+
 from __future__ import annotations
 
 import math
@@ -27,6 +28,7 @@ class KernelSpec:
     nodes     gauss: number of nodes (None: the fewest meeting tol on the range).
     tol       requested bound on the cos/sin error (poly) or the pose error (gauss), units of L.
     """
+
     modes: int
     family: str = "poly"
     range_deg: float | None = None
@@ -45,12 +47,16 @@ class KernelSpec:
         if not (isinstance(r, (int, float)) and math.isfinite(r) and r > 0):
             raise SpecError(f"--range: must be a positive number of degrees, got {r}")
         if self.family == "poly" and r >= 180:
-            raise SpecError(f"--range: the polynomial kernel needs a range below 180 degrees, got {r:g}")
+            raise SpecError(
+                f"--range: the polynomial kernel needs a range below 180 degrees, got {r:g}"
+            )
         if self.family == "gauss" and r > 720:
             raise SpecError(f"--range: gauss kernels certify ranges up to 720 degrees, got {r:g}")
         if not (math.isfinite(self.tol) and 0 < self.tol < 1):
             raise SpecError(f"--tol: must be in (0, 1), got {self.tol}")
-        if self.degree is not None and not (isinstance(self.degree, int) and 1 <= self.degree <= 60):
+        if self.degree is not None and not (
+            isinstance(self.degree, int) and 1 <= self.degree <= 60
+        ):
             raise SpecError(f"--degree: must be an integer from 1 to 60, got {self.degree}")
         if self.nodes is not None and not (isinstance(self.nodes, int) and 1 <= self.nodes <= 200):
             raise SpecError(f"--nodes: must be an integer from 1 to 200, got {self.nodes}")
@@ -67,6 +73,7 @@ class KernelSpec:
 @dataclass(frozen=True)
 class NumPyConfig:
     """NumPy backend: one module per kernel, imports numpy only."""
+
     folder: str = "numpy"
     template_folder: str = "numpy"
 
@@ -74,6 +81,7 @@ class NumPyConfig:
 @dataclass(frozen=True)
 class CConfig:
     """C99 backend: a header and a source per kernel, double and float entry points."""
+
     folder: str = "c"
     template_folder: str = "c"
     float_twin: bool = True

@@ -1,4 +1,5 @@
 """What the subcommands share: the repository root, the one-line usage error, argument types."""
+
 from __future__ import annotations
 
 import argparse
@@ -14,6 +15,7 @@ class UsageError(Exception):
 
 def integer(minimum: int | None = None):
     """argparse type: an integer (at least ``minimum``), with a one-line message otherwise."""
+
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -23,6 +25,7 @@ def integer(minimum: int | None = None):
             bound = f" >= {minimum}" if minimum is not None else ""
             raise argparse.ArgumentTypeError(f"must be an integer{bound}, got {text!r}")
         return value
+
     return parse
 
 

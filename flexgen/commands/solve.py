@@ -6,32 +6,49 @@ with --json the object with "converged": false and "reason" still goes to stdout
 
 ``add_model_options`` and ``solve_args`` are shared with `flexgen plot`.
 """
+
 from __future__ import annotations
 
 import sys
 
 from flexgen.commands.common import UsageError, integer, tolerance
-
 from flexgen.models.registry import MODEL_KINDS as KINDS
 
 
 def add_model_options(p) -> None:
     """SCENE, --model, --modes, --elements: the arguments `solve` and `plot` share."""
     p.add_argument("scene", metavar="SCENE", help="scene file (TOML; see docs/scene.md)")
-    p.add_argument("--model", choices=KINDS, metavar="KIND",
-                   help="model of every flexure, overriding the scene's [model] and per-flexure "
-                        "kinds: scm (smooth curvature, Legendre modes), cc (constant curvature, "
-                        "= scm with 1 mode), prb (pseudo-rigid-body 1R), fem (chain of rigid "
-                        "elements and torsion springs), exact (elastica by shooting; slow)")
-    p.add_argument("--modes", type=integer(1), metavar="N",
-                   help="scm: Legendre curvature modes of every flexure (overrides the scene; "
-                        "1..8 with the checked-in kernels)")
-    p.add_argument("--elements", type=integer(1), metavar="N",
-                   help="fem: rigid elements per flexure (overrides the scene)")
-    p.add_argument("--tol", type=tolerance, dest="tolerance", metavar="T",
-                   help="choose per scm flexure the fewest modes (and the kernel) whose error "
-                        "estimate on the output poses and compliances is <= T (relative); the "
-                        "result reports the choice and the estimate (docs/selection.md)")
+    p.add_argument(
+        "--model",
+        choices=KINDS,
+        metavar="KIND",
+        help="model of every flexure, overriding the scene's [model] and per-flexure "
+        "kinds: scm (smooth curvature, Legendre modes), cc (constant curvature, "
+        "= scm with 1 mode), prb (pseudo-rigid-body 1R), fem (chain of rigid "
+        "elements and torsion springs), exact (elastica by shooting; slow)",
+    )
+    p.add_argument(
+        "--modes",
+        type=integer(1),
+        metavar="N",
+        help="scm: Legendre curvature modes of every flexure (overrides the scene; "
+        "1..8 with the checked-in kernels)",
+    )
+    p.add_argument(
+        "--elements",
+        type=integer(1),
+        metavar="N",
+        help="fem: rigid elements per flexure (overrides the scene)",
+    )
+    p.add_argument(
+        "--tol",
+        type=tolerance,
+        dest="tolerance",
+        metavar="T",
+        help="choose per scm flexure the fewest modes (and the kernel) whose error "
+        "estimate on the output poses and compliances is <= T (relative); the "
+        "result reports the choice and the estimate (docs/selection.md)",
+    )
 
 
 # extra argparse dests forwarded to flexgen.api.solve_scene
@@ -48,26 +65,35 @@ def solve_args(args):
     if getattr(args, "tolerance", None) is not None and (args.modes or args.elements):
         raise UsageError("--tol chooses the modes itself: give either --tol or --modes/--elements")
     scene = override(as_scene(args.scene), args.model, args.modes, args.elements)
-    options = {name: getattr(args, name) for name in OPTION_NAMES
-               if getattr(args, name, None) is not None}
+    options = {
+        name: getattr(args, name) for name in OPTION_NAMES if getattr(args, name, None) is not None
+    }
     try:
         result, exact = solve_scene(scene, **options)
-    except (ModelError, KernelNotFound) as exc:     # e.g. --modes 12: no such kernel
+    except (ModelError, KernelNotFound) as exc:  # e.g. --modes 12: no such kernel
         raise UsageError(" ".join(str(exc).split())) from None
     return scene, result, exact
 
 
 def register(sub) -> None:
-    p = sub.add_parser("solve", help="solve a scene: loaded shape, stability, compliance ellipses",
-                       description=(
-        "Solve a scene (flexures, rigid links, dead loads, tendons) by load continuation from the "
-        "unloaded state, and report each output point's pose, 2x2 compliance and compliance "
-        "ellipse. Without --json: a table. Exit codes: 0 equilibrium found, 1 no equilibrium "
-        "(reason on stderr), 2 bad input (one line on stderr naming the key)."))
+    p = sub.add_parser(
+        "solve",
+        help="solve a scene: loaded shape, stability, compliance ellipses",
+        description=(
+            "Solve a scene (flexures, rigid links, dead loads, tendons) by load continuation "
+            "from the "
+            "unloaded state, and report each output point's pose, 2x2 compliance and compliance "
+            "ellipse. Without --json: a table. Exit codes: 0 equilibrium found, 1 no equilibrium "
+            "(reason on stderr), 2 bad input (one line on stderr naming the key)."
+        ),
+    )
     add_model_options(p)
-    p.add_argument("--json", action="store_true",
-                   help="print the result as one JSON object (the fields of the public contract, "
-                        "plus \"reason\" when not converged)")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print the result as one JSON object (the fields of the public contract, "
+        'plus "reason" when not converged)',
+    )
     p.set_defaults(run=run)
 
 

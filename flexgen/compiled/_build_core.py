@@ -10,6 +10,7 @@ the structs by field name and nothing mirrors them by hand. The kernels are decl
 Used from setup.py (``cffi_modules``); paths are relative to the project root, as setuptools
 wants them.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -25,8 +26,11 @@ KERNELS = Path("generated") / "c"
 
 def kernel_names() -> list[str]:
     """The shipped C kernels (generated/c/<name>.c with its header), sorted."""
-    return sorted(p.stem for p in (ROOT / KERNELS).glob("scm*.c")
-                  if (ROOT / KERNELS / f"{p.stem}.h").is_file())
+    return sorted(
+        p.stem
+        for p in (ROOT / KERNELS).glob("scm*.c")
+        if (ROOT / KERNELS / f"{p.stem}.h").is_file()
+    )
 
 
 def solver_declarations() -> str:
@@ -37,8 +41,11 @@ def solver_declarations() -> str:
 
 
 def kernel_declarations(names: list[str]) -> str:
-    return "\n".join(f"void {n}_evaluate(const double *q, double *pose, double *J, double *H);\n"
-                     f"int {n}_in_range(const double *q);" for n in names)
+    return "\n".join(
+        f"void {n}_evaluate(const double *q, double *pose, double *J, double *H);\n"
+        f"int {n}_in_range(const double *q);"
+        for n in names
+    )
 
 
 def sources_digest() -> str:
@@ -46,7 +53,8 @@ def sources_digest() -> str:
     it with the sources of a checkout, so a stale build is an error, not an old answer."""
     digest = hashlib.sha256()
     for path in sorted((ROOT / SOLVER).glob("chain_solver.[ch]")) + sorted(
-            (ROOT / KERNELS).glob("scm*.[ch]")):
+        (ROOT / KERNELS).glob("scm*.[ch]")
+    ):
         digest.update(path.name.encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()
 
@@ -54,15 +62,21 @@ def sources_digest() -> str:
 def make_ffi() -> FFI:
     names = kernel_names()
     ffi = FFI()
-    ffi.cdef(solver_declarations() + "\n" + kernel_declarations(names)
-             + "\nconst char *fg_sources_digest(void);")
+    ffi.cdef(
+        solver_declarations()
+        + "\n"
+        + kernel_declarations(names)
+        + "\nconst char *fg_sources_digest(void);"
+    )
     includes = "\n".join(f'#include "{n}.h"' for n in ["chain_solver", *names])
-    includes += ('\nconst char *fg_sources_digest(void) { return "%s"; }' % sources_digest())
-    ffi.set_source("flexgen._core", includes,
-                   sources=[str(SOLVER / "chain_solver.c"),
-                            *(str(KERNELS / f"{n}.c") for n in names)],
-                   include_dirs=[str(SOLVER), str(KERNELS)],
-                   libraries=["m"])
+    includes += f'\nconst char *fg_sources_digest(void) {{ return "{sources_digest()}"; }}'
+    ffi.set_source(
+        "flexgen._core",
+        includes,
+        sources=[str(SOLVER / "chain_solver.c"), *(str(KERNELS / f"{n}.c") for n in names)],
+        include_dirs=[str(SOLVER), str(KERNELS)],
+        libraries=["m"],
+    )
     return ffi
 
 

@@ -4,6 +4,7 @@ A flexure model maps its generalized coordinates q (length ``n_dof``) to the pos
 tip frame in its root frame, with the Jacobian and Hessian of that pose, and gives its elastic
 energy with gradient and Hessian. The chain solver needs nothing else.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -14,14 +15,16 @@ import numpy as np
 
 @dataclass(frozen=True)
 class TipKinematics:
-    pose: np.ndarray   # (3,)       x, y (length units), theta (rad) of the tip frame in the root frame
-    J: np.ndarray      # (3, n)     d pose / d q
-    H: np.ndarray      # (3, n, n)  d2 pose / dq dq
+    pose: (
+        np.ndarray
+    )  # (3,)       x, y (length units), theta (rad) of the tip frame in the root frame
+    J: np.ndarray  # (3, n)     d pose / d q
+    H: np.ndarray  # (3, n, n)  d2 pose / dq dq
 
 
 class FlexureModel(Protocol):
-    kind: str          # "scm", "cc", "prb", "fem"
-    label: str         # e.g. "scm3", "fem16", "prb"
+    kind: str  # "scm", "cc", "prb", "fem"
+    label: str  # e.g. "scm3", "fem16", "prb"
     n_dof: int
     length: float
     EI: float

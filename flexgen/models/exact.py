@@ -21,6 +21,7 @@ euler_load(EI, L, k=1) -> (2k - 1)^2 pi^2 EI / (4 L^2)
 post_buckled(EI, L, tip_angle) -> (P, x_tip, y_tip), closed form (elliptic integrals)
 solve_exact(scene, num=65) -> SceneSolution
 """
+
 from __future__ import annotations
 
 import math
@@ -39,9 +40,10 @@ ATOL = 1e-14
 # closed forms
 # ----------------------------------------------------------------------------------------------
 
+
 def euler_load(EI: float, L: float, k: int = 1) -> float:
     """k-th critical axial load of a clamped-free column: (2k - 1)^2 pi^2 EI / (4 L^2)."""
-    return (2 * k - 1) ** 2 * math.pi ** 2 * EI / (4.0 * L ** 2)
+    return (2 * k - 1) ** 2 * math.pi**2 * EI / (4.0 * L**2)
 
 
 def post_buckled(EI: float, L: float, tip_angle: float):
@@ -54,15 +56,18 @@ def post_buckled(EI: float, L: float, tip_angle: float):
     m = k * k
     K = float(ellipk(m))
     lam = K / L
-    return EI * lam ** 2, 2.0 * float(ellipe(m)) / lam - L, 2.0 * k / lam
+    return EI * lam**2, 2.0 * float(ellipe(m)) / lam - L, 2.0 * k / lam
 
 
 def _buckled_root_moment_nd(P_nd: float) -> float:
     """Nondimensional root moment of the first-mode post-buckled branch for P L^2/EI = P_nd
     (> pi^2/4), bending towards +y: mu0 = 2 k sqrt(P_nd) with K(k) = sqrt(P_nd)."""
     target = math.sqrt(P_nd)
+
     # solve K(m) = target in p = 1 - m, on a log scale (p -> 0 for large loads)
-    g = lambda t: float(ellipkm1(math.exp(t))) - target
+    def g(t: float) -> float:
+        return float(ellipkm1(math.exp(t))) - target
+
     t = brentq(g, -700.0, 0.0, xtol=1e-15, rtol=1e-15)
     m = 1.0 - math.exp(t)
     return 2.0 * math.sqrt(m) * target
@@ -71,6 +76,7 @@ def _buckled_root_moment_nd(P_nd: float) -> float:
 # ----------------------------------------------------------------------------------------------
 # one cantilever
 # ----------------------------------------------------------------------------------------------
+
 
 def _rhs_sens(fx: float, fy: float, nsens: int):
     """RHS of the nondimensional elastica with sensitivities w.r.t. (mu0, fx, fy)[:nsens]."""
@@ -98,9 +104,16 @@ def _rhs_sens(fx: float, fy: float, nsens: int):
 def _shoot(mu0: float, fx: float, fy: float, nsens: int = 1, dense: bool = False):
     y0 = np.zeros(4 + 4 * nsens)
     y0[3] = mu0
-    y0[4 + 3] = 1.0            # d mu(0) / d mu0
-    sol = solve_ivp(_rhs_sens(fx, fy, nsens), (0.0, 1.0), y0, method="DOP853", rtol=RTOL,
-                    atol=ATOL, dense_output=dense)
+    y0[4 + 3] = 1.0  # d mu(0) / d mu0
+    sol = solve_ivp(
+        _rhs_sens(fx, fy, nsens),
+        (0.0, 1.0),
+        y0,
+        method="DOP853",
+        rtol=RTOL,
+        atol=ATOL,
+        dense_output=dense,
+    )
     if not sol.success:
         raise RuntimeError(f"elastica integration failed: {sol.message}")
     return sol
@@ -118,8 +131,9 @@ def _stability(sol) -> tuple[bool, float]:
     return bool(np.all(u > 0.0) and du1 > 0.0), du1
 
 
-def _newton_mu0(mu0: float, fx: float, fy: float, mM: float, tol: float = 1e-13,
-                max_iter: int = 30):
+def _newton_mu0(
+    mu0: float, fx: float, fy: float, mM: float, tol: float = 1e-13, max_iter: int = 30
+):
     """Newton on the root moment; returns (mu0, sol, iterations) or raises RuntimeError."""
     for it in range(1, max_iter + 1):
         sol = _shoot(mu0, fx, fy)
@@ -140,20 +154,20 @@ def _newton_mu0(mu0: float, fx: float, fy: float, mM: float, tol: float = 1e-13,
 
 @dataclass
 class CantileverSolution:
-    pose: np.ndarray            # (3,) tip x, y, theta
-    shape: np.ndarray           # (num, 2) centreline, root first
-    s: np.ndarray               # (num,) arc length of the shape points
-    phi: np.ndarray             # (num,) tangent angle
-    moment: np.ndarray          # (num,) internal bending moment EI phi'
-    root_moment: float          # EI phi'(0)
-    force: np.ndarray           # (2,) applied tip force
+    pose: np.ndarray  # (3,) tip x, y, theta
+    shape: np.ndarray  # (num, 2) centreline, root first
+    s: np.ndarray  # (num,) arc length of the shape points
+    phi: np.ndarray  # (num,) tangent angle
+    moment: np.ndarray  # (num,) internal bending moment EI phi'
+    root_moment: float  # EI phi'(0)
+    force: np.ndarray  # (2,) applied tip force
     tip_moment: float
-    stable: bool                # Jacobi test of the second variation
+    stable: bool  # Jacobi test of the second variation
     converged: bool
-    iterations: int             # Newton iterations over the whole continuation
-    branch: str                 # "primary" or "post-buckled"
-    critical_load_factor: float | None = None   # load factor where the path lost stability
-    critical_load: float | None = None          # |force| at that factor (axial: Euler load)
+    iterations: int  # Newton iterations over the whole continuation
+    branch: str  # "primary" or "post-buckled"
+    critical_load_factor: float | None = None  # load factor where the path lost stability
+    critical_load: float | None = None  # |force| at that factor (axial: Euler load)
     warnings: list = field(default_factory=list)
 
 
@@ -193,14 +207,20 @@ def _continue(fx: float, fy: float, mM: float, max_step: float = 0.25):
             ok = False
         if ok:
             stable, _ = _stability(sol)
-            if stable_prev and not stable and not (symmetric and abs(mu_new) < 1e-9) \
-                    and dlam > 1e-6:
-                ok = False       # confirm a loss of stability with small steps (no jump)
+            if (
+                stable_prev
+                and not stable
+                and not (symmetric and abs(mu_new) < 1e-9)
+                and dlam > 1e-6
+            ):
+                ok = False  # confirm a loss of stability with small steps (no jump)
         if not ok:
             dlam *= 0.5
             if dlam < 1e-9:
-                warnings.append(f"continuation stalled at load factor {lam:.9g} "
-                                "(limit point: the load would snap through)")
+                warnings.append(
+                    f"continuation stalled at load factor {lam:.9g} "
+                    "(limit point: the load would snap through)"
+                )
                 if lam_c is None:
                     lam_c = lam
                 break
@@ -208,9 +228,15 @@ def _continue(fx: float, fy: float, mM: float, max_step: float = 0.25):
         if stable_prev and not stable:
             # locate the loss of stability on the path between lam and lam_new
             def indicator(l):
-                m_, s_, _ = _newton_mu0(mu0 + (mu_new - mu0) * (l - lam) / (lam_new - lam),
-                                        l * fx, l * fy, l * mM)
+                # called at once by brentq below: the loop variables are the current ones
+                m_, s_, _ = _newton_mu0(
+                    mu0 + (mu_new - mu0) * (l - lam) / (lam_new - lam),  # noqa: B023
+                    l * fx,
+                    l * fy,
+                    l * mM,
+                )
                 return s_.y[7, -1]
+
             try:
                 lam_c = brentq(indicator, lam, lam_new, xtol=1e-15, rtol=1e-15)
             except (ValueError, RuntimeError):
@@ -227,12 +253,17 @@ def _continue(fx: float, fy: float, mM: float, max_step: float = 0.25):
         lam, mu0 = lam_new, mu_new
         hist.append((lam, mu0))
         dlam = min(max_step, dlam * (1.5 if it <= 4 else 1.0))
-    return dict(mu0=mu0, iterations=iters, branch=branch, lam_c=lam_c, warnings=warnings,
-                lam=lam)
+    return dict(mu0=mu0, iterations=iters, branch=branch, lam_c=lam_c, warnings=warnings, lam=lam)
 
 
-def cantilever(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0, num: int = 101,
-               max_step: float = 0.25) -> CantileverSolution:
+def cantilever(
+    EI: float,
+    L: float,
+    force=(0.0, 0.0),
+    moment: float = 0.0,
+    num: int = 101,
+    max_step: float = 0.25,
+) -> CantileverSolution:
     """Exact equilibrium of a cantilever clamped at the origin along +x under a dead tip load.
 
     force = (Fx, Fy) and moment M act at the tip and keep their world direction. The load is
@@ -244,7 +275,7 @@ def cantilever(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0, num: 
     is followed. ``stable`` is the Jacobi (conjugate point) test of the second variation.
     """
     EI, L = float(EI), float(L)
-    fx, fy = float(force[0]) * L ** 2 / EI, float(force[1]) * L ** 2 / EI
+    fx, fy = float(force[0]) * L**2 / EI, float(force[1]) * L**2 / EI
     mM = float(moment) * L / EI
     res = _continue(fx, fy, mM, max_step=max_step)
     warnings = list(res["warnings"])
@@ -262,15 +293,30 @@ def cantilever(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0, num: 
     branch = "post-buckled" if res["branch"].startswith("post") else "primary"
     return CantileverSolution(
         pose=np.array([L * sol.y[0, -1], L * sol.y[1, -1], sol.y[2, -1]]),
-        shape=L * Y[0:2].T.copy(), s=L * sig, phi=Y[2].copy(), moment=EI / L * Y[3],
-        root_moment=EI / L * res["mu0"], force=np.array(force, dtype=float),
-        tip_moment=float(moment), stable=stable, converged=converged,
-        iterations=res["iterations"], branch=branch, critical_load_factor=lam_c,
-        critical_load=crit, warnings=warnings)
+        shape=L * Y[0:2].T.copy(),
+        s=L * sig,
+        phi=Y[2].copy(),
+        moment=EI / L * Y[3],
+        root_moment=EI / L * res["mu0"],
+        force=np.array(force, dtype=float),
+        tip_moment=float(moment),
+        stable=stable,
+        converged=converged,
+        iterations=res["iterations"],
+        branch=branch,
+        critical_load_factor=lam_c,
+        critical_load=crit,
+        warnings=warnings,
+    )
 
 
-def tip_compliance(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0,
-                   solution: CantileverSolution | None = None) -> np.ndarray:
+def tip_compliance(
+    EI: float,
+    L: float,
+    force=(0.0, 0.0),
+    moment: float = 0.0,
+    solution: CantileverSolution | None = None,
+) -> np.ndarray:
     """3x3 compliance d(x, y, theta)_tip / d(Fx, Fy, M) at the loaded equilibrium.
 
     Exact (variational equations, no finite differences): with R = mu(1) - M = 0,
@@ -280,17 +326,17 @@ def tip_compliance(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0,
     EI, L = float(EI), float(L)
     if solution is None:
         solution = cantilever(EI, L, force, moment, num=3)
-    fx, fy = force[0] * L ** 2 / EI, force[1] * L ** 2 / EI
+    fx, fy = force[0] * L**2 / EI, force[1] * L**2 / EI
     mu0 = solution.root_moment * L / EI
     sol = _shoot(mu0, fx, fy, nsens=3)
     y = sol.y[:, -1]
-    T = [y[4 + 4 * k: 4 + 4 * k + 3] for k in range(3)]   # d(X, Y, phi)(1) / d(mu0, fx, fy)
-    dR = [y[4 + 4 * k + 3] for k in range(3)]             # d mu(1) / d(mu0, fx, fy)
+    T = [y[4 + 4 * k : 4 + 4 * k + 3] for k in range(3)]  # d(X, Y, phi)(1) / d(mu0, fx, fy)
+    dR = [y[4 + 4 * k + 3] for k in range(3)]  # d mu(1) / d(mu0, fx, fy)
     C = np.empty((3, 3))
     C[:, 0] = T[1] - T[0] * dR[1] / dR[0]
     C[:, 1] = T[2] - T[0] * dR[2] / dR[0]
     C[:, 2] = T[0] / dR[0]
-    scale = np.array([[L ** 3, L ** 3, L ** 2], [L ** 3, L ** 3, L ** 2], [L ** 2, L ** 2, L]]) / EI
+    scale = np.array([[L**3, L**3, L**2], [L**3, L**3, L**2], [L**2, L**2, L]]) / EI
     return C * scale
 
 
@@ -298,12 +344,18 @@ def tip_compliance(EI: float, L: float, force=(0.0, 0.0), moment: float = 0.0,
 # whole scenes
 # ----------------------------------------------------------------------------------------------
 
+
 def _compose(A, B):
     """Frames (..., 3): A then B (B expressed in A)."""
     c, s = np.cos(A[..., 2]), np.sin(A[..., 2])
-    return np.stack([A[..., 0] + c * B[..., 0] - s * B[..., 1],
-                     A[..., 1] + s * B[..., 0] + c * B[..., 1],
-                     A[..., 2] + B[..., 2]], axis=-1)
+    return np.stack(
+        [
+            A[..., 0] + c * B[..., 0] - s * B[..., 1],
+            A[..., 1] + s * B[..., 0] + c * B[..., 1],
+            A[..., 2] + B[..., 2],
+        ],
+        axis=-1,
+    )
 
 
 @dataclass
@@ -311,12 +363,12 @@ class SceneSolution:
     converged: bool
     stable: bool
     iterations: int
-    poses: dict                 # point name -> (3,) world x, y, body angle   (output points)
-    compliance: dict            # point name -> (2, 2) d position / d force at that point
-    shapes: dict                # flexure name -> (num, 2) world centreline, root first
-    tip_frames: dict            # flexure name -> (3,) world tip frame
-    root_loads: dict            # flexure name -> (Fx, Fy, M0): force through it, root moment
-    load_factor: float          # 1.0 when the whole load was applied
+    poses: dict  # point name -> (3,) world x, y, body angle   (output points)
+    compliance: dict  # point name -> (2, 2) d position / d force at that point
+    shapes: dict  # flexure name -> (num, 2) world centreline, root first
+    tip_frames: dict  # flexure name -> (3,) world tip frame
+    root_loads: dict  # flexure name -> (Fx, Fy, M0): force through it, root moment
+    load_factor: float  # 1.0 when the whole load was applied
     critical_load_factor: float | None = None
     warnings: list = field(default_factory=list)
 
@@ -379,7 +431,7 @@ class _SceneProblem:
         for p, o in enumerate(self.P_owner):
             for f in self.chain[o]:
                 self.member[self.index[f], p] = 1.0
-        self.extra = np.zeros((len(self.point_names), 2))   # extra dead force per point
+        self.extra = np.zeros((len(self.point_names), 2))  # extra dead force per point
 
     def owner(self, body: str) -> str:
         if body == "base":
@@ -435,8 +487,15 @@ class _SceneProblem:
                 return np.concatenate([c, s, y[3], fx * s - fy * c])
 
             y0 = np.concatenate([np.zeros(K), np.zeros(K), root[:, 2], mu0])
-            sol = solve_ivp(rhs, (0.0, 1.0), y0, method="DOP853", rtol=RTOL, atol=ATOL,
-                            dense_output=bool(shapes_num))
+            sol = solve_ivp(
+                rhs,
+                (0.0, 1.0),
+                y0,
+                method="DOP853",
+                rtol=RTOL,
+                atol=ATOL,
+                dense_output=bool(shapes_num),
+            )
             if not sol.success:
                 raise RuntimeError(f"elastica integration failed on {name!r}: {sol.message}")
             yend = sol.y[:, -1].reshape(4, K)
@@ -473,13 +532,13 @@ class _SceneProblem:
                 F[:, a] += lam * T * u
                 F[:, b] -= lam * T * u
         # required force through each flexure and moment at its tip
-        N = np.einsum("ip,kpc->kic", self.member, F)                       # (K, n, 2)
-        arm = pts[:, None, :, :] - tips[:, :, None, :2]                       # (K, n, P, 2)
+        N = np.einsum("ip,kpc->kic", self.member, F)  # (K, n, 2)
+        arm = pts[:, None, :, :] - tips[:, :, None, :2]  # (K, n, P, 2)
         cross = arm[..., 0] * F[:, None, :, 1] - arm[..., 1] * F[:, None, :, 0]
         Mreq = np.einsum("ip,kip->ki", self.member, cross + Mp[:, None, :])
         R = np.empty((K, 3 * n))
-        R[:, 0::3] = Z[:, 0::3] - N[..., 0] * self.L ** 2 / self.EI
-        R[:, 1::3] = Z[:, 1::3] - N[..., 1] * self.L ** 2 / self.EI
+        R[:, 0::3] = Z[:, 0::3] - N[..., 0] * self.L**2 / self.EI
+        R[:, 1::3] = Z[:, 1::3] - N[..., 1] * self.L**2 / self.EI
         R[:, 2::3] = mu_tip - Mreq * self.L / self.EI
         return R, pts, tips, shapes, frames
 
@@ -490,8 +549,8 @@ class _SceneProblem:
             Z[1 + 2 * j, j] += h
             Z[2 + 2 * j, j] -= h
         R, pts, tips, _, frames = self.evaluate(Z, lam)
-        J = (R[1::2] - R[2::2]).T / (2 * h)                       # (m, m)
-        dpts = (pts[1::2] - pts[2::2]) / (2 * h)                  # (m, P, 2)
+        J = (R[1::2] - R[2::2]).T / (2 * h)  # (m, m)
+        dpts = (pts[1::2] - pts[2::2]) / (2 * h)  # (m, P, 2)
         return R[0], J, dpts, pts[0], tips[0]
 
     def newton(self, z, lam, tol=1e-12, max_iter=25):
@@ -501,7 +560,7 @@ class _SceneProblem:
             try:
                 dz = np.linalg.solve(J, -R)
             except np.linalg.LinAlgError:
-                raise RuntimeError("singular shooting Jacobian")
+                raise RuntimeError("singular shooting Jacobian") from None
             r0 = np.max(np.abs(R))
             t = 1.0
             while True:
@@ -509,10 +568,13 @@ class _SceneProblem:
                 if np.max(np.abs(Rn)) < max(r0, 1e-11):
                     break
                 t *= 0.5
-                if t < 0.06:     # no descent: let the continuation take a smaller load step
+                if t < 0.06:  # no descent: let the continuation take a smaller load step
                     raise RuntimeError("shooting Newton: no descent")
             z = z + t * dz
-            if np.max(np.abs(t * dz)) < 1e-12 * (1 + np.max(np.abs(z))) and np.max(np.abs(Rn)) < tol:
+            if (
+                np.max(np.abs(t * dz)) < 1e-12 * (1 + np.max(np.abs(z)))
+                and np.max(np.abs(Rn)) < tol
+            ):
                 return z, it
             if np.max(np.abs(Rn)) < 1e-14:
                 return z, it
@@ -567,12 +629,14 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
             _, J, _, _, _ = prob.jacobian(z_new, lam_new)
             s_new = np.sign(np.linalg.det(J))
             if s_new != sign and dlam > 1e-3:
-                ok = False       # confirm a sign change of det J with small steps (no jump)
+                ok = False  # confirm a sign change of det J with small steps (no jump)
         if not ok:
             dlam *= 0.5
             if dlam < 1e-6:
-                warnings.append(f"continuation stalled at load factor {lam:.6g} "
-                                "(limit point: the load would snap through)")
+                warnings.append(
+                    f"continuation stalled at load factor {lam:.6g} "
+                    "(limit point: the load would snap through)"
+                )
                 if lam_c is None:
                     lam_c = lam
                 break
@@ -580,11 +644,13 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         if s_new != sign:
             if lam_c is None:
                 lam_c = lam_new
-                try:   # locate the crossing
+                try:  # locate the crossing
+
                     def dets(l):
-                        zz = z + (z_new - z) * (l - lam) / (lam_new - lam)
+                        zz = z + (z_new - z) * (l - lam) / (lam_new - lam)  # noqa: B023
                         zz, _ = prob.newton(zz, l)
                         return np.linalg.det(prob.jacobian(zz, l)[1])
+
                     lam_c = brentq(dets, lam, lam_new, xtol=1e-12)
                 except (ValueError, RuntimeError):
                     pass
@@ -604,14 +670,14 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                         continue
                     iters += itb
                     Jb = prob.jacobian(zb, lam_new)[1]
-                    if (np.sign(np.linalg.det(Jb)) == ref_sign
-                            and np.max(np.abs(zb - z_new)) > 1e-6):
+                    if np.sign(np.linalg.det(Jb)) == ref_sign and np.max(np.abs(zb - z_new)) > 1e-6:
                         # secant from the last point before the bifurcation: predicts on the
                         # chosen side of the pitchfork (no jump to the mirror branch)
                         hist = [(lam, z.copy())]
                         z_new, s_new, switched = zb, ref_sign, True
-                        warnings.append(f"bifurcation at load factor {lam_c:.9g}: "
-                                        "followed the stable branch")
+                        warnings.append(
+                            f"bifurcation at load factor {lam_c:.9g}: followed the stable branch"
+                        )
                         break
                 if not switched:
                     warnings.append(f"equilibrium path lost stability at load factor {lam_c:.9g}")
@@ -638,19 +704,29 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         for i in range(prob.n):
             if prob.member[i, pid]:
                 a = pts[pid] - tips[i, :2]
-                B[3 * i, 0] = -prob.L[i] ** 2 / prob.EI[i]
-                B[3 * i + 1, 1] = -prob.L[i] ** 2 / prob.EI[i]
+                B[3 * i, 0] = -(prob.L[i] ** 2) / prob.EI[i]
+                B[3 * i + 1, 1] = -(prob.L[i] ** 2) / prob.EI[i]
                 B[3 * i + 2, 0] = -prob.L[i] / prob.EI[i] * (-a[1])
                 B[3 * i + 2, 1] = -prob.L[i] / prob.EI[i] * a[0]
-        dz = -np.linalg.solve(J, B)                  # (m, 2)
-        C = dpts[:, pid, :].T @ dz                   # (2, 2)
+        dz = -np.linalg.solve(J, B)  # (m, 2)
+        C = dpts[:, pid, :].T @ dz  # (2, 2)
         compl[name] = C
     root_loads = {}
     for i, name in enumerate(prob.order):
         sc = prob.EI[i] / prob.L[i] ** 2
-        root_loads[name] = np.array([z[3 * i] * sc, z[3 * i + 1] * sc,
-                                     z[3 * i + 2] * prob.EI[i] / prob.L[i]])
+        root_loads[name] = np.array(
+            [z[3 * i] * sc, z[3 * i + 1] * sc, z[3 * i + 2] * prob.EI[i] / prob.L[i]]
+        )
     return SceneSolution(
-        converged=converged, stable=stable, iterations=iters, poses=poses, compliance=compl,
-        shapes=shapes, tip_frames={n: tips[i] for i, n in enumerate(prob.order)},
-        root_loads=root_loads, load_factor=lam, critical_load_factor=lam_c, warnings=warnings)
+        converged=converged,
+        stable=stable,
+        iterations=iters,
+        poses=poses,
+        compliance=compl,
+        shapes=shapes,
+        tip_frames={n: tips[i] for i, n in enumerate(prob.order)},
+        root_loads=root_loads,
+        load_factor=lam,
+        critical_load_factor=lam_c,
+        warnings=warnings,
+    )

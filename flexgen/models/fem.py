@@ -14,6 +14,7 @@ full segment then integrates (cos phi, sin phi) with the midpoint rule, and the 
 the ends contribute O(h^2). (Springs at the cell ends with full-length segments would lose the
 half cell at the tip and converge only at O(h).)
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,11 +24,13 @@ from .base import TipKinematics
 
 class FEMModel:
     kind = "fem"
-    CONSTANT_HESSIAN = True     # quadratic energy: energy_hessian does not depend on q
+    CONSTANT_HESSIAN = True  # quadratic energy: energy_hessian does not depend on q
 
     def __init__(self, length: float, EI: float, elements: int = 16):
         if length <= 0 or EI <= 0:
-            raise ValueError(f"FEMModel needs length > 0 and EI > 0, got length={length!r}, EI={EI!r}")
+            raise ValueError(
+                f"FEMModel needs length > 0 and EI > 0, got length={length!r}, EI={EI!r}"
+            )
         elements = int(elements)
         if elements < 1:
             raise ValueError(f"FEMModel needs elements >= 1, got elements={elements!r}")
@@ -40,15 +43,15 @@ class FEMModel:
         self.spring = self.EI / self.h
         seg = np.full(elements + 1, self.h)
         seg[0] = seg[-1] = 0.5 * self.h
-        self.segments = seg           # (n + 1,) segment lengths, root first
+        self.segments = seg  # (n + 1,) segment lengths, root first
         idx = np.arange(elements)
-        self._maxij = np.maximum.outer(idx, idx)          # H's gather index max(i, j)
-        self._phi = np.zeros(elements + 1)                # scratch for tip()
+        self._maxij = np.maximum.outer(idx, idx)  # H's gather index max(i, j)
+        self._phi = np.zeros(elements + 1)  # scratch for tip()
         self._lcs = np.empty((2, elements + 1))
 
     def _angles(self, q: np.ndarray) -> np.ndarray:
         q = np.asarray(q, dtype=float).reshape(self.n_dof)
-        return np.concatenate(([0.0], np.cumsum(q)))      # (n + 1,) absolute segment angles
+        return np.concatenate(([0.0], np.cumsum(q)))  # (n + 1,) absolute segment angles
 
     def tip(self, q: np.ndarray) -> TipKinematics:
         """Tip pose, Jacobian and Hessian. One point per call, written for it (the chain solver
@@ -58,7 +61,7 @@ class FEMModel:
         n = self.n_dof
         q = np.asarray(q, dtype=float).reshape(n)
         phi = self._phi
-        phi[1:] = np.cumsum(q)                            # (n + 1,) absolute segment angles
+        phi[1:] = np.cumsum(q)  # (n + 1,) absolute segment angles
         lcs = self._lcs
         np.cos(phi, out=lcs[0])
         np.sin(phi, out=lcs[1])
@@ -66,7 +69,7 @@ class FEMModel:
         # tail sums: T[:, i] = sum_{k > i} l_k (cos, sin) phi_k  for joints i = 0..n-1
         tail = np.cumsum(lcs[:, ::-1], axis=1)[:, ::-1]
         tc, ts = tail[0, 1:], tail[1, 1:]
-        sums = lcs.sum(axis=1)                            # pairwise, as lc.sum() was
+        sums = lcs.sum(axis=1)  # pairwise, as lc.sum() was
         pose = np.array([sums[0], sums[1], phi[-1]])
         J = np.empty((3, n))
         J[0] = -ts
@@ -98,8 +101,15 @@ class FEMModel:
         return pts
 
 
-def solve_cantilever(model, force=(0.0, 0.0), moment: float = 0.0, q0=None, steps: int = 20,
-                     tol: float = 1e-13, max_iter: int = 50):
+def solve_cantilever(
+    model,
+    force=(0.0, 0.0),
+    moment: float = 0.0,
+    q0=None,
+    steps: int = 20,
+    tol: float = 1e-13,
+    max_iter: int = 50,
+):
     """Equilibrium of any FlexureModel clamped at its root under a dead tip load.
 
     Solves grad U(q) - J(q)^T (Fx, Fy, M) = 0 by Newton's method on the stiffness
@@ -120,5 +130,7 @@ def solve_cantilever(model, force=(0.0, 0.0), moment: float = 0.0, q0=None, step
             if np.max(np.abs(dq)) < tol and np.max(np.abs(r)) < 1e3 * tol * scale:
                 break
         else:
-            raise RuntimeError(f"solve_cantilever: Newton did not converge at load factor {lam:.3g}")
+            raise RuntimeError(
+                f"solve_cantilever: Newton did not converge at load factor {lam:.3g}"
+            )
     return q, model.tip(q)

@@ -7,6 +7,7 @@ segment, so the tip angle is q[0]. Howell's defaults gamma = 0.85, K_theta = 2.6
 within about 0.5 % of the deflection up to about 64 degrees of tip rotation (for a tip moment the
 angle/moment relation is then approximate to a few percent).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,13 +17,15 @@ from .base import TipKinematics
 
 class PRBModel:
     kind = "prb"
-    CONSTANT_HESSIAN = True     # quadratic energy: energy_hessian does not depend on q
+    CONSTANT_HESSIAN = True  # quadratic energy: energy_hessian does not depend on q
     label = "prb"
     n_dof = 1
 
     def __init__(self, length: float, EI: float, gamma: float = 0.85, K_theta: float = 2.65):
         if length <= 0 or EI <= 0:
-            raise ValueError(f"PRBModel needs length > 0 and EI > 0, got length={length!r}, EI={EI!r}")
+            raise ValueError(
+                f"PRBModel needs length > 0 and EI > 0, got length={length!r}, EI={EI!r}"
+            )
         if not 0.0 < gamma <= 1.0:
             raise ValueError(f"PRBModel needs 0 < gamma <= 1, got gamma={gamma!r}")
         self.length = float(length)

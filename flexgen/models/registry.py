@@ -15,12 +15,14 @@ module (and the runtime never imports SymPy).
 To add a model: write its class (``flexgen.models.base.FlexureModel``), its C evaluation in the
 core's ``flexure_tip`` (chain_solver.c) under a new ``FG_MODEL_*``, and a row here.
 """
+
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from functools import lru_cache
-from typing import TYPE_CHECKING, Any, Callable, Mapping
+from functools import cache
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -50,6 +52,7 @@ def _fem(flexure: Flexure, cls: Any) -> FlexureModel:
 
 def _core_scm(model: Any, f: Any) -> np.ndarray:
     from ..core import kernel_functions, lib
+
     f.kind, f.length = lib.FG_MODEL_KERNEL, model.length
     if model.poly is not None:
         f.poly, f.in_range = kernel_functions(f"scm{model.n_dof}")
@@ -60,19 +63,22 @@ def _core_scm(model: Any, f: Any) -> np.ndarray:
 
 def _core_fem(model: Any, f: Any) -> np.ndarray:
     from ..core import lib
+
     f.kind, f.length = lib.FG_MODEL_FEM, model.length
     return np.full(model.n_dof, model.spring)
 
 
 def _core_prb(model: Any, f: Any) -> np.ndarray:
     from ..core import lib
+
     f.kind, f.length, f.gamma = lib.FG_MODEL_PRB, model.length, model.gamma
     return np.array([model.stiffness])
 
 
-@lru_cache(maxsize=None)
+@cache
 def _angle_samples(modes: int) -> np.ndarray:
     from .scm import angle_basis
+
     return angle_basis(modes, np.linspace(0.0, 1.0, 65))
 
 
@@ -91,14 +97,14 @@ def _bend_prb(model: Any, q: np.ndarray) -> float:
 @dataclass(frozen=True)
 class ModelKind:
     name: str
-    module: str | None                 # where its class lives (None: not a chain model)
+    module: str | None  # where its class lives (None: not a chain model)
     cls: str | None
     build: Callable[[Flexure, Any], FlexureModel] | None
     # fills the model's fg_flexure for the core; returns the diagonal of its energy Hessian
     core: Callable[[Any, Any], np.ndarray] | None
-    info: Callable[[Any], dict[str, Any]]          # the Result's "model" entry of a flexure
-    label: Callable[[Any], str]        # "scm3 auto", "cc", "fem16", "prb": validity's CLAIMS rows
-    bend: Callable[[Any, np.ndarray], float] | None   # max |phi(s)| along the flexure at q
+    info: Callable[[Any], dict[str, Any]]  # the Result's "model" entry of a flexure
+    label: Callable[[Any], str]  # "scm3 auto", "cc", "fem16", "prb": validity's CLAIMS rows
+    bend: Callable[[Any, np.ndarray], float] | None  # max |phi(s)| along the flexure at q
 
 
 def _scm_label(m: Any) -> str:
@@ -106,17 +112,49 @@ def _scm_label(m: Any) -> str:
 
 
 KINDS: dict[str, ModelKind] = {
-    "scm": ModelKind("scm", "flexgen.models.scm", "SCMModel", _scm, _core_scm,
-                     lambda m: {"kind": "scm", "modes": int(m.n_dof)}, _scm_label, _bend_scm),
-    "cc": ModelKind("cc", "flexgen.models.scm", "SCMModel", _scm, _core_scm,
-                    lambda m: {"kind": "scm", "modes": int(m.n_dof)}, _scm_label, _bend_scm),
-    "prb": ModelKind("prb", "flexgen.models.prb", "PRBModel", _prb, _core_prb,
-                     lambda m: {"kind": "prb"}, lambda m: "prb", _bend_prb),
-    "fem": ModelKind("fem", "flexgen.models.fem", "FEMModel", _fem, _core_fem,
-                     lambda m: {"kind": "fem", "elements": int(m.n_dof)},
-                     lambda m: f"fem{int(m.n_dof)}", _bend_fem),
-    "exact": ModelKind("exact", None, None, None, None, lambda m: {"kind": "exact"},
-                       lambda m: "exact", None),
+    "scm": ModelKind(
+        "scm",
+        "flexgen.models.scm",
+        "SCMModel",
+        _scm,
+        _core_scm,
+        lambda m: {"kind": "scm", "modes": int(m.n_dof)},
+        _scm_label,
+        _bend_scm,
+    ),
+    "cc": ModelKind(
+        "cc",
+        "flexgen.models.scm",
+        "SCMModel",
+        _scm,
+        _core_scm,
+        lambda m: {"kind": "scm", "modes": int(m.n_dof)},
+        _scm_label,
+        _bend_scm,
+    ),
+    "prb": ModelKind(
+        "prb",
+        "flexgen.models.prb",
+        "PRBModel",
+        _prb,
+        _core_prb,
+        lambda m: {"kind": "prb"},
+        lambda m: "prb",
+        _bend_prb,
+    ),
+    "fem": ModelKind(
+        "fem",
+        "flexgen.models.fem",
+        "FEMModel",
+        _fem,
+        _core_fem,
+        lambda m: {"kind": "fem", "elements": int(m.n_dof)},
+        lambda m: f"fem{int(m.n_dof)}",
+        _bend_fem,
+    ),
+    "exact": ModelKind(
+        "exact", None, None, None, None, lambda m: {"kind": "exact"}, lambda m: "exact", None
+    ),
 }
 MODEL_KINDS = tuple(KINDS)
 
@@ -126,8 +164,10 @@ def _class(kind: ModelKind, flexure: Flexure) -> Any:
     try:
         return getattr(importlib.import_module(kind.module), kind.cls)
     except ImportError as exc:
-        raise ModelError(f"flexure {flexure.name!r}: model kind {kind.name!r} is not available "
-                         f"({kind.module} cannot be imported: {exc})") from exc
+        raise ModelError(
+            f"flexure {flexure.name!r}: model kind {kind.name!r} is not available "
+            f"({kind.module} cannot be imported: {exc})"
+        ) from exc
 
 
 def build_model(flexure: Flexure) -> FlexureModel:
@@ -136,17 +176,21 @@ def build_model(flexure: Flexure) -> FlexureModel:
     if kind is None:
         raise ModelError(f"flexure {flexure.name!r}: unknown model kind {flexure.model.kind!r}")
     if kind.build is None:
-        raise ModelError(f"flexure {flexure.name!r}: model kind {kind.name!r} is a reference "
-                         f"elastica solver, not a chain model; use flexgen.models.exact directly")
+        raise ModelError(
+            f"flexure {flexure.name!r}: model kind {kind.name!r} is a reference "
+            f"elastica solver, not a chain model; use flexgen.models.exact directly"
+        )
     return kind.build(flexure, _class(kind, flexure))
 
 
 def kind_of(model: Any) -> ModelKind:
     """The registry row of a built model (by its ``kind`` attribute)."""
-    kind = KINDS.get(getattr(model, "kind", None))      # type: ignore[arg-type]
+    kind = KINDS.get(getattr(model, "kind", None))  # type: ignore[arg-type]
     if kind is None or kind.core is None:
-        raise ModelError(f"model {model!r} is not one of the chain model kinds "
-                         f"({', '.join(k for k, v in KINDS.items() if v.core)})")
+        raise ModelError(
+            f"model {model!r} is not one of the chain model kinds "
+            f"({', '.join(k for k, v in KINDS.items() if v.core)})"
+        )
     return kind
 
 
@@ -162,9 +206,11 @@ def model_info(model: Any) -> dict[str, Any]:
     return kind_of(model).info(model)
 
 
-def build_models(scene: Scene, overrides: Mapping[str, FlexureModel] | None = None,
-                 factory: Callable[[Flexure], FlexureModel] | None = None
-                 ) -> dict[str, FlexureModel]:
+def build_models(
+    scene: Scene,
+    overrides: Mapping[str, FlexureModel] | None = None,
+    factory: Callable[[Flexure], FlexureModel] | None = None,
+) -> dict[str, FlexureModel]:
     """A model for every flexure of ``scene``: ``overrides[name]`` where given, else ``factory``
     (default ``build_model``) applied to the flexure."""
     overrides = dict(overrides or {})
@@ -173,5 +219,6 @@ def build_models(scene: Scene, overrides: Mapping[str, FlexureModel] | None = No
     if unknown:
         raise ModelError(f"a model is given for unknown flexure {unknown[0]!r}")
     factory = factory or build_model
-    return {f.name: overrides[f.name] if f.name in overrides else factory(f)
-            for f in scene.flexures}
+    return {
+        f.name: overrides[f.name] if f.name in overrides else factory(f) for f in scene.flexures
+    }

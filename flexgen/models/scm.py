@@ -8,6 +8,7 @@ certified on its range); "auto" the polynomial while in range and the Gauss kern
 the range raises ValueError naming the flexure (``name``) and the range, so the solver reports no
 equilibrium instead of a wrong one. ``cc`` is this model with one mode.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,10 +34,11 @@ def angle_basis(modes: int, sigma: np.ndarray) -> np.ndarray:
 
 class SCMModel:
     kind = "scm"
-    CONSTANT_HESSIAN = True     # quadratic energy: energy_hessian does not depend on q
+    CONSTANT_HESSIAN = True  # quadratic energy: energy_hessian does not depend on q
 
-    def __init__(self, length: float, EI: float, modes: int = 3, kernel: str = "auto",
-                 name: str = "?"):
+    def __init__(
+        self, length: float, EI: float, modes: int = 3, kernel: str = "auto", name: str = "?"
+    ):
         if kernel not in KERNEL_CHOICES:
             raise ValueError(f"kernel: must be one of {', '.join(KERNEL_CHOICES)}, got {kernel!r}")
         self.length, self.EI, self.n_dof, self.kernel = float(length), float(EI), modes, kernel
@@ -50,7 +52,7 @@ class SCMModel:
             except kernels.KernelNotFound as missing:
                 if kernel == "gauss":
                     raise
-                self.no_gauss = str(missing)   # "auto": fine while the polynomial is in range
+                self.no_gauss = str(missing)  # "auto": fine while the polynomial is in range
         self.weights = (self.poly or self.gauss).ENERGY_WEIGHTS
         self.name = name
 
@@ -64,11 +66,16 @@ class SCMModel:
 
     def range_error(self) -> str:
         """Why this flexure cannot be evaluated past its polynomial kernel's range."""
-        why = (f"and {self.no_gauss}" if self.no_gauss else
-               "kernel 'poly' was asked for, 'auto' switches to the Gauss kernel")
-        return (f"flexure {self.name!r}: bent past the range of the polynomial kernel "
-                f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the "
-                f"flexure; {why})")
+        why = (
+            f"and {self.no_gauss}"
+            if self.no_gauss
+            else "kernel 'poly' was asked for, 'auto' switches to the Gauss kernel"
+        )
+        return (
+            f"flexure {self.name!r}: bent past the range of the polynomial kernel "
+            f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the "
+            f"flexure; {why})"
+        )
 
     def kernel_at(self, q):
         """The kernel that evaluates q: the polynomial while in range, else the Gauss kernel
@@ -92,9 +99,11 @@ class SCMModel:
             where = "during the solve (the equilibrium is back in range)"
         else:
             where = "at equilibrium"
-        return (f"flexure {self.name!r}: bent past the range of the polynomial kernel "
-                f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg) "
-                f"{where}; switched to the Gauss kernel {self.gauss_name}")
+        return (
+            f"flexure {self.name!r}: bent past the range of the polynomial kernel "
+            f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg) "
+            f"{where}; switched to the Gauss kernel {self.gauss_name}"
+        )
 
     def error_bound(self, q) -> float:
         """Kernel error bound on the tip position at q, in length units."""

@@ -5,9 +5,10 @@ B_n(sigma) = int_0^sigma P_n(2t - 1) dt;  U = EI/(2L) sum_n q_n^2 / (2n + 1).
 Exact arithmetic (SymPy rationals) for the basis; mpmath at 40 digits for the quadrature rules,
 so that generated constants do not depend on the machine's libm.
 """
+
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import mpmath
 import sympy as sp
@@ -21,7 +22,7 @@ def shifted_legendre(n: int) -> sp.Poly:
     return sp.Poly(sp.legendre(n, 2 * sigma - 1), sigma)
 
 
-@lru_cache(maxsize=None)
+@cache
 def angle_basis(n: int) -> sp.Poly:
     """B_n(sigma) = int_0^sigma P_n(2t - 1) dt; B_n(1) = 1 if n == 0 else 0."""
     return shifted_legendre(n).integrate()
@@ -32,7 +33,7 @@ def energy_weights(modes: int) -> list[sp.Rational]:
     return [sp.Rational(1, 2 * n + 1) for n in range(modes)]
 
 
-@lru_cache(maxsize=None)
+@cache
 def gauss_legendre(nodes: int) -> tuple[tuple[mpmath.mpf, ...], tuple[mpmath.mpf, ...]]:
     """Gauss-Legendre nodes and weights on [0, 1] (weights sum to 1), to DIGITS digits."""
     with mpmath.workdps(DIGITS + 10):
@@ -54,6 +55,6 @@ def gauss_legendre(nodes: int) -> tuple[tuple[mpmath.mpf, ...], tuple[mpmath.mpf
             for j in range(2, nodes + 1):
                 p0, p1 = p1, ((2 * j - 1) * x * p1 - (j - 1) * p0) / j
             dp = nodes * (x * p1 - p0) / (x * x - 1) if nodes > 1 else mpmath.mpf(1)
-            xs.append((1 - x) / 2)                      # ascending sigma in [0, 1]
-            ws.append(1 / ((1 - x * x) * dp * dp))       # 2/((1-x^2)P'^2), halved for [0, 1]
+            xs.append((1 - x) / 2)  # ascending sigma in [0, 1]
+            ws.append(1 / ((1 - x * x) * dp * dp))  # 2/((1-x^2)P'^2), halved for [0, 1]
         return tuple(xs), tuple(ws)

@@ -22,6 +22,7 @@ Error bounds (units of L; theta is exact):
   with one mode phi = q0 sigma sweeps only [0, q0], and half the range is enough.
 Both add a rounding allowance for double evaluation.
 """
+
 from __future__ import annotations
 
 import math
@@ -35,8 +36,8 @@ from flexgen.codegen.spec import KernelSpec
 from flexgen.symbolic import trig
 from flexgen.symbolic.basis import angle_basis, energy_weights, gauss_legendre, sigma
 
-UNIT_ROUNDOFF = 2.0 ** -53
-RANGE_SAMPLES = 33        # sigma samples of the in_range check (h = 1/32)
+UNIT_ROUNDOFF = 2.0**-53
+RANGE_SAMPLES = 33  # sigma samples of the in_range check (h = 1/32)
 
 
 def _l2_norm(poly: sp.Poly) -> float:
@@ -46,9 +47,9 @@ def _l2_norm(poly: sp.Poly) -> float:
 
 @dataclass(frozen=True)
 class ErrorBounds:
-    pose: float        # max error of x, y (units of L)
-    jacobian: float    # max error of any entry of J (units of L)
-    hessian: float     # max error of any entry of H (units of L)
+    pose: float  # max error of x, y (units of L)
+    jacobian: float  # max error of any entry of J (units of L)
+    hessian: float  # max error of any entry of H (units of L)
 
 
 class FlexureKernel:
@@ -112,8 +113,9 @@ class FlexureKernel:
     @cached_property
     def phi_nodes(self) -> list[sp.Expr]:
         """phi_g = sum_n B_n(sigma_g) q_n."""
-        return [sp.Add(*[sp.Float(b, 40) * qn for b, qn in zip(row, self.q)])
-                for row in self.node_basis]
+        return [
+            sp.Add(*[sp.Float(b, 40) * qn for b, qn in zip(row, self.q)]) for row in self.node_basis
+        ]
 
     @cached_property
     def expressions(self) -> dict[str, list]:
@@ -124,12 +126,16 @@ class FlexureKernel:
         at = [{k: v.xreplace({phi: p}) for k, v in polys.items()} for p in self.phi_nodes]
         w, b = self.weights, self.node_basis
         with mpmath.workdps(40):
+
             def total(key, factor):
                 return sp.Add(*[sp.Float(factor(g), 40) * at[g][key] for g in range(G)])
+
             pose = [total("c", lambda g: w[g]), total("s", lambda g: w[g]), self.q[0]]
-            J = [[total("dc", lambda g, i=i: w[g] * b[g][i]) for i in range(N)],
-                 [total("ds", lambda g, i=i: w[g] * b[g][i]) for i in range(N)],
-                 [sp.Integer(1 if i == 0 else 0) for i in range(N)]]
+            J = [
+                [total("dc", lambda g, i=i: w[g] * b[g][i]) for i in range(N)],
+                [total("ds", lambda g, i=i: w[g] * b[g][i]) for i in range(N)],
+                [sp.Integer(1 if i == 0 else 0) for i in range(N)],
+            ]
             H = [[[None] * N for _ in range(N)] for _ in range(3)]
             for i in range(N):
                 for j in range(i, N):
@@ -150,8 +156,9 @@ class FlexureKernel:
             rounding = (D + N + self.nodes + 4) * UNIT_ROUNDOFF * math.cosh(a)
             pose = self.trig.bound(0) + rounding
             jac = self.trig.bound(1) * max(_l2_norm(B[i]) for i in range(N)) + rounding * max(1, a)
-            hess = self.trig.bound(2) * max(_l2_norm(B[i] * B[j]) for i in range(N)
-                                            for j in range(N)) + rounding * max(1, a * a)
+            hess = self.trig.bound(2) * max(
+                _l2_norm(B[i] * B[j]) for i in range(N) for j in range(N)
+            ) + rounding * max(1, a * a)
             return ErrorBounds(pose, jac, hess)
         return self._gauss_bounds(self.nodes)
 
@@ -168,8 +175,7 @@ class FlexureKernel:
             if N == 1:
                 # phi = q0 sigma only sweeps [0, q0]: approximate on that half of the range,
                 # cos/sin(a/2 + a/2 t), whose Chebyshev coefficients are bounded by 2|J_k(a/2)|
-                eps = sum(trig.error_bound(f, a / 2, d, kind="truncation")
-                          for f in trig.FUNCTIONS)
+                eps = sum(trig.error_bound(f, a / 2, d, kind="truncation") for f in trig.FUNCTIONS)
             else:
                 eps = max(trig.error_bound(f, a, d, kind="truncation") for f in trig.FUNCTIONS)
             rule = float(sum(wg * abs(_poly_at(h, sg)) for wg, sg in zip(w, sig)))

@@ -13,10 +13,11 @@ sum_{k>D} alpha_k (T_k - alias_k), and |T_k^(r)| <= T_k^(r)(1) = prod_{j<r} (k^2
 The same series bounds the truncation error sum_{k>D} |alpha_k| T_k^(r)(1) used by the Gauss
 kernels. Tails are summed until they fall below 1e-40.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 import mpmath
 
@@ -52,9 +53,10 @@ def _alias(k: int, degree: int) -> int | None:
     return k if k < n else 2 * n - k
 
 
-@lru_cache(maxsize=None)
-def error_bound(func: str, a: float, degree: int, derivative: int = 0,
-                kind: str = "interpolation") -> float:
+@cache
+def error_bound(
+    func: str, a: float, degree: int, derivative: int = 0, kind: str = "interpolation"
+) -> float:
     """Certified sup over [-a, a] of |d^r/dphi^r (func - p)|, p the degree-D interpolant
     (kind="interpolation") or the truncated Chebyshev series (kind="truncation")."""
     with mpmath.workdps(DIGITS):
@@ -72,12 +74,13 @@ def error_bound(func: str, a: float, degree: int, derivative: int = 0,
             if k > degree + 8 and alpha * term < mpmath.mpf(10) ** -40 and k > 2 * a + 8:
                 break
             k += 1
-        return float(total / a_mp ** derivative)
+        return float(total / a_mp**derivative)
 
 
 @dataclass(frozen=True)
 class TrigInterpolant:
     """Monomial coefficients (40-digit mpf, lowest first) of the cos/sin interpolants on [-a, a]."""
+
     a: float
     degree: int
     cos: tuple[mpmath.mpf, ...]
@@ -88,7 +91,7 @@ class TrigInterpolant:
         return max(error_bound(f, self.a, self.degree, derivative) for f in FUNCTIONS)
 
 
-@lru_cache(maxsize=None)
+@cache
 def chebyshev_interpolant(a: float, degree: int) -> TrigInterpolant:
     """Interpolate cos and sin at the degree+1 Chebyshev points of [-a, a]; exact parity."""
     with mpmath.workdps(DIGITS + 10):
@@ -99,21 +102,23 @@ def chebyshev_interpolant(a: float, degree: int) -> TrigInterpolant:
         for name, f in (("cos", mpmath.cos), ("sin", mpmath.sin)):
             values = [f(a_mp * t) for t in ts]
             # Chebyshev coefficients by the discrete orthogonality of T_k at the nodes.
-            cheb = [2 * mpmath.fsum(v * mpmath.chebyt(k, t) for v, t in zip(values, ts)) / n
-                    for k in range(n)]
+            cheb = [
+                2 * mpmath.fsum(v * mpmath.chebyt(k, t) for v, t in zip(values, ts)) / n
+                for k in range(n)
+            ]
             cheb[0] /= 2
             # T_k(phi / a) to monomials in phi.
             mono = [mpmath.mpf(0)] * n
             for k, c in enumerate(cheb):
                 if (name == "cos") != (k % 2 == 0):
-                    continue            # parity: cos is even, sin is odd, exactly
+                    continue  # parity: cos is even, sin is odd, exactly
                 for j, t in enumerate(_chebyshev_t_monomials(k)):
-                    mono[j] += c * t / a_mp ** j
+                    mono[j] += c * t / a_mp**j
             coeffs[name] = tuple(mono)
         return TrigInterpolant(a=float(a), degree=degree, cos=coeffs["cos"], sin=coeffs["sin"])
 
 
-@lru_cache(maxsize=None)
+@cache
 def _chebyshev_t_monomials(k: int) -> tuple[int, ...]:
     """Integer monomial coefficients of T_k, lowest first."""
     prev, cur = (1,), (0, 1)
