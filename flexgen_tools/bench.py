@@ -8,17 +8,20 @@ with every model and compares each answer with the exact elastica (``models.exac
   flexure length between the base and the point (so a single cantilever's error is relative to
   its length);
 * compliance error of every output point: ||C - C_exact||_2 / ||C_exact||_2 (2x2 position block);
-* time per solve (equilibrium + compliance of the output points), three ways: the Python solver
-  (median of repeated ``flexgen.equilibrium.solve`` calls; ``solve_exact`` for exact), the same
-  call with ``backend="c"`` (the compiled chain solver behind the Python API: models, Result and
-  any fall-back to the Python solver included), and the compiled solve alone (``plan.run()`` of
-  ``flexgen.compiled.solver.prepare``, the scene flattened once, as a controller calls it; where
-  the C solver hands the scene back to Python, the backend="c" time counts instead);
+* time per solve (equilibrium + compliance of the output points) of the one solver, the C core,
+  three ways (``flexgen_tools.timing``): (a) ``flexgen.solve(scene)`` through the public API (the
+  same Scene object every call, so its prepared solver comes from the cache; validity check
+  included), (b) a prepared ``flexgen.Solver``'s ``solve()`` (the core call and the Result), (c)
+  the bare core call ``core.lib.fg_solve`` on that solver's problem and workspace. (a)/(c) is
+  what the Python API costs on top of the computation, (b)-(c) the overhead of the Result;
+  ``exact`` is ``solve_exact`` (Python and SciPy) in every column;
+* kernel evaluations per solve (``fg_answer.evaluations``), where the core counts them;
 * ns per kernel call in C for the scm kernels, from ``benchmarks/kernels.py``'s harness.
 
 A scene's error is the largest over its output points; a model's error is the median over the
 suite (the table also gives the worst scene). Everything is measured in one run. The functions are
-importable; tests/test_bench.py runs ``run_bench(quick=True)``.
+importable; tests/test_bench.py runs ``run_bench(quick=True)``. The suite needs ``examples/`` of a
+source checkout (``NeedsCheckout`` otherwise).
 """
 from __future__ import annotations
 
@@ -30,18 +33,24 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
 from flexgen.scene import Scene, load_scene, scene_from_dict
+from flexgen_tools import REPO, repo_path
+from flexgen_tools.timing import (core_call, evaluations, time_call, time_fast,  # noqa: F401
+                                  time_interleaved, with_model)
 
-REPO = Path(__file__).resolve().parents[1]
-EXAMPLES = REPO / "examples"
 SEED = 20240917
-SMOOTH_SCENE = "cantilever_tip_load"        # the smooth case of the equal-accuracy comparison
+SMOOTH_SCENE = "cantilever_tip_load"        # the smooth case of the equal-accuracy comparison,
+                                            # and the one flexure under a tip force
 FINGER_SCENE = "two_link_finger"
 TARGET_ERROR = 1e-4                          # equal-accuracy comparison of scm and fem
+
+
+def examples_dir() -> Path:
+    """examples/ of the source checkout (NeedsCheckout, one line, from an installed wheel)."""
+    return repo_path("examples", "flexgen bench and flexgen stability")
 
 
 # -- models ----------------------------------------------------------------------------------
@@ -55,19 +64,20 @@ class ModelDef:
     elements: int = 0
     kernel: str = "auto"
 
-    def factory(self) -> Callable:
-        """Flexure -> FlexureModel (not for exact)."""
-        kind, modes, elements, kernel = self.kind, self.modes, self.elements, self.kernel
-        if kind in ("scm", "cc"):
-            from flexgen.models.scm import SCMModel
-            return lambda f: SCMModel(f.length, f.EI, modes, kernel)
-        if kind == "prb":
-            from flexgen.models.prb import PRBModel
-            return lambda f: PRBModel(f.length, f.EI)
-        if kind == "fem":
-            from flexgen.models.fem import FEMModel
-            return lambda f: FEMModel(f.length, f.EI, elements)
-        raise ValueError(f"no chain model for {self.label}")
+    def scene(self, scene: Scene) -> Scene:
+        """``scene`` with this model for every flexure (a new Scene object)."""
+        if self.kind in ("scm", "cc"):
+            return with_model(scene, self.kind, modes=self.modes, kernel=self.kernel)
+        if self.kind == "fem":
+            return with_model(scene, "fem", elements=self.elements)
+        return with_model(scene, self.kind)
+
+    def models(self, scene: Scene) -> dict:
+        """{flexure: FlexureModel} of this model on ``scene`` (not for exact)."""
+        if self.kind == "exact":
+            raise ValueError(f"no chain model for {self.label}")
+        from flexgen.models.registry import build_models
+        return build_models(self.scene(scene))
 
     @property
     def c_kernel(self) -> str | None:
@@ -103,7 +113,7 @@ def model_def(label: str) -> ModelDef:
 # -- the suite -------------------------------------------------------------------------------
 
 def example_scenes() -> list[tuple[str, Scene]]:
-    return [(p.stem, load_scene(p)) for p in sorted(EXAMPLES.glob("*.toml"))]
+    return [(p.stem, load_scene(p)) for p in sorted(examples_dir().glob("*.toml"))]
 
 
 def max_bend(result, scene: Scene) -> float:
@@ -183,8 +193,8 @@ def random_scenes(count: int, seed: int = SEED) -> list[tuple[str, Scene]]:
     over every flexure, by an scm6 solve) is U(15, 86) degrees. Scenes that buckle, snap, lose
     stability or on which scm6 and exact disagree by more than 1e-3 are redrawn."""
     from flexgen.models.exact import solve_exact
-    from flexgen.equilibrium import solve
-    ref = ModelDef("scm6", "scm-gauss", "scm", modes=6, kernel="gauss").factory()
+    from flexgen.solver import solve_models
+    ref = ModelDef("scm6", "scm-gauss", "scm", modes=6, kernel="gauss")
     rng = np.random.default_rng(seed)
     out: list[tuple[str, Scene]] = []
     attempts = 0
@@ -195,7 +205,7 @@ def random_scenes(count: int, seed: int = SEED) -> list[tuple[str, Scene]]:
         s, ok = 1.0, False
         for _ in range(8):
             scene = scene_from_dict(_scaled(raw, s))
-            r = solve(scene, model_factory=ref)
+            r = solve_models(scene, ref.models(scene))
             if not r.converged or not r.stable or r.critical_load_factors or r.warnings:
                 break
             beta = max_bend(r, scene)
@@ -257,6 +267,7 @@ class Answer:
 
 
 def answer(scene: Scene, md: ModelDef) -> Answer:
+    """``md``'s answer on ``scene``: a fresh prepared solve (exact: ``solve_exact``)."""
     if md.kind == "exact":
         from flexgen.models.exact import solve_exact
         ex = solve_exact(scene)
@@ -264,8 +275,12 @@ def answer(scene: Scene, md: ModelDef) -> Answer:
         return Answer(ex.converged, ex.stable, {k: np.asarray(v) for k, v in ex.poses.items()},
                       {k: np.asarray(v) for k, v in ex.compliance.items()}, list(ex.warnings),
                       crit, ex)
-    from flexgen.equilibrium import solve
-    r = solve(scene, model_factory=md.factory())
+    from flexgen.solver import solve_models
+    return answer_of(solve_models(md.scene(scene)))
+
+
+def answer_of(r) -> Answer:
+    """The Answer of a chain-model Result."""
     return Answer(r.converged, r.stable, {k: np.asarray(p.pose) for k, p in r.points.items()},
                   {k: np.asarray(p.compliance) for k, p in r.points.items()}, list(r.warnings),
                   list(r.critical_load_factors), r)
@@ -281,35 +296,34 @@ def errors(scene: Scene, ans: Answer, ref: Answer) -> tuple[float, float]:
     return pe, ce
 
 
-def time_fast(fn: Callable[[], object], rounds: int = 7, batch_s: float = 2e-3,
-              budget_s: float = 2.0) -> float:
-    """Median seconds per call of a fast ``fn`` over ``rounds`` batches of about ``batch_s``."""
-    fn()
-    t0 = time.perf_counter()
-    fn()
-    one = time.perf_counter() - t0
-    k = max(1, int(batch_s / max(one, 1e-7)))
-    times = []
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        for _ in range(k):
-            fn()
-        times.append((time.perf_counter() - t0) / k)
-        if sum(times) * k > budget_s:
-            break
-    return float(np.median(times))
+@dataclass
+class Timed:
+    """One model on one scene: its answer, seconds per solve three ways, kernel evaluations."""
+    answer: Answer
+    api: float
+    prepared: float
+    core: float
+    evaluations: int | None
 
 
-def time_call(fn: Callable[[], object], repeats: int, budget_s: float = 2.0) -> float:
-    """Median seconds of ``repeats`` calls (fewer if one call exceeds budget_s / repeats)."""
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-        if sum(times) > budget_s and len(times) >= 1:
-            break
-    return float(np.median(times))
+def measure(scene: Scene, md: ModelDef, repeats: int = 7, budget_s: float = 2.0) -> Timed:
+    """Solve ``scene`` with ``md`` and time it: (a) ``flexgen.solve`` of one Scene object (its
+    prepared solver cached), (b) a prepared ``Solver.solve()``, (c) the bare core call. exact:
+    ``solve_exact`` in all three (median of ``max(1, repeats // 2)`` calls)."""
+    if md.kind == "exact":
+        ans = answer(scene, md)
+        t = time_call(lambda: answer(scene, md), max(1, repeats // 2), budget_s)
+        return Timed(ans, t, t, t, None)
+    import flexgen
+    from flexgen.solver import Solver
+    sc = md.scene(scene)
+    solver = Solver(sc)
+    ans = answer_of(solver.solve())
+    evals = evaluations(solver)
+    t_api, t_prepared, t_core = time_interleaved(
+        [lambda: flexgen.solve(sc), solver.solve, core_call(solver)], rounds=max(3, repeats),
+        budget_s=budget_s)
+    return Timed(ans, t_api, t_prepared, t_core, evals)
 
 
 # -- progress --------------------------------------------------------------------------------
@@ -413,52 +427,70 @@ def c_kernel_ns(names: list[str], quick: bool) -> dict[str, float]:
 
 # -- the run ---------------------------------------------------------------------------------
 
+# the three timings of a chain model (flexgen_tools.timing): key -> what it is
+TIMINGS = {"time_api": "flexgen.solve (API)", "time_prepared": "prepared Solver.solve()",
+           "time_core": "bare core call"}
+_TIMES = {"time_api": "times_api", "time_prepared": "times_prepared", "time_core": "times_core"}
+
+
 @dataclass
 class BenchData:
     quick: bool
     scenes: list[str]
     models: list[ModelDef]
-    pose_err: dict          # (model label, scene) -> float
-    comp_err: dict
-    times: dict             # (model label, scene) -> seconds per solve, Python solver
-    ok: dict                # (model label, scene) -> converged
-    c_ns: dict              # kernel name -> ns
-    summary: dict           # model label -> dict(pose, comp, pose_max, comp_max, time, failures)
-    targets: dict
+    pose_err: dict = field(default_factory=dict)     # (model label, scene) -> float
+    comp_err: dict = field(default_factory=dict)
+    times_api: dict = field(default_factory=dict)    # (model label, scene) -> s, flexgen.solve
+    times_prepared: dict = field(default_factory=dict)   # ... a prepared Solver.solve()
+    times_core: dict = field(default_factory=dict)   # ... the bare core call
+    evals: dict = field(default_factory=dict)        # (model label, scene) -> kernel evaluations
+    ok: dict = field(default_factory=dict)           # (model label, scene) -> converged
+    c_ns: dict = field(default_factory=dict)         # kernel name -> ns per C call
+    summary: dict = field(default_factory=dict)      # model label -> dict (see summarize)
+    targets: dict = field(default_factory=dict)
     elapsed: float = 0.0
-    times_c: dict = field(default_factory=dict)     # ... flexgen.equilibrium.solve(backend="c")
-    times_cs: dict = field(default_factory=dict)    # ... the compiled solve alone (see above)
-    c_solved: dict = field(default_factory=dict)    # (model label, scene) -> C solved it itself
-    backend_diff: dict = field(default_factory=dict)  # model label -> max |pose_c - pose_python|
+
+    @property
+    def counts_evaluations(self) -> bool:
+        """The core reports kernel evaluations (``fg_answer.evaluations``)."""
+        return any(v is not None for v in self.evals.values())
+
+
+def _median(values) -> float:
+    vals = [v for v in values if v is not None and not math.isnan(v)]
+    return float(np.median(vals)) if vals else math.nan
 
 
 def summarize(data: BenchData) -> None:
+    """Per model: the median and worst errors, the median times, the median overhead of the
+    Result (prepared - core) and ratio API / core over the suite, the kernel evaluations per
+    solve (median over the suite, and on the one flexure under a tip force)."""
     for md in data.models:
-        pe = [data.pose_err[md.label, s] for s in data.scenes]
-        ce = [data.comp_err[md.label, s] for s in data.scenes]
-        ts = [data.times[md.label, s] for s in data.scenes]
-        data.summary[md.label] = {
+        lab = md.label
+        pe = [data.pose_err[lab, s] for s in data.scenes]
+        ce = [data.comp_err[lab, s] for s in data.scenes]
+        ev = [data.evals.get((lab, s)) for s in data.scenes]
+        ev = [e for e in ev if e is not None]
+        chain = md.kind != "exact"
+        data.summary[lab] = {
             "pose": float(np.median(pe)), "comp": float(np.median(ce)),
             "pose_max": float(np.max(pe)), "comp_max": float(np.max(ce)),
-            "time": float(np.median(ts)),
-            "time_c": float(np.median([data.times_c.get((md.label, s), math.nan)
-                                       for s in data.scenes])),
-            "time_cs": float(np.median([data.times_cs.get((md.label, s), math.nan)
-                                        for s in data.scenes])),
-            "c_solved": sum(bool(data.c_solved.get((md.label, s))) for s in data.scenes),
-            "failures": sum(not data.ok[md.label, s] for s in data.scenes),
+            **{t: _median(getattr(data, _TIMES[t]).get((lab, s)) for s in data.scenes)
+               for t in TIMINGS},
+            "overhead": _median(data.times_prepared[lab, s] - data.times_core[lab, s]
+                                for s in data.scenes) if chain else math.nan,
+            "api_core": _median(data.times_api[lab, s] / data.times_core[lab, s]
+                                for s in data.scenes) if chain else math.nan,
+            "evals": float(np.median(ev)) if ev else None,
+            "evals_tip": data.evals.get((lab, SMOOTH_SCENE)),
+            "failures": sum(not data.ok[lab, s] for s in data.scenes),
             "c_ns": data.c_ns.get(md.c_kernel) if md.c_kernel else None}
 
 
-TIMINGS = {"time": "Python solver", "time_c": "backend=\"c\" (Python API)",
-           "time_cs": "compiled solve"}
-_TIMES = {"time": "times", "time_c": "times_c", "time_cs": "times_cs"}
-
-
 def chart_points(data: BenchData, which: str = "pose",
-                 timing: str = "time") -> tuple[list[str], list[tuple[float, float]]]:
+                 timing: str = "time_prepared") -> tuple[list[str], list[tuple[float, float]]]:
     """(labels, [(time, error)]) of the chart: exact's error is 0, so it is plotted at 1e-16.
-    ``timing``: "time" (Python solver), "time_c" (backend c) or "time_cs" (compiled solve)."""
+    ``timing``: one of ``TIMINGS``."""
     labels, pts = [], []
     for md in data.models:
         s = data.summary[md.label]
@@ -467,30 +499,26 @@ def chart_points(data: BenchData, which: str = "pose",
     return labels, pts
 
 
-def compute_targets(data: BenchData, finger_repeats: int) -> dict:
-    from flexgen.equilibrium import solve
+def compute_targets(data: BenchData, rounds: int, exact_repeats: int) -> dict:
+    """The two-link finger with its own models (scm3, auto kernel) three ways, exact on it, and
+    the equal-accuracy comparison of scm and fem for every timing."""
+    import flexgen
     tg: dict = {}
-    scenes = dict(example_scenes())
-    finger = scenes[FINGER_SCENE]
-    from flexgen.compiled import library
-    from flexgen.compiled.solver import prepare
-    f3 = ModelDef("scm3", "scm-poly", "scm", modes=3, kernel="auto").factory()
-    solve(finger, model_factory=f3)
-    tg["finger_scm3_s"] = time_call(lambda: solve(finger, model_factory=f3), finger_repeats,
-                                    budget_s=10.0)
-    solve(finger, model_factory=f3, backend="c")
-    tg["finger_scm3_c_s"] = time_fast(lambda: solve(finger, model_factory=f3, backend="c"))
-    plan = prepare(finger, model_factory=f3)
-    tg["finger_scm3_cs_s"] = (time_fast(plan.run) if plan is not None
-                              and plan.run() == library.SOLVED else math.nan)
-    tg["finger_exact_s"] = time_call(lambda: answer(finger, model_def("exact")),
-                                     max(1, finger_repeats // 10), budget_s=10.0)
-    tg["exact_ratio"] = tg["finger_exact_s"] / tg["finger_scm3_s"]
-    tg["exact_ratio_c"] = tg["finger_exact_s"] / tg["finger_scm3_c_s"]
-    tg["exact_ratio_cs"] = tg["finger_exact_s"] / tg["finger_scm3_cs_s"]
-    ref = answer(finger, model_def("exact"))
-    tg["finger_scm3_error"] = errors(finger, answer(finger, ModelDef(
-        "scm3", "scm-poly", "scm", modes=3, kernel="auto")), ref)
+    finger = dict(example_scenes())[FINGER_SCENE]
+    s = flexgen.Solver(finger)
+    r = s.solve()
+    tg["finger_evaluations"] = evaluations(s)
+    times = time_interleaved([lambda: flexgen.solve(finger), s.solve, core_call(s)],
+                             rounds=rounds, budget_s=10.0)
+    for timing, t in zip(TIMINGS, times):
+        tg[f"finger_scm3_{timing}"] = t
+    tg["finger_api_core_ratio"] = tg["finger_scm3_time_api"] / tg["finger_scm3_time_core"]
+    tg["finger_overhead_s"] = tg["finger_scm3_time_prepared"] - tg["finger_scm3_time_core"]
+    exact = model_def("exact")
+    tg["finger_exact_s"] = time_call(lambda: answer(finger, exact), exact_repeats, budget_s=10.0)
+    for timing in TIMINGS:
+        tg[f"exact_ratio_{timing}"] = tg["finger_exact_s"] / tg[f"finger_scm3_{timing}"]
+    tg["finger_scm3_error"] = errors(finger, answer_of(r), answer(finger, exact))
     # equal accuracy: suite median and the smooth cantilever alone, for each way of timing
     for timing in TIMINGS:
         per_scene = getattr(data, _TIMES[timing])
@@ -513,71 +541,46 @@ def compute_targets(data: BenchData, finger_repeats: int) -> dict:
     return tg
 
 
-def _time_compiled(data: BenchData, name: str, scene: Scene, md: ModelDef,
-                   ans: Answer) -> tuple[float, float]:
-    """(seconds per solve with backend="c", seconds per compiled solve alone) of a chain model;
-    records whether the C solver solved the scene itself and how far its poses are from the
-    Python solver's (``data.backend_diff``: the two backends must agree)."""
-    from flexgen.compiled import library
-    from flexgen.compiled.solver import prepare
-    from flexgen.equilibrium import solve
-    rc = solve(scene, model_factory=md.factory(), backend="c")
-    if rc.converged != ans.converged:
-        diff = math.inf
-    else:
-        diff = max((float(np.max(np.abs(np.asarray(rc.points[p].pose) - ans.poses[p])))
-                    for p in ans.poses), default=0.0)
-    data.backend_diff[md.label] = max(data.backend_diff.get(md.label, 0.0), diff)
-    tc = time_fast(lambda: solve(scene, model_factory=md.factory(), backend="c"))
-    plan = prepare(scene, model_factory=md.factory())
-    solved = plan is not None and plan.run() == library.SOLVED
-    data.c_solved[md.label, name] = solved
-    return tc, (time_fast(plan.run) if solved else tc)
-
-
 def run_bench(quick: bool = False, out: Path | str | None = None, progress: bool = True,
               n_random: int | None = None) -> BenchData:
     """Run the suite through every model, measure, and (if ``out``) write the chart and table."""
     t_start = time.perf_counter()
+    examples_dir()                      # NeedsCheckout before any output
     if progress:
         print(f"[bench] building the suite ({'quick' if quick else 'full'})", file=sys.stderr)
     scenes = suite(quick, n_random)
     models = model_defs(quick)
-    repeats = 2 if quick else 7
-    data = BenchData(quick, [n for n, _ in scenes], models, {}, {}, {}, {}, {}, {}, {})
+    repeats = 3 if quick else 7
+    budget = 0.5 if quick else 2.0
+    data = BenchData(quick, [n for n, _ in scenes], models)
     bar = Progress(len(scenes) * len(models), "bench", enabled=progress)
     for name, scene in scenes:
         ref = answer(scene, model_def("exact"))
         for md in models:
-            tc = tcs = math.nan
+            key = (md.label, name)
             try:
-                ans = answer(scene, md)
-                pe, ce = errors(scene, ans, ref)     # exact: against its own earlier run
-                reps = max(1, repeats // 2) if md.kind == "exact" else repeats
-                t = time_call(lambda: answer(scene, md), reps)
-                ok = ans.converged
-                if md.kind == "exact":
-                    tc = tcs = t
-                else:
-                    tc, tcs = _time_compiled(data, name, scene, md, ans)
+                m = measure(scene, md, repeats, budget)
+                pe, ce = errors(scene, m.answer, ref)     # exact: against its own earlier run
+                ok = m.answer.converged
+                times = (m.api, m.prepared, m.core)
+                evals = m.evaluations
             except Exception as exc:   # noqa: BLE001 - a model failing is a data point
-                pe, ce, t, ok = math.inf, math.inf, math.nan, False
+                pe, ce, ok, times, evals = math.inf, math.inf, False, (math.nan,) * 3, None
                 print(f"\n[bench] {md.label} on {name}: {type(exc).__name__}: {exc}",
                       file=sys.stderr)
-            data.pose_err[md.label, name] = pe
-            data.comp_err[md.label, name] = ce
-            data.times[md.label, name] = t
-            data.times_c[md.label, name] = tc
-            data.times_cs[md.label, name] = tcs
-            data.ok[md.label, name] = ok
+            data.pose_err[key], data.comp_err[key], data.ok[key] = pe, ce, ok
+            data.times_api[key], data.times_prepared[key], data.times_core[key] = times
+            data.evals[key] = evals
             bar.step(f"{md.label} / {name}")
     if progress:
         print("[bench] C kernel timing (benchmarks/kernels.py harness)", file=sys.stderr)
     data.c_ns = c_kernel_ns([md.c_kernel for md in models if md.c_kernel], quick)
     summarize(data)
     if progress:
-        print("[bench] targets: finger scm3 vs exact, equal-accuracy times", file=sys.stderr)
-    data.targets = compute_targets(data, finger_repeats=10 if quick else 40)
+        print("[bench] targets: finger scm3 three ways, exact, equal-accuracy times",
+              file=sys.stderr)
+    data.targets = compute_targets(data, rounds=7 if quick else 21,
+                                   exact_repeats=1 if quick else 4)
     data.elapsed = time.perf_counter() - t_start
     if out is not None:
         write_outputs(data, Path(out))
@@ -593,7 +596,8 @@ COLORS = {"cc": "tab:gray", "prb": "tab:brown", "scm-poly": "tab:blue", "scm-gau
 
 def plot(data: BenchData, path: Path) -> None:
     """Two log-log panels (pose error, compliance error against time per solve): filled markers
-    the compiled solve, hollow markers the Python solver, each series with its Pareto front."""
+    a prepared ``Solver.solve()``, hollow markers ``flexgen.solve`` (the API), each with its
+    Pareto front."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -601,7 +605,7 @@ def plot(data: BenchData, path: Path) -> None:
     for ax, which, title in ((axes[0], "pose", "pose error (median over the suite)"),
                              (axes[1], "comp", "compliance error (median over the suite)")):
         seen = set()
-        for timing, filled in (("time", False), ("time_cs", True)):
+        for timing, filled in (("time_api", False), ("time_prepared", True)):
             labels, pts = chart_points(data, which, timing)
             for md, lab, (t, e) in zip(data.models, labels, pts):
                 if not (math.isfinite(t) and math.isfinite(e)):
@@ -610,7 +614,7 @@ def plot(data: BenchData, path: Path) -> None:
                     continue                      # one solver only: drawn once, below
                 key = (md.family, filled)
                 name = ("exact (Python, shooting)" if md.kind == "exact"
-                        else f"{md.family} ({'compiled' if filled else 'Python'})")
+                        else f"{md.family} ({'prepared' if filled else 'flexgen.solve'})")
                 ax.loglog(t * 1e3, e, MARKERS[md.family], ms=8 if filled else 7,
                           color=COLORS[md.family], mfc=COLORS[md.family] if filled else "none",
                           alpha=1.0 if filled else 0.6, label=name if key not in seen else None)
@@ -624,15 +628,15 @@ def plot(data: BenchData, path: Path) -> None:
             ax.step([pts[i][0] * 1e3 for i in front], [pts[i][1] for i in front], where="post",
                     color="tab:green" if filled else "tab:gray", lw=1.5, alpha=0.7,
                     ls="-" if filled else "--",
-                    label=f"Pareto front ({'compiled solve' if filled else 'Python solver'})")
+                    label=f"Pareto front ({'prepared' if filled else 'flexgen.solve'})")
         ax.set_xlabel("time per solve (ms; equilibrium + compliance)")
         ax.set_ylabel("relative error against exact")
         ax.set_title(title, fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="lower left", ncol=2)
     fig.suptitle(f"flexgen bench: accuracy against speed ({len(data.scenes)} scenes"
-                 f"{', quick' if data.quick else ''}; filled: compiled solve, hollow: Python "
-                 f"solver; exact (Python, shooting) plotted at 1e-16)", fontsize=11)
+                 f"{', quick' if data.quick else ''}; filled: prepared Solver.solve(), hollow: "
+                 f"flexgen.solve; exact (Python, shooting) plotted at 1e-16)", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -647,13 +651,22 @@ def format_error(x: float) -> str:
     return "0" if x == 0 else f"{x:.1e}"
 
 
-def _lapack_min_size() -> int:
-    from flexgen.compiled.library import LAPACK_MIN_SIZE
-    return LAPACK_MIN_SIZE
+
+def _us(t: float) -> str:
+    """Seconds as microseconds for the tables ("-" when not measured)."""
+    if t is None or math.isnan(t):
+        return "-"
+    return f"{t * 1e6:.1f}" if t < 1e-3 else f"{t * 1e6:.0f}"
+
+
+def _count(x) -> str:
+    return "-" if x is None else f"{x:.0f}"
 
 
 def render_markdown(data: BenchData) -> str:
+    from flexgen.settings import DEFAULT
     tg = data.targets
+    counted = data.counts_evaluations
     L = ["# Accuracy against speed", "",
          f"Generated by `flexgen bench{' --quick' if data.quick else ''}` in {data.elapsed:.0f} s "
          "(one run; every number below comes from it; rerun with `make bench`). "
@@ -670,78 +683,87 @@ def render_markdown(data: BenchData) -> str:
          "- **compliance error**: ||C - C_exact||_2 / ||C_exact||_2 of the 2x2 position "
          "compliance of each output point; per scene the worst point.",
          "- **time per solve** (equilibrium + compliance of the output points; per model the "
-         "median over the suite), three ways:",
-         "  - *Python solver*: median of repeated `flexgen.equilibrium.solve(scene, "
-         "model_factory=...)` calls (models built inside the call); `exact` is "
-         "`models.exact.solve_exact` (shooting, Python and SciPy) in every column;",
-         "  - *backend c*: the same call with `backend=\"c\"`: the compiled chain solver "
-         "(`flexgen/compiled/chain_solver.c`) behind the Python API, models, flattening cache "
-         "look-up, Result and any hand-back to the Python solver included;",
-         "  - *compiled solve*: `plan.run()` of `flexgen.compiled.solver.prepare(scene, ...)`, the "
-         "scene flattened once, as a controller loop calls it (ctypes call included). Where the C "
-         "solver hands a scene back to the Python solver (see docs/compiled-solver.md), the "
-         "backend c time of that scene counts instead. Linear algebra: SciPy's "
-         f"LAPACK from {_lapack_min_size()} coordinates on (the same routines numpy.linalg runs "
-         "for the Python solver), built-in factorizations below.",
+         "median over the suite) of the one solver, the C core (`flexgen/compiled/chain_solver.c`"
+         ", the extension `flexgen._core`), three ways (`flexgen_tools/timing.py`):",
+         "  - *flexgen.solve*: `flexgen.solve(scene)` through the public API, the same Scene "
+         "object (every flexure given the model) each call, so its prepared solver comes from "
+         "the API's cache; the Result and the validity check included;",
+         "  - *Solver.solve()*: a prepared `flexgen.Solver` (problem and workspace built once), "
+         "as a controller loop calls it: the core call and the Result;",
+         "  - *core call*: the bare `core.lib.fg_solve(problem, work, iwork, answer)` on that "
+         "solver's problem and workspace (the cffi call included).",
+         "  Each is the median over batches of calls lasting about 2 ms. `exact` is "
+         "`models.exact.solve_exact` (shooting, Python and SciPy) in every column. *Result "
+         "overhead* = Solver.solve() - core call; *API / core* = flexgen.solve / core call (both "
+         "medians over the suite of the per-scene values). Linear algebra: SciPy's LAPACK from "
+         f"{DEFAULT.lapack_min_size} coordinates on (`SolverSettings.lapack_min_size`), the "
+         "core's built-in factorizations below.",
+         "- **kernel evaluations per solve**: "
+         + ("`fg_answer.evaluations` of one solve (as the core counts them), the median over "
+            f"the suite and on `{SMOOTH_SCENE}` (one flexure under a tip force)." if counted else
+            "not reported: this core does not count them (`fg_answer.evaluations` is missing)."),
          "- **C ns/call**: one call of the generated C kernel (pose, J, H) in double, timed "
          "with `benchmarks/kernels.py`'s harness (min over repeats).",
          "- cc is one Legendre mode (`auto` kernel); `scmN poly` uses the polynomial kernel only "
          "(valid to 90 degrees), `scmN gauss` the Gauss kernel.", "",
          "## Per model", "",
          "| model | pose error (median) | pose error (worst) | compliance error (median) | "
-         "compliance error (worst) | Python solver (ms) | backend c (ms) | compiled solve (us) | "
-         "solved in C | not converged | C ns/kernel call |",
-         "|---|---|---|---|---|---|---|---|---|---|---|"]
-    labels, pts = chart_points(data, "pose", "time_cs")
+         "compliance error (worst) | flexgen.solve (us) | Solver.solve() (us) | core call (us) | "
+         "Result overhead (us) | API / core | kernel evals per solve (median) | kernel evals "
+         "per solve (tip force) | not converged | C ns/kernel call |",
+         "|---|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|"]
+    labels, pts = chart_points(data, "pose", "time_prepared")
     front = set(labels[i] for i in pareto_front(pts))
-    n_scenes = len(data.scenes)
     for md in data.models:
         s = data.summary[md.label]
         cns = s["c_ns"]
-        solved = "-" if md.kind == "exact" else f"{s['c_solved']}/{n_scenes}"
+        ratio = "-" if math.isnan(s["api_core"]) else f"{s['api_core']:.1f}x"
         L.append(f"| {'**' + md.label + '**' if md.label in front else md.label} | "
-                 f"{format_error(s['pose'])} | {format_error(s['pose_max'])} | {format_error(s['comp'])} | "
-                 f"{format_error(s['comp_max'])} | {s['time'] * 1e3:.2f} | {s['time_c'] * 1e3:.3f} | "
-                 f"{s['time_cs'] * 1e6:.1f} | {solved} | {s['failures']} | "
+                 f"{format_error(s['pose'])} | {format_error(s['pose_max'])} | "
+                 f"{format_error(s['comp'])} | {format_error(s['comp_max'])} | "
+                 f"{_us(s['time_api'])} | {_us(s['time_prepared'])} | {_us(s['time_core'])} | "
+                 f"{_us(s['overhead'])} | {ratio} | {_count(s['evals'])} | "
+                 f"{_count(s['evals_tip'])} | {s['failures']} | "
                  f"{'-' if cns is None else f'{cns:.0f}'} |")
-    diff = max(data.backend_diff.values(), default=0.0)
-    L += ["", "Bold: on the Pareto front of (compiled solve time, median pose error). *solved in "
-          "C*: scenes the C solver solved itself (the others went back to the Python solver). "
-          + (f"The two backends agree: the largest difference of an output pose between backend "
-             f"c and the Python solver over every model and scene is {diff:.1e}."
-             if diff <= 1e-9 else
-             f"**The two backends DISAGREE**: an output pose differs by {diff:.1e} between "
-             f"backend c and the Python solver (models: "
-             f"{', '.join(k for k, v in data.backend_diff.items() if v > 1e-9)})."), "",
-          "## Per scene (pose error / Python solver ms / compiled solve us)", "",
+    L += ["", "Bold: on the Pareto front of (Solver.solve() time, median pose error).", "",
+          "## Per scene (pose error / Solver.solve() us / core call us)", "",
           "| scene | " + " | ".join(md.label for md in data.models) + " |",
           "|---|" + "---|" * len(data.models)]
     for s in data.scenes:
         L.append(f"| `{s}` | " + " | ".join(
-            f"{format_error(data.pose_err[md.label, s])} / {data.times[md.label, s] * 1e3:.1f} / "
-            f"{data.times_cs.get((md.label, s), math.nan) * 1e6:.0f}"
+            f"{format_error(data.pose_err[md.label, s])} / "
+            f"{_us(data.times_prepared.get((md.label, s), math.nan))} / "
+            f"{_us(data.times_core.get((md.label, s), math.nan))}"
             for md in data.models) + " |")
     fe = tg.get("finger_scm3_error", (math.nan, math.nan))
+
     def yes(ok: bool) -> str:
         return "yes" if ok else "NO"
 
+    L += ["", "## The Python layer on the two-link finger (scm3)", "",
+          "`examples/two_link_finger.toml` with its own models (scm3, auto kernel; two flexures, "
+          "a tendon, a pad force, two output points):", "",
+          "| flexgen.solve (us) | Solver.solve() (us) | core call (us) | flexgen.solve / core "
+          "call | Result overhead: Solver.solve() - core call (us) | kernel evaluations per "
+          "solve |", "|---:|---:|---:|---:|---:|---:|",
+          f"| {_us(tg['finger_scm3_time_api'])} | {_us(tg['finger_scm3_time_prepared'])} | "
+          f"{_us(tg['finger_scm3_time_core'])} | {tg['finger_api_core_ratio']:.1f}x | "
+          f"{_us(tg['finger_overhead_s'])} | {_count(tg['finger_evaluations'])} |"]
     L += ["", "## Targets (measured in this run)", "",
           "| target | timing | measured | met? |", "|---|---|---|---|"]
-    for timing, key in (("time", "finger_scm3_s"), ("time_c", "finger_scm3_c_s"),
-                        ("time_cs", "finger_scm3_cs_s")):
-        t = tg[key]
+    for timing, what in TIMINGS.items():
+        t = tg[f"finger_scm3_{timing}"]
         L.append(f"| two-flexure finger, equilibrium + compliance with scm3, <= 2 ms per solve "
-                 f"| {TIMINGS[timing]} | {t * 1e3:.3f} ms (pose error {format_error(fe[0])}, "
+                 f"| {what} | {t * 1e3:.3f} ms (pose error {format_error(fe[0])}, "
                  f"compliance error {format_error(fe[1])}) | {yes(t <= 2e-3)} |")
-    for timing, key in (("time", "exact_ratio"), ("time_c", "exact_ratio_c"),
-                        ("time_cs", "exact_ratio_cs")):
-        r = tg[key]
-        L.append(f"| exact >= 100x slower than scm3 on the finger | {TIMINGS[timing]} | exact "
+    for timing, what in TIMINGS.items():
+        r = tg[f"exact_ratio_{timing}"]
+        L.append(f"| exact >= 100x slower than scm3 on the finger | {what} | exact "
                  f"{tg['finger_exact_s'] * 1e3:.0f} ms, ratio {r:.0f}x | "
                  f"{yes(math.isfinite(r) and r >= 100)} |")
-    for timing in TIMINGS:
-        for key, what in (("smooth", f"smooth cantilever (`{SMOOTH_SCENE}`)"),
-                          ("suite", "suite median")):
+    for timing, what in TIMINGS.items():
+        for key, which in (("smooth", f"smooth cantilever (`{SMOOTH_SCENE}`)"),
+                           ("suite", "suite median")):
             if f"equal_{key}_{timing}" not in tg:
                 continue
             fam = tg[f"equal_{key}_{timing}"]
@@ -749,7 +771,7 @@ def render_markdown(data: BenchData) -> str:
             detail = "; ".join(f"{n}: {t * 1e6:.0f} us ({how})" if math.isfinite(t)
                                else f"{n}: {how}" for n, (t, how) in fam.items())
             L.append(f"| smooth curvature >= 10x faster than the n-element chain at error "
-                     f"{TARGET_ERROR:g}, {what} | {TIMINGS[timing]} | {r:.1f}x ({detail}) | "
+                     f"{TARGET_ERROR:g}, {which} | {what} | {r:.1f}x ({detail}) | "
                      f"{yes(math.isfinite(r) and r >= 10)} |")
     L += ["", "The equal-accuracy times are read off the (time, pose error) points of each family "
           "(log-log interpolation between members; extrapolation from the two most accurate "

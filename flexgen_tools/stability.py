@@ -15,10 +15,11 @@ wherever the answer is past what the model may claim (prb past 64 deg or outside
 case, a kernel past its range, bent past 180 deg, stiffness within 5 % of singular, load level
 above 30, a band without a class). ``flexgen solve`` and ``flexgen.solve`` give every result the
 same warnings (``flexgen.api.solve_scene`` calls ``validity.check``); here ``solve_assessed``
-calls ``validity.assess`` with the sweep's model label. Every warning that ``solve`` itself gives
+solves with a prepared solver (``flexgen.solver.solve_models``) and calls ``validity.assess``
+with the sweep's model label. Every warning that ``solve`` itself gives
 (buckling, snap-through, unstable equilibrium, kernel switch) and ``converged = False`` count too.
-The classes are calibrated on this module's sweep: ``python -m flexgen.stability --calibrate``
-rewrites the CLAIMS block of flexgen/validity.py.
+The classes are calibrated on this module's sweep: ``python -m flexgen_tools.stability
+--calibrate`` rewrites the CLAIMS block of flexgen/validity.py.
 
 The rule (tested in tests/test_stability.py): **no answer is silently wrong** -- wherever a
 model's error exceeds its claim, the result is not converged or carries a warning. ``exact`` is
@@ -40,13 +41,16 @@ from pathlib import Path
 
 import numpy as np
 
-from flexgen.bench import (EXAMPLES, ModelDef, Progress, answer, errors, format_error, model_def,
-                           model_defs)
 from flexgen import validity as V
 from flexgen.scene import Scene, load_scene, scene_from_dict
 from flexgen.validity import BANDS, LOAD_BANDS, assess, band_index, load_level
+from flexgen_tools.bench import (Answer, ModelDef, Progress, answer, errors, examples_dir,
+                                 format_error, model_def, model_defs)
 
-FINGER = EXAMPLES / "two_link_finger.toml"
+
+def finger_file() -> Path:
+    """examples/two_link_finger.toml (NeedsCheckout from an installed wheel)."""
+    return examples_dir() / "two_link_finger.toml"
 
 
 # -- scenes ----------------------------------------------------------------------------------
@@ -72,8 +76,9 @@ def finger(alpha: float, direction_deg: float) -> Scene:
     nondimensional root moment the force would exert on the straight finger."""
     import tomllib
     if "raw" not in _FINGER_CACHE:
-        _FINGER_CACHE["raw"] = tomllib.loads(FINGER.read_text())
-        _FINGER_CACHE["scene"] = load_scene(FINGER)
+        path = finger_file()
+        _FINGER_CACHE["raw"] = tomllib.loads(path.read_text())
+        _FINGER_CACHE["scene"] = load_scene(path)
     raw, base = _FINGER_CACHE["raw"], _FINGER_CACHE["scene"]
     prox = base.flexures[0]
     r = 0.045 + 0.015 + 0.015           # root -> distal joint -> pad along the straight finger
@@ -91,11 +96,11 @@ SCENES = {"cantilever": cantilever, "finger": finger}
 # -- solve and assess ---------------------------------------------------------------------
 
 def solve_assessed(scene: Scene, md: ModelDef):
-    """solve() with fresh models, and assess() of the result (None if not converged)."""
-    from flexgen.models.registry import build_models
-    from flexgen.equilibrium import solve
-    models = build_models(scene, None, md.factory())
-    r = solve(scene, models=models)
+    """A solve with fresh models (a prepared solver, no validity check), and assess() of the
+    result with the model's label (None if not converged)."""
+    from flexgen.solver import solve_models
+    models = md.models(scene)
+    r = solve_models(scene, models)
     claim = assess(scene, r, models, md.label) if r.converged else None
     return r, claim
 
@@ -208,7 +213,6 @@ def sweep(scenes=("cantilever", "finger"), models: list[ModelDef] | None = None,
 
 
 def _errors_of(scene: Scene, r, ref) -> tuple[float, float]:
-    from flexgen.bench import Answer
     ans = Answer(r.converged, r.stable, {k: np.asarray(p.pose) for k, p in r.points.items()},
                  {k: np.asarray(p.compliance) for k, p in r.points.items()})
     return errors(scene, ans, ref)
@@ -278,7 +282,8 @@ def euler(k: int) -> float:
 def buckling_table(modes=range(3, 9)) -> list[dict]:
     """Per N: the three critical loads, their relative errors, and solve's first critical load
     along an axial ramp to 1.2 x the first (cross-check)."""
-    from flexgen.equilibrium import solve
+    from flexgen.models.scm import SCMModel
+    from flexgen.solver import solve_models
     rows = []
     for n in modes:
         P = buckling_loads(n)
@@ -287,8 +292,7 @@ def buckling_table(modes=range(3, 9)) -> list[dict]:
         kernel = "gauss" if n <= 6 else "poly"
         ramp = 1.2 * euler(1)
         scene = cantilever(ramp, 180.0)
-        r = solve(scene, model_factory=ModelDef(f"scm{n}", "scm", "scm", modes=n,
-                                                kernel=kernel).factory())
+        r = solve_models(scene, {"beam": SCMModel(1.0, 1.0, n, kernel, name="beam")})
         solve_first = r.critical_load_factors[0] * ramp if r.critical_load_factors else math.nan
         rows.append({"modes": n, "loads": P.tolist(), "rel": rel, "solve_first": solve_first,
                      "solve_rel": abs(solve_first - euler(1)) / euler(1)})
@@ -309,6 +313,7 @@ class StabilityData:
 def run_stability(quick: bool = False, out: Path | str | None = None,
                   progress: bool = True) -> StabilityData:
     t0 = time.perf_counter()
+    finger_file()                       # NeedsCheckout before any output
     models = stability_models(quick)
     pts = sweep(models=models, quick=quick, progress=progress)
     buck = buckling_table(range(3, 9) if not quick else (3, 5))
@@ -433,7 +438,8 @@ def render_markdown(data: StabilityData) -> str:
          "the Python API exposes the class as `result.error_class` (not in the JSON). "
          "The bands: bend beta and load level lambda = max_f L_f^2/EI_f x (sum |force| + 2 sum "
          "tension) + max_f L_f/EI_f x sum |moment| (alpha for the cantilever). The "
-         "classes are calibrated on this sweep (`python -m flexgen.stability --calibrate`, which "
+         "classes are calibrated on this sweep (`python -m flexgen_tools.stability --calibrate`, "
+         "which "
          "rewrites the table in `flexgen/validity.py`: 3x the worst unwarned error per band, "
          "rounded up to a half decade, monotone in beta and lambda; `none` = no unwarned point "
          "in the band, so nothing is claimed and the result warns); `scmN auto` uses the "
