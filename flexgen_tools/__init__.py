@@ -29,7 +29,7 @@ class NeedsCheckout(RuntimeError):
 
 def repo_path(relative: str, what: str = "this tool") -> Path:
     """``REPO / relative``, or NeedsCheckout (one line) if it is not there (an installed wheel)."""
-    path = REPO / relative
+    path = REPO / relative.rstrip("/")
     if not path.exists():
         raise NeedsCheckout(f"{what} needs a source checkout of flexgen ({relative} is not "
                             f"installed with the package): run it from a clone of the repository")

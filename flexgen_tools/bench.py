@@ -48,9 +48,9 @@ FINGER_SCENE = "two_link_finger"
 TARGET_ERROR = 1e-4                          # equal-accuracy comparison of scm and fem
 
 
-def examples_dir() -> Path:
+def examples_dir(what: str = "flexgen bench") -> Path:
     """examples/ of the source checkout (NeedsCheckout, one line, from an installed wheel)."""
-    return repo_path("examples", "flexgen bench and flexgen stability")
+    return repo_path("examples/", what)
 
 
 # -- models ----------------------------------------------------------------------------------

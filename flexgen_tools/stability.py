@@ -50,7 +50,7 @@ from flexgen_tools.bench import (Answer, ModelDef, Progress, answer, errors, exa
 
 def finger_file() -> Path:
     """examples/two_link_finger.toml (NeedsCheckout from an installed wheel)."""
-    return examples_dir() / "two_link_finger.toml"
+    return examples_dir("flexgen stability") / "two_link_finger.toml"
 
 
 # -- scenes ----------------------------------------------------------------------------------
