@@ -18,6 +18,7 @@ Error: per output point, max(|position error| / L_p, |angle error|, ||C - C_exac
 ||C_exact||_2), L_p the summed length of the flexures between the base and the point; the largest
 over the points.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,7 +27,7 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))             # flexgen_tools from this checkout
+sys.path.insert(0, str(REPO))  # flexgen_tools from this checkout
 
 
 def main(argv=None) -> int:
@@ -50,25 +51,36 @@ def main(argv=None) -> int:
             flag = "" if c.true_error <= c.estimate else "  <-- true > estimate"
             if c.cheapest is False:
                 flag += "  (one mode fewer also meets T)"
-            print(f"{c.label:28s} T={c.tol:.0e} modes={c.modes} est={c.estimate:.2e} "
-                  f"true={c.true_error:.2e}{flag}", file=sys.stderr)
+            print(
+                f"{c.label:28s} T={c.tol:.0e} modes={c.modes} est={c.estimate:.2e} "
+                f"true={c.true_error:.2e}{flag}",
+                file=sys.stderr,
+            )
 
     cases = honesty.honesty_cases(scenes, tols, progress=progress)
     rates = honesty.honesty_rates(cases)
     elapsed = time.perf_counter() - t0
 
     print(f"{len(scenes)} scenes (seeds {args.seeds}), {len(cases)} cases, {elapsed:.1f} s\n")
-    print("| T | cases | covered (true <= estimate) | worst true/estimate | cheapest | reached "
-          "| true <= T (reached) | mean total modes |")
+    print(
+        "| T | cases | covered (true <= estimate) | worst true/estimate | cheapest | reached "
+        "| true <= T (reached) | mean total modes |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for tol, r in rates.items():
-        print(f"| {tol:.0e} | {r['cases']} | {100 * r['covered']:.1f} % | {r['worst_ratio']:.2f} "
-              f"| {100 * r['cheapest']:.1f} % (of {r['checked']}) | {100 * r['reached']:.1f} % "
-              f"| {100 * r['true_within_tol']:.1f} % | {r['mean_modes']:.2f} |")
-    ok = all(r["covered"] >= 0.95 and r["worst_ratio"] <= 10 and r["cheapest"] >= 0.90
-             for r in rates.values())
-    print(f"\nrequirement (covered >= 95 %, worst <= 10x, cheapest >= 90 % for every T): "
-          f"{'met' if ok else 'NOT met'}")
+        print(
+            f"| {tol:.0e} | {r['cases']} | {100 * r['covered']:.1f} % | {r['worst_ratio']:.2f} "
+            f"| {100 * r['cheapest']:.1f} % (of {r['checked']}) | {100 * r['reached']:.1f} % "
+            f"| {100 * r['true_within_tol']:.1f} % | {r['mean_modes']:.2f} |"
+        )
+    ok = all(
+        r["covered"] >= 0.95 and r["worst_ratio"] <= 10 and r["cheapest"] >= 0.90
+        for r in rates.values()
+    )
+    print(
+        f"\nrequirement (covered >= 95 %, worst <= 10x, cheapest >= 90 % for every T): "
+        f"{'met' if ok else 'NOT met'}"
+    )
     return 0 if ok else 1
 
 

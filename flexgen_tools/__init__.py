@@ -16,6 +16,7 @@ the tests, the scripts under ``benchmarks/`` and, lazily, by the commands ``flex
 Some tools read files of the repository (``examples/``, ``benchmarks/``), which a wheel does not
 install: they then stop with ``NeedsCheckout``, a one-line message.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -31,6 +32,8 @@ def repo_path(relative: str, what: str = "this tool") -> Path:
     """``REPO / relative``, or NeedsCheckout (one line) if it is not there (an installed wheel)."""
     path = REPO / relative.rstrip("/")
     if not path.exists():
-        raise NeedsCheckout(f"{what} needs a source checkout of flexgen ({relative} is not "
-                            f"installed with the package): run it from a clone of the repository")
+        raise NeedsCheckout(
+            f"{what} needs a source checkout of flexgen ({relative} is not "
+            f"installed with the package): run it from a clone of the repository"
+        )
     return path

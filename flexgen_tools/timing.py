@@ -12,19 +12,26 @@ the overhead of building the Result. ``with_model`` gives a scene every flexure 
 model, so that ``flexgen.solve`` of the same Scene object hits the cache (``models=`` would
 bypass it).
 """
+
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import replace
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
 from flexgen.scene import Scene
 
 
-def with_model(scene: Scene, kind: str, modes: int | None = None, elements: int | None = None,
-               kernel: str | None = None) -> Scene:
+def with_model(
+    scene: Scene,
+    kind: str,
+    modes: int | None = None,
+    elements: int | None = None,
+    kernel: str | None = None,
+) -> Scene:
     """``scene`` with every flexure's (and the scene's) model spec set to ``kind`` (and the
     modes, elements and kernel given) and no tolerance."""
     changes: dict[str, Any] = {"kind": kind, "tolerance": None}
@@ -42,12 +49,14 @@ def core_call(solver) -> Callable[[], int]:
     """The bare core call of a prepared ``Solver`` (its problem as the last ``solve`` left it:
     the scene's loads after ``solver.solve()``); returns the core's status."""
     from flexgen import core
+
     fg_solve = core.lib.fg_solve
     p, ws = solver.problem.struct, solver.workspace
     work, iwork, answer = ws.work_ptr, ws.iwork_ptr, ws.answer
 
     def call() -> int:
         return fg_solve(p, work, iwork, answer)
+
     return call
 
 
@@ -60,8 +69,9 @@ def evaluations(solver) -> int | None:
     return int(answer.evaluations)
 
 
-def time_fast(fn: Callable[[], object], rounds: int = 7, batch_s: float = 2e-3,
-              budget_s: float = 2.0) -> float:
+def time_fast(
+    fn: Callable[[], object], rounds: int = 7, batch_s: float = 2e-3, budget_s: float = 2.0
+) -> float:
     """Median seconds per call of a fast ``fn`` over ``rounds`` batches of about ``batch_s``
     (after two untimed calls; fewer rounds once ``budget_s`` is spent)."""
     fn()
@@ -80,8 +90,12 @@ def time_fast(fn: Callable[[], object], rounds: int = 7, batch_s: float = 2e-3,
     return float(np.median(times))
 
 
-def time_interleaved(fns: Sequence[Callable[[], object]], rounds: int = 7,
-                     batch_s: float = 2e-3, budget_s: float = 2.0) -> list[float]:
+def time_interleaved(
+    fns: Sequence[Callable[[], object]],
+    rounds: int = 7,
+    batch_s: float = 2e-3,
+    budget_s: float = 2.0,
+) -> list[float]:
     """Median seconds per call of each of ``fns``, timed in alternating batches of about
     ``batch_s`` each (so that a drift of the machine's speed hits all of them alike; their
     differences, e.g. prepared - core, are then meaningful): ``rounds`` rounds, fewer (but at

@@ -1,6 +1,7 @@
 """flexgen bench in quick mode (flexgen_tools.bench): files, Pareto front, exact against itself,
 convergence in modes and elements, the three timings of the one solver. No wall-clock
 assertions."""
+
 from __future__ import annotations
 
 import math
@@ -84,12 +85,15 @@ def test_targets_measured(run):
     for t in bench.TIMINGS:
         assert tg[f"finger_scm3_{t}"] > 0
         assert tg[f"exact_ratio_{t}"] == pytest.approx(
-            tg["finger_exact_s"] / tg[f"finger_scm3_{t}"])
+            tg["finger_exact_s"] / tg[f"finger_scm3_{t}"]
+        )
         assert f"equal_smooth_{t}_ratio" in tg
     assert tg["finger_api_core_ratio"] == pytest.approx(
-        tg["finger_scm3_time_api"] / tg["finger_scm3_time_core"])
+        tg["finger_scm3_time_api"] / tg["finger_scm3_time_core"]
+    )
     assert tg["finger_overhead_s"] == pytest.approx(
-        tg["finger_scm3_time_prepared"] - tg["finger_scm3_time_core"])
+        tg["finger_scm3_time_prepared"] - tg["finger_scm3_time_core"]
+    )
     text = (out / "accuracy-vs-speed.md").read_text()
     assert "## The Python layer on the two-link finger (scm3)" in text
     assert "flexgen.solve" in text and "Solver.solve()" in text and "core call" in text
@@ -101,8 +105,11 @@ def test_three_timings_recorded(run):
     data, out = run
     for md in data.models:
         for s in data.scenes:
-            t = [data.times_api[md.label, s], data.times_prepared[md.label, s],
-                 data.times_core[md.label, s]]
+            t = [
+                data.times_api[md.label, s],
+                data.times_prepared[md.label, s],
+                data.times_core[md.label, s],
+            ]
             assert all(x > 0 for x in t), (md.label, s, t)
             if md.kind == "exact":
                 assert t[0] == t[1] == t[2]
@@ -133,6 +140,7 @@ def test_bare_core_call_is_the_prepared_solve():
 
     import flexgen
     from flexgen import core
+
     scene = dict(bench.example_scenes())[bench.FINGER_SCENE]
     s = flexgen.Solver(scene)
     r = s.solve()
@@ -145,6 +153,7 @@ def test_bare_core_call_is_the_prepared_solve():
 def test_with_model_keeps_the_api_cache(monkeypatch):
     """flexgen.solve of the same with_model Scene object prepares its solver once."""
     from flexgen import api
+
     built = []
 
     class Counting(api.Solver):
@@ -167,6 +176,7 @@ def test_runtime_never_imports_the_tools():
     from pathlib import Path
 
     import flexgen
+
     allowed = {"commands/bench.py", "commands/stability.py"}
     root = Path(flexgen.__file__).resolve().parent
     for path in root.rglob("*.py"):
@@ -174,8 +184,13 @@ def test_runtime_never_imports_the_tools():
         tree = ast.parse(path.read_text())
         top = [n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))]
         for node in ast.walk(tree):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
-                     [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
             if any(n.split(".")[0] == "flexgen_tools" for n in names):
                 assert rel in allowed and node not in top, rel
 
@@ -184,6 +199,7 @@ def test_command_without_a_checkout_is_one_line(monkeypatch, tmp_path, capsys):
     """From an installed wheel (no examples/) `flexgen bench` stops with one line, exit 2."""
     import flexgen_tools
     from flexgen.cli import main
+
     monkeypatch.setattr(flexgen_tools, "REPO", tmp_path)
     rc = main(["bench", "--quick", "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err

@@ -4,12 +4,12 @@ No wall-clock limits are asserted: only that the fields exist, the three timings
 the buckling elastica is solved (its bifurcation on the path), and LAPACK and the built-in
 factorizations (``SolverSettings.lapack_min_size``) agree.
 """
+
 from __future__ import annotations
 
 import json
 
 import pytest
-
 from benchmark_modules import load_benchmark
 
 
@@ -25,25 +25,30 @@ def scenes(sb):
 
 @pytest.fixture(scope="module")
 def speed(sb, scenes):
-    cases = [sb.chain_case("cantilever scm3", scenes["cantilever"], sb.scm3),
-             sb.chain_case("elastica scm3 (buckling)", scenes["elastica"], sb.scm3),
-             sb.exact_case("cantilever exact", scenes["cantilever"], 1)]
+    cases = [
+        sb.chain_case("cantilever scm3", scenes["cantilever"], sb.scm3),
+        sb.chain_case("elastica scm3 (buckling)", scenes["elastica"], sb.scm3),
+        sb.exact_case("cantilever exact", scenes["cantilever"], 1),
+    ]
     return {c.name: sb.speed_row(c, repeats=1, budget_s=0.2, rounds=1) for c in cases}
 
 
 @pytest.fixture(scope="module")
 def lapack(sb, scenes):
-    return {"cantilever fem16": sb.lapack_row(scenes["cantilever"], sb.fem(16), rounds=1,
-                                              budget_s=0.2)}
+    return {
+        "cantilever fem16": sb.lapack_row(scenes["cantilever"], sb.fem(16), rounds=1, budget_s=0.2)
+    }
 
 
 def test_tables(sb, scenes):
     """The table functions run their cases (scaled to the fewest repeats)."""
-    speed = sb.speed_table([sb.chain_case("arc scm3", scenes["arc"], sb.scm3)],
-                           repeats_scale=0.0, budget_s=0.2)
+    speed = sb.speed_table(
+        [sb.chain_case("arc scm3", scenes["arc"], sb.scm3)], repeats_scale=0.0, budget_s=0.2
+    )
     assert speed["arc scm3"]["us_core"] > 0
-    lap = sb.lapack_table([("arc", "fem16", scenes["arc"], sb.fem(16))], repeats_scale=0.0,
-                          budget_s=0.2)
+    lap = sb.lapack_table(
+        [("arc", "fem16", scenes["arc"], sb.fem(16))], repeats_scale=0.0, budget_s=0.2
+    )
     assert lap["arc fem16"]["agree"]
     names = [c.name for c in sb.cases(scenes)]
     assert "finger scm3" in names and "finger exact" in names and len(set(names)) == len(names)
@@ -54,6 +59,7 @@ def test_cases_have_their_model(sb, scenes):
     case = sb.chain_case("finger fem16", scenes["finger"], sb.fem(16))
     assert all(f.model.kind == "fem" and f.model.elements == 16 for f in case.scene.flexures)
     import flexgen
+
     r = flexgen.solve(case.scene)
     assert r.model == {n: {"kind": "fem", "elements": 16} for n in ("proximal", "distal")}
 
@@ -92,6 +98,7 @@ def test_lapack_solvers_settings(sb, scenes):
     """LAPACK off is a setting of its own solver: the default one keeps the default."""
     from flexgen import core
     from flexgen.settings import DEFAULT
+
     on, off = sb.lapack_solvers(scenes["cantilever"], sb.fem(64))
     assert on.settings.lapack_min_size == DEFAULT.lapack_min_size <= 64
     assert off.settings.lapack_min_size == sb.LAPACK_OFF

@@ -1,6 +1,7 @@
 """flexgen stability (flexgen_tools.stability): no answer is silently wrong (on a grid off the
 calibration grid), the rule can fail, poly kernels past their range are flagged, buckling loads
 of scm5, the calibration of the CLAIMS block."""
+
 from __future__ import annotations
 
 import math
@@ -20,13 +21,17 @@ DIRECTIONS = (45.0, 135.0, 200.0, 300.0)
 
 @pytest.fixture(scope="module")
 def points():
-    return S.sweep(("cantilever", "finger"), [model_def(m) for m in MODELS], ALPHAS, DIRECTIONS,
-                   progress=False)
+    return S.sweep(
+        ("cantilever", "finger"), [model_def(m) for m in MODELS], ALPHAS, DIRECTIONS, progress=False
+    )
 
 
 def test_no_answer_is_silently_wrong(points):
-    silent = [(p.model, p.scene, p.alpha, p.direction, p.pose_err, p.claim_pose, p.comp_err,
-               p.claim_comp) for p in points if p.silent]
+    silent = [
+        (p.model, p.scene, p.alpha, p.direction, p.pose_err, p.claim_pose, p.comp_err, p.claim_comp)
+        for p in points
+        if p.silent
+    ]
     assert not silent
     assert sum(p.reference for p in points) >= 0.9 * len(points)
 
@@ -64,7 +69,7 @@ def test_buckling_loads_scm5():
     assert rel[0] == pytest.approx(8.6e-9, rel=0.05)
     assert rel[1] < 1e-3 and rel[2] < 5e-2
     assert rel[0] < rel[1] < rel[2]
-    assert all(P[k] > S.euler(k + 1) for k in range(3))     # Rayleigh-Ritz: from above
+    assert all(P[k] > S.euler(k + 1) for k in range(3))  # Rayleigh-Ritz: from above
 
 
 def test_buckling_solve_agrees():
@@ -86,6 +91,6 @@ def test_calibration_rewrites_the_claims_block(points, tmp_path):
     text = copy.read_text()
     assert text.count("# CLAIMS-BEGIN") == text.count("# CLAIMS-END") == 1
     ns: dict = {}
-    exec(text[text.index("# CLAIMS-BEGIN"):text.index("# CLAIMS-END")], ns)
+    exec(text[text.index("# CLAIMS-BEGIN") : text.index("# CLAIMS-END")], ns)
     assert ns["CLAIMS"] == claims
-    assert S.main([]) == 2          # without --calibrate: the help, nothing rewritten
+    assert S.main([]) == 2  # without --calibrate: the help, nothing rewritten
