@@ -28,11 +28,12 @@ check-generated:
 bench: bench-kernels bench-growth bench-models bench-solver
 
 # flexgen bench (accuracy vs speed) and flexgen stability (where models fail) into docs/
+# (flexgen_tools/bench.py, flexgen_tools/stability.py; need this checkout's examples/)
 bench-models:
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) -m flexgen bench --out docs
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) -m flexgen stability --out docs
 
-# time per solve: the Python solver, backend c, the compiled solve; LAPACK vs built-in
+# time per solve: flexgen.solve, a prepared Solver.solve(), the bare core call; LAPACK vs built-in
 bench-solver:
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/solver_speed.py --out docs/solver-speed.md
 

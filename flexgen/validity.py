@@ -3,18 +3,19 @@
 One job: given a converged ``solve`` result and the flexure models that produced it, say how
 accurate the answer is claimed to be (the *indicative error class*) and warn wherever the answer
 is past what its model may claim. ``flexgen.api.solve_scene`` (the path of ``flexgen solve`` and
-``flexgen.solve``) appends these warnings to every chain-model result; ``flexgen.stability``
+``flexgen.solve``) appends these warnings to every chain-model result; ``flexgen_tools.stability``
 checks on load sweeps that no answer is silently wrong with them (tests/test_stability.py).
 
 The indicative error class
 --------------------------
 Without a requested tolerance no model estimates its own error a posteriori. Every result instead
 carries an indicative error class: an upper bound of its pose error (relative to the flexure
-length, as in ``flexgen.bench``) and of its compliance error (relative, spectral norm), by model,
-by load level lambda (``load_level``) and by bend beta = max |phi(s)| over every flexure (the
-angle relative to the flexure's root frame). The classes are ``CLAIMS`` below, calibrated on the
-sweep of ``flexgen stability`` (``python -m flexgen.stability --calibrate`` rewrites the block):
-3x the worst unwarned error per band, rounded up to a half decade, monotone in beta and lambda.
+length, as in ``flexgen_tools.bench``) and of its compliance error (relative, spectral norm), by
+model, by load level lambda (``load_level``) and by bend beta = max |phi(s)| over every flexure
+(the angle relative to the flexure's root frame). The classes are ``CLAIMS`` below, calibrated on
+the sweep of ``flexgen stability`` (``python -m flexgen_tools.stability --calibrate`` rewrites
+the block): 3x the worst unwarned error per band, rounded up to a half decade, monotone in beta
+and lambda.
 A model without its own row borrows a calibrated neighbour that is no more accurate (``scmN
 auto`` -> ``scmN gauss``; scm with more modes -> the largest calibrated N below; fem with other
 element counts -> the largest calibrated count below). The Python API exposes the class as
@@ -59,9 +60,9 @@ BANDS = (math.radians(30), math.radians(60), math.radians(90), math.radians(120)
 LOAD_BANDS = (1.0, 3.0, 10.0, 30.0)     # load level lambda (see load_level)
 
 # label -> table[load band][bend band] = (pose bound, compliance bound) or (None, None) where
-# nothing is claimed. Calibrated (``flexgen.stability.calibrate``) on the full sweep of
+# nothing is claimed. Calibrated (``flexgen_tools.stability.calibrate``) on the full sweep of
 # `flexgen stability`; the block between the markers is rewritten by
-# `python -m flexgen.stability --calibrate`.
+# `python -m flexgen_tools.stability --calibrate`.
 # CLAIMS-BEGIN
 CLAIMS: dict = {'cc': (((0.32, 1.0), (None, None), (None, None), (None, None), (None, None), (None, None)),
         ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),

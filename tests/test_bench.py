@@ -1,12 +1,14 @@
-"""flexgen bench in quick mode: files, Pareto front, exact against itself, convergence in modes
-and elements. No wall-clock assertions."""
+"""flexgen bench in quick mode (flexgen_tools.bench): files, Pareto front, exact against itself,
+convergence in modes and elements, the three timings of the one solver. No wall-clock
+assertions."""
+
 from __future__ import annotations
 
 import math
 
 import pytest
 
-from flexgen import bench
+from flexgen_tools import bench, timing
 
 
 @pytest.fixture(scope="module")
@@ -75,38 +77,131 @@ def test_error_decreases_with_elements_and_modes(run):
 
 
 def test_targets_measured(run):
-    data, _ = run
+    data, out = run
     tg = data.targets
-    assert tg["finger_scm3_s"] > 0 and tg["finger_exact_s"] > 0
-    assert tg["exact_ratio"] == pytest.approx(tg["finger_exact_s"] / tg["finger_scm3_s"])
+    assert tg["finger_exact_s"] > 0
     pe, ce = tg["finger_scm3_error"]
     assert pe < 1e-3 and ce < 1e-3
-    for suffix in ("_c", "_cs"):
-        assert tg[f"finger_scm3{suffix}_s"] > 0
-        assert tg[f"exact_ratio{suffix}"] == pytest.approx(
-            tg["finger_exact_s"] / tg[f"finger_scm3{suffix}_s"])
-    for timing in bench.TIMINGS:
-        assert f"equal_smooth_{timing}_ratio" in tg
-
-
-def test_compiled_backend_measured_and_agrees(run):
-    """Every chain model was also solved with backend="c" and agrees with the Python solver; the
-    C solver solved the smooth cantilever itself (no hand-back), and its times are recorded."""
-    data, out = run
-    assert data.backend_diff and max(data.backend_diff.values()) <= 1e-9
-    for md in data.models:
-        if md.kind == "exact":
-            continue
-        assert data.c_solved[md.label, bench.SMOOTH_SCENE], md.label
-        assert data.times_cs[md.label, bench.SMOOTH_SCENE] > 0
-        assert data.times_c[md.label, bench.SMOOTH_SCENE] > 0
+    for t in bench.TIMINGS:
+        assert tg[f"finger_scm3_{t}"] > 0
+        assert tg[f"exact_ratio_{t}"] == pytest.approx(
+            tg["finger_exact_s"] / tg[f"finger_scm3_{t}"]
+        )
+        assert f"equal_smooth_{t}_ratio" in tg
+    assert tg["finger_api_core_ratio"] == pytest.approx(
+        tg["finger_scm3_time_api"] / tg["finger_scm3_time_core"]
+    )
+    assert tg["finger_overhead_s"] == pytest.approx(
+        tg["finger_scm3_time_prepared"] - tg["finger_scm3_time_core"]
+    )
     text = (out / "accuracy-vs-speed.md").read_text()
-    assert "compiled solve" in text and "backend c" in text
+    assert "## The Python layer on the two-link finger (scm3)" in text
+    assert "flexgen.solve" in text and "Solver.solve()" in text and "core call" in text
 
 
-def test_time_at_error():
-    pts = [(1.0, 1e-2), (2.0, 1e-3), (4.0, 1e-4)]
-    t, how = bench.time_at_error(pts, 10 ** -3.5)
-    assert how == "interpolated" and t == pytest.approx(2.0 * math.sqrt(2.0))
-    t, how = bench.time_at_error(pts, 1e-5)
-    assert how.startswith("extrapolated") and t == pytest.approx(8.0)
+def test_three_timings_recorded(run):
+    """Every chain model on every scene is timed three ways; exact is timed once (the same
+    number in every column); nothing of the removed two-backend comparison is left."""
+    data, out = run
+    for md in data.models:
+        for s in data.scenes:
+            t = [
+                data.times_api[md.label, s],
+                data.times_prepared[md.label, s],
+                data.times_core[md.label, s],
+            ]
+            assert all(x > 0 for x in t), (md.label, s, t)
+            if md.kind == "exact":
+                assert t[0] == t[1] == t[2]
+        if md.kind != "exact":
+            assert data.summary[md.label]["api_core"] > 0
+    text = (out / "accuracy-vs-speed.md").read_text()
+    assert "backend" not in text and "Python solver" not in text
+
+
+def test_kernel_evaluations_reported_when_counted(run):
+    """``fg_answer.evaluations`` is reported per model where the core has it, else '-'."""
+    data, out = run
+    text = (out / "accuracy-vs-speed.md").read_text()
+    assert "kernel evals per solve (tip force)" in text
+    if data.counts_evaluations:
+        for md in data.models:
+            if md.kind != "exact":
+                n = data.summary[md.label]["evals_tip"]
+                assert n is not None and n >= 1, md.label
+    else:
+        assert all(v is None for v in data.evals.values())
+        assert "does not count them" in text
+
+
+def test_bare_core_call_is_the_prepared_solve():
+    """The bare core call solves what Solver.solve() solves: same status, same q."""
+    import numpy as np
+
+    import flexgen
+    from flexgen import core
+
+    scene = dict(bench.example_scenes())[bench.FINGER_SCENE]
+    s = flexgen.Solver(scene)
+    r = s.solve()
+    q = s.workspace.q.copy()
+    s.workspace.q[:] = np.nan
+    assert timing.core_call(s)() == core.SOLVED and r.converged
+    np.testing.assert_array_equal(s.workspace.q, q)
+
+
+def test_with_model_keeps_the_api_cache(monkeypatch):
+    """flexgen.solve of the same with_model Scene object prepares its solver once."""
+    from flexgen import api
+
+    built = []
+
+    class Counting(api.Solver):
+        def __init__(self, *args, **kwargs):
+            built.append(args[0])
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(api, "Solver", Counting)
+    scene = dict(bench.example_scenes())[bench.SMOOTH_SCENE]
+    sc = bench.model_def("fem8").scene(scene)
+    assert all(f.model.kind == "fem" and f.model.elements == 8 for f in sc.flexures)
+    r1, r2 = api.solve(sc), api.solve(sc)
+    assert [x is sc for x in built] == [True]
+    assert r1.model == r2.model == {"beam": {"kind": "fem", "elements": 8}}
+
+
+def test_runtime_never_imports_the_tools():
+    """Only the bench and stability commands name flexgen_tools, inside their run()."""
+    import ast
+    from pathlib import Path
+
+    import flexgen
+
+    allowed = {"commands/bench.py", "commands/stability.py"}
+    root = Path(flexgen.__file__).resolve().parent
+    for path in root.rglob("*.py"):
+        rel = path.relative_to(root).as_posix()
+        tree = ast.parse(path.read_text())
+        top = [n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))]
+        for node in ast.walk(tree):
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
+            if any(n.split(".")[0] == "flexgen_tools" for n in names):
+                assert rel in allowed and node not in top, rel
+
+
+def test_command_without_a_checkout_is_one_line(monkeypatch, tmp_path, capsys):
+    """From an installed wheel (no examples/) `flexgen bench` stops with one line, exit 2."""
+    import flexgen_tools
+    from flexgen.cli import main
+
+    monkeypatch.setattr(flexgen_tools, "REPO", tmp_path)
+    rc = main(["bench", "--quick", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "source checkout" in err
+    assert not (tmp_path / "out").exists()

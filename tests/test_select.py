@@ -1,7 +1,8 @@
 """The fewest modes: flexgen.select, solve(tolerance=...), [model] tolerance, `flexgen select`.
 
-The honesty test runs the seeded suite of benchmarks/selection.py (65 scenes, 4 tolerances; about
-10 s) against the exact elastica."""
+The honesty test runs the seeded suite of benchmarks/selection.py (flexgen_tools.honesty: 65
+scenes, 4 tolerances; about 10 s) against the exact elastica."""
+
 from __future__ import annotations
 
 import json
@@ -11,30 +12,36 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexgen import select
+from flexgen import select, solve
 from flexgen.cli import main
 from flexgen.scene import SceneError, load_scene, scene_from_dict
-from flexgen.equilibrium import solve
+from flexgen.solver import solve_models
+from flexgen_tools import honesty as H
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 TOLS = (1e-2, 1e-4, 1e-6, 1e-8)
 
 
 def cantilever(force=(0.0, -2.0), moment=0.0, **model):
-    return scene_from_dict({
-        "name": "cantilever", "model": {"kind": "scm", **model},
-        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
-        "load": [{"point": "beam.tip", "force": list(force), "moment": moment}]})
+    return scene_from_dict(
+        {
+            "name": "cantilever",
+            "model": {"kind": "scm", **model},
+            "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+            "load": [{"point": "beam.tip", "force": list(force), "moment": moment}],
+        }
+    )
 
 
 # -- honesty (the requirement of issue 4, section 3) ----------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def honesty():
     scenes = []
     for seed in range(5):
-        scenes += [(f"s{seed} {label}", sc) for label, sc in select.honesty_suite(seed)]
-    return scenes, select.honesty_cases(scenes, TOLS)
+        scenes += [(f"s{seed} {label}", sc) for label, sc in H.honesty_suite(seed)]
+    return scenes, H.honesty_cases(scenes, TOLS)
 
 
 def test_suite_has_every_kind_of_scene(honesty):
@@ -48,17 +55,17 @@ def test_suite_has_every_kind_of_scene(honesty):
 
 def test_estimate_is_honest_for_every_tolerance(honesty):
     _, cases = honesty
-    rates = select.honesty_rates(cases)
+    rates = H.honesty_rates(cases)
     for tol in TOLS:
         r = rates[tol]
-        assert r["covered"] >= 0.95, (tol, r)         # true error <= estimate
-        assert r["worst_ratio"] <= 10.0, (tol, r)     # never more than 10x the estimate
+        assert r["covered"] >= 0.95, (tol, r)  # true error <= estimate
+        assert r["worst_ratio"] <= 10.0, (tol, r)  # never more than 10x the estimate
         assert r["true_within_tol"] >= 0.95, (tol, r)
 
 
 def test_choice_is_the_cheapest(honesty):
     _, cases = honesty
-    rates = select.honesty_rates(cases)
+    rates = H.honesty_rates(cases)
     for tol in TOLS:
         assert rates[tol]["cheapest"] >= 0.90, (tol, rates[tol])
         assert rates[tol]["checked"] >= 0.9 * rates[tol]["cases"]
@@ -75,6 +82,7 @@ def test_fewer_modes_for_looser_tolerance(honesty):
 
 
 # -- the Result contract --------------------------------------------------------------------------
+
 
 def test_plain_solve_has_no_selection_fields():
     d = json.loads(solve(cantilever(modes=3)).to_json())
@@ -106,13 +114,15 @@ def test_scene_tolerance_triggers_selection(tmp_path):
     assert set(d["model"]) == {"proximal", "distal"}
     assert all("error_estimate" in v for v in d["model"].values())
     import flexgen
+
     assert flexgen.solve(path).error_estimate == pytest.approx(d["error_estimate"])
 
 
 def test_solve_with_tolerance_and_models_is_an_error():
     from flexgen.models.scm import SCMModel
+
     with pytest.raises(ValueError):
-        solve(cantilever(), {"beam": SCMModel(1.0, 1.0, 3)}, tolerance=1e-4)
+        solve(cantilever(), models={"beam": SCMModel(1.0, 1.0, 3)}, tolerance=1e-4)
 
 
 @pytest.mark.parametrize("bad", [0.0, -1e-3, math.nan, math.inf])
@@ -144,18 +154,21 @@ def test_positional_tolerance_does_not_clash_with_residual_tol():
 
 # -- warm start -----------------------------------------------------------------------------------
 
+
 def test_warm_start_matches_cold_solve_with_fewer_iterations():
     from flexgen.models.scm import SCMModel
+
     sc = load_scene(EXAMPLES / "two_link_finger.toml")
-    rich = solve(sc, {f.name: SCMModel(f.length, f.EI, 8, "poly") for f in sc.flexures})
-    models = lambda: {f.name: SCMModel(f.length, f.EI, 4) for f in sc.flexures}   # noqa: E731
-    cold = solve(sc, models())
-    warm = solve(sc, models(), q0=rich.q)           # 8 coefficients truncated to 4
+    rich = solve_models(sc, {f.name: SCMModel(f.length, f.EI, 8, "poly") for f in sc.flexures})
+    models = lambda: {f.name: SCMModel(f.length, f.EI, 4) for f in sc.flexures}  # noqa: E731
+    cold = solve_models(sc, models())
+    warm = solve_models(sc, models(), q0=rich.q)  # 8 coefficients truncated to 4
     assert warm.converged and warm.iterations < cold.iterations
     for name in cold.q:
         np.testing.assert_allclose(warm.q[name], cold.q[name], atol=1e-10)
-    short = solve(sc, {f.name: SCMModel(f.length, f.EI, 8, "poly") for f in sc.flexures},
-                  q0=cold.q)                         # 4 coefficients padded to 8
+    short = solve_models(
+        sc, {f.name: SCMModel(f.length, f.EI, 8, "poly") for f in sc.flexures}, q0=cold.q
+    )  # 4 coefficients padded to 8
     for name in rich.q:
         np.testing.assert_allclose(short.q[name], rich.q[name], atol=1e-10)
 
@@ -169,6 +182,7 @@ def test_bad_warm_start_falls_back_to_continuation():
 
 
 # -- the error measure ----------------------------------------------------------------------------
+
 
 def test_error_components_are_relative_and_wrap_angles():
     sc = cantilever()
@@ -189,13 +203,14 @@ def test_length_scale_is_the_flexures_on_the_path():
 
 # -- the command ----------------------------------------------------------------------------------
 
+
 def test_cli_select_prints_choice_and_cost(capsys):
     rc = main(["select", str(EXAMPLES / "two_link_finger.toml"), "--tol", "1e-6", "--repeat", "1"])
     out = capsys.readouterr().out
     assert rc == 0
     assert "proximal" in out and "distal" in out
-    assert "ms per solve" in out and "error estimate of the whole answer" in out
-    assert "with the Python solver" in out and "with backend c" in out
+    assert "us per solve" in out and "error estimate of the whole answer" in out
+    assert "prepared solver" in out
 
 
 def test_cli_select_json(capsys):
@@ -213,8 +228,9 @@ def test_cli_select_bad_tolerance(tol, capsys):
 
 
 def test_cli_select_unreachable_exits_1(capsys):
-    rc = main(["select", str(EXAMPLES / "rectangular_elastica.toml"), "--tol", "1e-8",
-               "--repeat", "0"])
+    rc = main(
+        ["select", str(EXAMPLES / "rectangular_elastica.toml"), "--tol", "1e-8", "--repeat", "0"]
+    )
     cap = capsys.readouterr()
     assert rc == 1
     assert "out of reach" in cap.err and "DOES NOT meet" in cap.out

@@ -1,14 +1,17 @@
-"""flexgen stability: no answer is silently wrong (on a grid off the calibration grid), the rule
-can fail, poly kernels past their range are flagged, buckling loads of scm5."""
+"""flexgen stability (flexgen_tools.stability): no answer is silently wrong (on a grid off the
+calibration grid), the rule can fail, poly kernels past their range are flagged, buckling loads
+of scm5, the calibration of the CLAIMS block."""
+
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
-from flexgen import stability as S
 from flexgen import validity as V
-from flexgen.bench import model_def
+from flexgen_tools import stability as S
+from flexgen_tools.bench import model_def
 
 MODELS = ("cc", "prb", "scm3 poly", "scm3 gauss", "scm4 gauss", "fem8")
 # none of these alphas or directions is on the calibration grid (stability.grid)
@@ -18,13 +21,17 @@ DIRECTIONS = (45.0, 135.0, 200.0, 300.0)
 
 @pytest.fixture(scope="module")
 def points():
-    return S.sweep(("cantilever", "finger"), [model_def(m) for m in MODELS], ALPHAS, DIRECTIONS,
-                   progress=False)
+    return S.sweep(
+        ("cantilever", "finger"), [model_def(m) for m in MODELS], ALPHAS, DIRECTIONS, progress=False
+    )
 
 
 def test_no_answer_is_silently_wrong(points):
-    silent = [(p.model, p.scene, p.alpha, p.direction, p.pose_err, p.claim_pose, p.comp_err,
-               p.claim_comp) for p in points if p.silent]
+    silent = [
+        (p.model, p.scene, p.alpha, p.direction, p.pose_err, p.claim_pose, p.comp_err, p.claim_comp)
+        for p in points
+        if p.silent
+    ]
     assert not silent
     assert sum(p.reference for p in points) >= 0.9 * len(points)
 
@@ -62,10 +69,28 @@ def test_buckling_loads_scm5():
     assert rel[0] == pytest.approx(8.6e-9, rel=0.05)
     assert rel[1] < 1e-3 and rel[2] < 5e-2
     assert rel[0] < rel[1] < rel[2]
-    assert all(P[k] > S.euler(k + 1) for k in range(3))     # Rayleigh-Ritz: from above
+    assert all(P[k] > S.euler(k + 1) for k in range(3))  # Rayleigh-Ritz: from above
 
 
 def test_buckling_solve_agrees():
     (row,) = S.buckling_table((5,))
     assert row["solve_first"] == pytest.approx(S.euler(1), rel=1e-7)
     assert abs(row["solve_first"] - row["loads"][0]) < 1e-8 * row["loads"][0]
+
+
+def test_calibration_rewrites_the_claims_block(points, tmp_path):
+    """The calibration (python -m flexgen_tools.stability --calibrate) turns a sweep into
+    classes and writes them between the CLAIMS markers of a copy of flexgen/validity.py."""
+    claims = S.calibrate(points)
+    assert set(claims) == set(MODELS)
+    for table in claims.values():
+        assert len(table) == len(S.LOAD_BANDS) and all(len(r) == len(S.BANDS) for r in table)
+    copy = tmp_path / "validity.py"
+    copy.write_text(Path(V.__file__).read_text())
+    S.write_claims(claims, copy)
+    text = copy.read_text()
+    assert text.count("# CLAIMS-BEGIN") == text.count("# CLAIMS-END") == 1
+    ns: dict = {}
+    exec(text[text.index("# CLAIMS-BEGIN") : text.index("# CLAIMS-END")], ns)
+    assert ns["CLAIMS"] == claims
+    assert S.main([]) == 2  # without --calibrate: the help, nothing rewritten
