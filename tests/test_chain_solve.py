@@ -1,8 +1,10 @@
 """Chain kinematics and the equilibrium solver, against independent references.
 
-The flexure model here is a test double: the smooth curvature model evaluated by Gauss-Legendre
-quadrature (40 nodes) in place of the polynomial kernel, so it is the N-mode model itself, without
-the kernel's interpolation error, and does not depend on the generated kernels.
+The kinematics tests use a test double: the smooth curvature model evaluated by Gauss-Legendre
+quadrature (40 nodes) in place of the polynomial kernel, so they do not depend on the generated
+kernels. The solver (the compiled core) evaluates only the shipped kernels: its tests use the
+N-mode model's Gauss kernel (``SCMModel(kernel="gauss")``, 8N + 1 nodes), which is likewise the
+N-mode model itself without the polynomial's interpolation error.
 """
 from __future__ import annotations
 
@@ -18,7 +20,8 @@ from flexgen.chain import Chain
 from flexgen.models.base import TipKinematics
 from flexgen.result import ellipse
 from flexgen.scene import Flexure, Link, Load, ModelSpec, Scene, Tendon
-from flexgen.equilibrium import solve
+from flexgen.models.scm import SCMModel
+from flexgen.solver import solve_models as solve
 
 
 class LegendreModel:
@@ -77,8 +80,18 @@ class LegendreModel:
         return np.stack([np.interp(sig, fine, pts[:, 0]), np.interp(sig, fine, pts[:, 1])], 1)
 
 
-def models_for(scene, modes=3):
+def legendre_models_for(scene, modes=3):
+    """The test double, for the reference kinematics (Chain)."""
     return {f.name: LegendreModel(f.length, f.EI, modes) for f in scene.flexures}
+
+
+def gauss(length, EI, modes, name="?"):
+    """The N-mode model through its Gauss kernel: what the solver evaluates."""
+    return SCMModel(length, EI, modes, kernel="gauss", name=name)
+
+
+def models_for(scene, modes=3):
+    return {f.name: gauss(f.length, f.EI, modes, f.name) for f in scene.flexures}
 
 
 def flex(name, parent, at=(0.0, 0.0, 0.0), length=1.0, EI=1.0, modes=3):
@@ -121,7 +134,7 @@ def _pose_reference(models, q_parts, ref):
 
 
 def test_point_pose_jacobian_hessian_against_finite_differences():
-    models = models_for(TREE, 3)
+    models = legendre_models_for(TREE, 3)
     chain = Chain(TREE, models)
     rng = np.random.default_rng(1)
     q = 0.6 * rng.standard_normal(chain.ndof)
@@ -151,7 +164,7 @@ def test_point_pose_jacobian_hessian_against_finite_differences():
 
 def test_tendon_potential_gradient_and_hessian_against_finite_differences():
     scene = replace(TREE, tendons=(Tendon(2.5, ("base.r0", "l1.hole", "l2.anchor", "c.tip")),))
-    chain = Chain(scene, models_for(scene, 3))
+    chain = Chain(scene, legendre_models_for(scene, 3))
     rng = np.random.default_rng(7)
     q = 0.4 * rng.standard_normal(chain.ndof)
     V, g, H = chain.tendon_potential(q)
@@ -207,7 +220,7 @@ def test_compliance_matches_finite_differences_of_resolving():
 def _single(P=None, M=None, modes=3, L=1.0, EI=1.0, **kw):
     loads = (Load("f.tip", P if P is not None else (0.0, 0.0), M or 0.0),)
     sc = scene_of([flex("f", "base", (0, 0, 0), L, EI, modes)], loads=loads)
-    return sc, {"f": LegendreModel(L, EI, modes)}
+    return sc, {"f": gauss(L, EI, modes, "f")}
 
 
 def test_rectangular_elastica_buckles_onto_the_bent_branch():
@@ -339,7 +352,7 @@ def test_json_contract_fields_and_ellipse_convention():
 
 
 def test_shapes_end_at_the_flexure_tips():
-    chain = Chain(TREE, models_for(TREE, 3))
+    chain = Chain(TREE, legendre_models_for(TREE, 3))
     q = 0.5 * np.random.default_rng(3).standard_normal(chain.ndof)
     shapes = chain.shapes(q, num=50)
     for name in ("a", "b", "c"):
@@ -347,20 +360,42 @@ def test_shapes_end_at_the_flexure_tips():
         assert np.allclose(shapes[name][-1], chain.pose(f"{name}.tip", q)[:2], atol=1e-5)
 
 
+def _reference_gradient(chain, scene, q):
+    """grad of the potential (elastic energy + tendons - work of the dead loads, moments on
+    the angle rows) by the reference kinematics."""
+    g = chain.energy_gradient(q) + chain.tendon_potential(q)[1]
+    for ld in scene.loads:
+        J = chain.point(ld.point, q).J
+        g = g - (J[0] * ld.force[0] + J[1] * ld.force[1] + J[2] * ld.moment)
+    return g
+
+
 def test_potential_residual_and_stiffness_are_consistent():
-    """r = grad Pi and K = hess Pi (moments on the angle rows, tendon, several loads)."""
-    from flexgen.equilibrium import System
+    """At the solver's equilibrium (moments on the angle rows, a tendon, several loads) the
+    residual r = grad Pi of the reference kinematics vanishes, and the solver's K
+    (Result.stiffness) is its derivative: central differences of r; the reference gradient
+    itself is the derivative of the reference potential."""
     sc = _compliance_scene()
-    chain = Chain(sc, models_for(sc, 3))
-    system = System(chain)
-    rng = np.random.default_rng(11)
-    q, lam = 0.4 * rng.standard_normal(chain.ndof), 0.7
-    st = system.state(q, lam)
+    models = models_for(sc, 3)
+    res = solve(sc, models)
+    assert res.converged and res.stable, res.reason
+    chain = Chain(sc, models)
+    q = chain.pack(res.q)
+    r = _reference_gradient(chain, sc, q)
+    assert np.linalg.norm(r) <= 1e-10 * np.linalg.norm(chain.energy_gradient(q))
     E, h = np.eye(chain.ndof), 1e-6
-    rfd = np.array([(system.state(q + h * e, lam).Pi - system.state(q - h * e, lam).Pi) / (2 * h) for e in E])
-    Kfd = np.stack([(system.state(q + h * e, lam).r - system.state(q - h * e, lam).r) / (2 * h) for e in E], 1)
-    assert np.allclose(st.r, rfd, atol=1e-7)
-    assert np.allclose(st.K, Kfd, atol=1e-7)
+    Kfd = np.stack([(_reference_gradient(chain, sc, q + h * e)
+                     - _reference_gradient(chain, sc, q - h * e)) / (2 * h) for e in E], 1)
+    assert np.allclose(res.stiffness, Kfd, atol=1e-7)
+
+    def Pi(x):
+        work = sum(ld.force[0] * chain.pose(ld.point, x)[0] + ld.force[1] * chain.pose(ld.point, x)[1]
+                   + ld.moment * chain.pose(ld.point, x)[2] for ld in sc.loads)
+        return chain.energy(x) + chain.tendon_potential(x)[0] - work
+
+    x = q + 0.3 * np.random.default_rng(11).standard_normal(chain.ndof)
+    rfd = np.array([(Pi(x + h * e) - Pi(x - h * e)) / (2 * h) for e in E])
+    assert np.allclose(_reference_gradient(chain, sc, x), rfd, atol=1e-7)
 
 
 @pytest.mark.parametrize("angle", [0.3, 2.0])
@@ -370,7 +405,7 @@ def test_rotated_elastica_buckles_like_the_unrotated_one(angle):
     P = 3.4375929
     c, s = math.cos(angle), math.sin(angle)
     sc = scene_of([flex("f", "base", (0.0, 0.0, angle), 1.0, 1.0, 5)], loads=[Load("f.tip", (-P * c, -P * s))])
-    res = solve(sc, {"f": LegendreModel(1.0, 1.0, 5)})
+    res = solve(sc, {"f": gauss(1.0, 1.0, 5, "f")})
     assert res.converged and res.stable, res.reason
     x, y, _ = res.points["f.tip"].pose
     assert c * x + s * y == pytest.approx(0.456947, abs=1e-4)
@@ -382,7 +417,7 @@ def test_rotated_elastica_buckles_like_the_unrotated_one(angle):
 def test_imperfect_elastica_follows_its_imperfection_without_a_bifurcation(sign):
     P = 3.4375929
     sc = scene_of([flex("f", "base", (0, 0, 0), 1.0, 1.0, 5)], loads=[Load("f.tip", (-P, sign * 1e-3))])
-    res = solve(sc, {"f": LegendreModel(1.0, 1.0, 5)})
+    res = solve(sc, {"f": gauss(1.0, 1.0, 5, "f")})
     assert res.converged and res.stable
     x, y, _ = res.points["f.tip"].pose
     assert sign * y == pytest.approx(0.762760, abs=1e-3) and x == pytest.approx(0.456947, abs=1e-3)
@@ -393,8 +428,9 @@ def test_imperfect_elastica_follows_its_imperfection_without_a_bifurcation(sign)
                                                 (2.84175, 0.74102, 0.59321, 60.0),
                                                 (4.65056, 0.12316, 0.80317, 120.0)])
 def test_post_buckled_cantilever_against_the_elastica_table(P, x, y, angle_deg):
-    sc = scene_of([flex("f", "base", (0, 0, 0), 1.0, 1.0, 7)], loads=[Load("f.tip", (-P, 0.0))])
-    res = solve(sc, {"f": LegendreModel(1.0, 1.0, 7)})
+    # six modes (the largest with a shipped Gauss kernel): post-buckled tip within 5e-6
+    sc = scene_of([flex("f", "base", (0, 0, 0), 1.0, 1.0, 6)], loads=[Load("f.tip", (-P, 0.0))])
+    res = solve(sc, {"f": gauss(1.0, 1.0, 6, "f")})
     assert res.converged and res.stable
     px, py, th = res.points["f.tip"].pose
     assert (px, py) == (pytest.approx(x, abs=2e-5), pytest.approx(y, abs=2e-5))
@@ -402,12 +438,9 @@ def test_post_buckled_cantilever_against_the_elastica_table(P, x, y, angle_deg):
 
 
 def test_a_model_error_mid_solve_is_reported_not_raised():
-    class Ranged(LegendreModel):
-        def tip(self, q):
-            if abs(np.asarray(q)[0]) > 0.8:
-                raise ValueError("flexure bent past the kernel range |phi| <= 0.8 rad")
-            return super().tip(q)
-
-    sc, _ = _single(M=1.5, modes=3)
-    res = solve(sc, {"f": Ranged(1.0, 1.0, 3)})
-    assert res.converged is False and "kernel range" in res.reason
+    """The polynomial kernel alone (kernel "poly", |phi| <= 90 degrees) under a moment that bends
+    past its range: no equilibrium, and the reason names the kernel's range."""
+    sc, _ = _single(M=2.0, modes=3)
+    res = solve(sc, {"f": SCMModel(1.0, 1.0, 3, kernel="poly", name="f")})
+    assert res.converged is False and "range of the polynomial kernel" in res.reason
+    assert "'f'" in res.reason

@@ -1,7 +1,7 @@
 """`flexgen solve` and `flexgen plot` from the command line: the JSON contract, the table, the
 overrides, plots, every class of bad input (exit 2, one line naming the key), no equilibrium
-(exit 1), the scm kernel switch (auto: a warning; poly: no equilibrium), and --backend c
-against python."""
+(exit 1), the scm kernel switch (auto: a warning; poly: no equilibrium); the --backend option
+of the deleted Python solver is gone (a usage error)."""
 from __future__ import annotations
 
 import json
@@ -284,66 +284,22 @@ def test_no_equilibrium_exits_1_with_the_reason_in_json(tmp_path):
     assert code == 1 and "NOT converged" in out and len(err.splitlines()) == 1
 
 
-# ---- --backend: the compiled chain solver from the command line --------------------------------
+# ---- --backend: gone with the Python solver ----------------------------------------------------
 
-def _same_numbers(a, b, path="$"):
-    """Recursive comparison of two parsed JSONs: floats to 1e-9 relative, everything else equal."""
-    if isinstance(a, dict):
-        assert isinstance(b, dict) and set(a) == set(b), path
-        for k in a:
-            _same_numbers(a[k], b[k], f"{path}.{k}")
-    elif isinstance(a, list):
-        assert isinstance(b, list) and len(a) == len(b), path
-        for i, (x, y) in enumerate(zip(a, b)):
-            _same_numbers(x, y, f"{path}[{i}]")
-    elif isinstance(a, float) and not isinstance(b, (bool, str)):
-        assert isinstance(b, (int, float)), path
-        assert math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-15), (path, a, b)
-    else:                                              # str, bool, int, None: exactly
-        assert type(a) is type(b) and a == b, (path, a, b)
-
-
-@pytest.mark.skipif(shutil.which("gcc") is None, reason="the compiled solver needs gcc")
-def test_backend_c_gives_the_json_of_backend_python(capsys, monkeypatch, finger_json):
-    import flexgen.compiled.solver as compiled
-    ran = []
-
-    def spy(*args, **kwargs):                          # the flag must reach the compiled solver
-        res = compiled_solve(*args, **kwargs)
-        ran.append(res[0] is not None)
-        return res
-
-    compiled_solve = compiled.solve_compiled
-    monkeypatch.setattr(compiled, "solve_compiled", spy)
-    code, out_c, err = run(capsys, "solve", EX / "two_link_finger.toml", "--backend", "c", "--json")
-    assert code == 0 and err == "", err
-    assert ran == [True]                               # solved in C, no fallback
-    code, out_py, err = run(capsys, "solve", EX / "two_link_finger.toml", "--backend", "python",
-                            "--json")
-    assert code == 0 and err == "", err
-    assert ran == [True]                               # python: the compiled solver not called
-    assert json.loads(out_py) == finger_json           # python is the default
-    _same_numbers(json.loads(out_c), json.loads(out_py))
-
-
-def test_bad_backend_exits_2_naming_the_option(capsys):
+@pytest.mark.parametrize("value", ["c", "python", "fortran"])
+def test_backend_option_is_gone(capsys, value):
+    """One solver: --backend is an unknown option (exit 2, one line naming it), not silently
+    ignored."""
     code, out, err = run(capsys, "solve", EX / "two_link_finger.toml", "--json",
-                         "--backend", "fortran")
+                         "--backend", value)
     _one_line_error(code, out, err, "--backend")
 
 
-def test_backend_is_accepted_and_ignored_by_the_exact_solver(capsys):
-    code, out, err = run(capsys, "solve", EX / "arc_moment.toml", "--json", "--model", "exact",
-                         "--backend", "c")
-    assert code == 0, err
-    d = json.loads(out)
-    assert d["converged"] is True and d["model"] == {"beam": {"kind": "exact"}}
-
-
-def test_help_explains_the_backend(capsys):
+def test_help_names_no_backend_and_no_cache(capsys):
     with pytest.raises(SystemExit):
         main(["solve", "--help"])
     out = " ".join(capsys.readouterr().out.split())
-    for words in ("--backend {python,c}", "compiled chain solver", "$FLEXGEN_CACHE",
-                  "~/.cache/flexgen", "back to python", "Ignored with --model exact"):
+    for words in ("--backend", "FLEXGEN_CACHE", ".cache/flexgen", "python"):
+        assert words not in out
+    for words in ("--model KIND", "--modes N", "--elements N", "--tol T", "--json"):
         assert words in out

@@ -8,7 +8,7 @@ import pytest
 
 from flexgen.kernels import C_FLAGS, GENERATED
 from flexgen.scene import scene_from_dict
-from flexgen.equilibrium import solve
+from flexgen.api import solve
 
 EXAMPLE = GENERATED.parent / "examples" / "controller" / "flexure_controller.c"
 

@@ -1,16 +1,16 @@
 /* A controller-side use of the compiled chain solver: the tendon-driven two-link finger of
  * examples/two_link_finger.toml (two 3-mode smooth curvature flexures, a palm, a middle link and a
  * fingertip; a flexor tendon from the palm through the middle link to the fingertip; a contact
- * force on the fingertip pad), filled into an fg_problem by hand the way flexgen/compiled/plan.py
+ * force on the fingertip pad), filled into an fg_problem by hand the way flexgen/problem.py
  * flattens the scene, and solved in one fg_solve call per control cycle: equilibrium, pad poses
  * and pad compliances. No heap, no globals: the workspace is a fixed-size stack array, checked
  * against fg_work_size / fg_iwork_size at start.
  *
- * Each flexure uses the kernel pair of the Python model kind "auto": the polynomial kernel scm3
- * within its range, the Gauss kernel scm3_gauss25 past it. When fg_solve hands the problem back
- * (FG_FALLBACK: a loss of stability on the load path, a kernel switch, no path to the full load)
- * a real controller keeps its last answer or runs the Python solver, which handles and reports
- * those cases, offline.
+ * Each flexure uses the kernel pair of the model kind "auto": the polynomial kernel scm3 within
+ * its range, the Gauss kernel scm3_gauss25 past it. The answer passes no switch flags (nor
+ * critical arrays), so fg_solve hands the problem back (FG_FALLBACK) on a kernel switch or a loss
+ * of stability on the load path, as when there is no path to the full load; a real controller
+ * then keeps its last answer, or calls flexgen.solve offline, which reports those cases.
  *
  * Build:  gcc -std=c99 -Wall -Wextra -Werror -pedantic -O2 -I../../flexgen/compiled \
  *             -I../../generated/c finger_controller.c ../../flexgen/compiled/chain_solver.c \
@@ -140,7 +140,7 @@ static void finger_setup(Finger *f, double tension, double pad_fy)
     p->route = f->route;
     p->outputs = f->outputs;
     p->stiffness = f->stiffness;
-    p->tol = 1e-12;                 /* the defaults of flexgen.equilibrium.solve */
+    p->tol = 1e-12;                 /* the defaults of flexgen.SolverSettings */
     p->max_dq = 0.5;
     p->max_iterations = 50;
     p->max_steps = 500;
