@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 import flexgen
-from flexgen import stability as S
+from flexgen_tools import stability as S
 from flexgen import validity as V
 
 ROOT = Path(__file__).resolve().parents[1]
