@@ -24,7 +24,7 @@ warm-up call), reported per call.
 
 LAPACK table: the compiled solve of fem16, fem32 and fem64 on the cantilever and on the finger,
 with the plan as prepared (SciPy's LAPACK from ``library.LAPACK_MIN_SIZE`` coordinates on) and
-with LAPACK switched off on that plan (``plan.problem.lapack.min_size = 10**9``: the built-in
+with LAPACK switched off on that plan (``plan.problem.settings.lapack_min_size = 10**9``: the built-in
 factorizations), timed in alternating batches; the two q must agree to ``Q_RTOL`` (relative).
 
 ``--out`` writes both tables as a markdown page (the page is printed to stdout either way;
@@ -65,7 +65,7 @@ from flexgen.scene import load_scene             # noqa: E402
 BATCH_S = 2e-3          # a timed batch of compiled calls lasts at least this long
 ROUNDS = 21             # batches per compiled timing (scaled by --repeats)
 Q_RTOL = 1e-12          # LAPACK and built-in factorizations: max |dq| / max |q|
-LAPACK_OFF = 10**9      # plan.problem.lapack.min_size that switches LAPACK off
+LAPACK_OFF = 10**9      # plan.problem.settings.lapack_min_size that switches LAPACK off
 COMMAND = "python benchmarks/solver_speed.py"
 
 
@@ -237,7 +237,7 @@ def speed_row(case: Case, repeats: int, budget_s: float, rounds: int = ROUNDS) -
         row["compiled"] = "no plan"
         return row
     status = plan.run()
-    row["compiled"] = {library.SOLVED: "solved", library.FALLBACK: "fallback",
+    row["compiled"] = {library.SOLVED: "solved", library.NO_EQUILIBRIUM: "no equilibrium",
                        library.MODEL_ERROR: "model error"}.get(status, f"status {status}")
     if status == library.SOLVED:
         row["compiled_iterations"] = int(plan.answer.iterations)
@@ -257,8 +257,8 @@ def lapack_row(scene, factory, rounds: int = ROUNDS, budget_s: float = 10.0,
         plan = prepare(scene, model_factory=factory)
     if plan is None:
         raise RuntimeError("no compiled plan for this scene")
-    lap = plan.problem.lapack
-    saved = lap.min_size
+    lap = plan.problem.settings
+    saved = lap.lapack_min_size
     n = plan.q.size
 
     def solved(label):
@@ -270,20 +270,20 @@ def lapack_row(scene, factory, rounds: int = ROUNDS, budget_s: float = 10.0,
     try:
         q_lapack = solved("as prepared")
         k_lapack = batch_size(plan.run)
-        lap.min_size = LAPACK_OFF
+        lap.lapack_min_size = LAPACK_OFF
         q_builtin = solved("LAPACK off")
         k_builtin = batch_size(plan.run)
         t_lapack, t_builtin = [], []
         t_end = time.perf_counter() + budget_s
         for _ in range(rounds):
-            lap.min_size = saved
+            lap.lapack_min_size = saved
             t_lapack.append(time_batch(plan.run, k_lapack))
-            lap.min_size = LAPACK_OFF
+            lap.lapack_min_size = LAPACK_OFF
             t_builtin.append(time_batch(plan.run, k_builtin))
             if time.perf_counter() > t_end and len(t_lapack) >= min(3, rounds):
                 break
     finally:
-        lap.min_size = saved
+        lap.lapack_min_size = saved
     diff = float(np.max(np.abs(q_lapack - q_builtin)) / max(np.max(np.abs(q_lapack)), 1e-300))
     us_l, us_b = 1e6 * statistics.median(t_lapack), 1e6 * statistics.median(t_builtin)
     return {"ndof": int(n), "lapack_used": bool(lap.potrf) and n >= saved,
@@ -387,7 +387,7 @@ def render_markdown(speed: dict, lapack: dict, command: str = COMMAND,
           "The compiled solve of the n-element chain with the plan as prepared (SciPy's LAPACK "
           f"from {mach.get('lapack_min_size', library.LAPACK_MIN_SIZE)} coordinates on: "
           "`library.LAPACK_MIN_SIZE`) and with LAPACK switched off on that plan "
-          f"(`plan.problem.lapack.min_size = 10**9`: the built-in Cholesky and LU), timed in "
+          f"(`plan.problem.settings.lapack_min_size = 10**9`: the built-in Cholesky and LU), timed in "
           "alternating batches. *max rel. q diff*: max |q_LAPACK - q_built-in| / max |q|.", "",
           "| scene | model | coordinates | LAPACK (us) | built-in (us) | built-in / LAPACK | "
           "max rel. q diff |",

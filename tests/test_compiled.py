@@ -421,12 +421,13 @@ def test_rectangular_elastica_buckles_in_c(label, spy):
 def test_rectangular_elastica_with_the_auto_kernel_switches_in_c(modes, spy):
     """The scene's own model (scm "auto") passes the polynomial kernel's range on the way: the C
     solver reports the switch per flexure and the Result carries the Python solver's warning;
-    a C caller that takes no switch flags (answer.switched NULL) gets the solve handed back."""
+    a C caller that takes no switch flags (answer.switched NULL) gets the same answer."""
     scene = example("rectangular_elastica")
     _, plan = _plan_for(scene, scm(modes))
     assert plan is not None and plan.run() == clib.SOLVED and plan.switched.tolist() == [1]
+    q = plan.q.copy()
     plan.answer.switched = None
-    assert plan.run() == clib.FALLBACK
+    assert plan.run() == clib.SOLVED and np.array_equal(plan.q, q)
     rp, rc, direct, taken = solve_both(scene, spy, model_factory=scm(modes))
     assert not direct and taken and rc.solver == "c"
     assert differences(scene, rp, rc) == []
@@ -500,7 +501,7 @@ def _c_result(scene, factory, min_size: int):
     models = build_models(scene, None, factory)
     chain, system, outputs, info = eq.prepare_system(scene, models)
     plan = build_plan(chain, system.loads, system.tendons, outputs)
-    plan.problem.lapack.min_size = min_size
+    plan.problem.settings.lapack_min_size = min_size
     status = plan.run()
     if status != clib.SOLVED:
         return plan, status, None
@@ -534,27 +535,32 @@ def test_builtin_and_lapack_eigen_solvers_give_python_answer(eigen, name, label)
     assert rc.iterations == rp.iterations and rc.warnings == rp.warnings
 
 
-def test_critical_events_beyond_the_capacity_are_handed_back(spy):
-    """The caller gives the capacity of the critical arrays: more events hand the solve back."""
+def test_critical_events_beyond_the_capacity_are_counted_not_stored(spy):
+    """The caller gives the capacity of the critical arrays: the solve goes on past it, counts
+    every event (ncritical) and stores the first max_critical."""
     scene = column(25.0, 0.0)
     _, plan = _plan_for(scene, scm(3, "gauss"))
     assert plan.run() == clib.SOLVED and plan.answer.ncritical == 2     # two bifurcations
     side = eq.BUCKLING_SIDES.index(WHY["y"]) + 1
     assert plan.critical_kind[:2].tolist() == [side, side]
-    first = plan.critical[:2].copy()
+    first, q = plan.critical[:2].copy(), plan.q.copy()
+    plan.critical[:] = -1.0
     plan.answer.max_critical = 1
-    assert plan.run() == clib.FALLBACK
+    assert plan.run() == clib.SOLVED and plan.answer.ncritical == 2
+    assert plan.critical[0] == first[0] and plan.critical[1] == -1.0
+    assert np.array_equal(plan.q, q)
     plan.answer.max_critical = 0
-    assert plan.run() == clib.FALLBACK
+    assert plan.run() == clib.SOLVED and plan.answer.ncritical == 2
     plan.answer.max_critical = 2
     assert plan.run() == clib.SOLVED and np.array_equal(plan.critical[:2], first)
     _, snap = _plan_for(cantilever(**SNAP), scm(5, "gauss"))
     assert snap.run() == clib.SOLVED and snap.answer.ncritical == 1
     assert snap.critical_kind[0] == clib.SNAP_THROUGH
     # a caller without critical arrays (NULL, capacity 0: as a zeroed fg_answer) gets the
-    # stable paths answered and the rest handed back
+    # same answers, the events counted
     plan.answer.critical = None
-    assert plan.run() == clib.FALLBACK
+    assert plan.run() == clib.SOLVED and plan.answer.ncritical == 2
+    assert np.array_equal(plan.q, q)
     _, calm = _plan_for(example("cantilever_tip_load"), scm(3))
     calm.answer.critical, calm.answer.max_critical = None, 0
     assert calm.run() == clib.SOLVED
@@ -654,7 +660,9 @@ def test_poly_kernel_past_its_range_fails_the_same_way(spy):
     """A tip moment that would bend scm3 (poly only: |phi| <= 90 deg) to 150 degrees."""
     scene = cantilever(moment=math.radians(150.0))
     _, plan = _plan_for(scene, scm(3, "poly"))
-    assert plan is not None and plan.run() == clib.FALLBACK
+    assert plan is not None and plan.run() == clib.NO_EQUILIBRIUM
+    assert plan.answer.model_error == clib.ERR_KERNEL_RANGE
+    assert plan.answer.model_error_flexure == 0
     rp, rc, direct, taken = solve_both(scene, spy, model_factory=scm(3, "poly"))
     assert not direct and not taken
     assert rc.converged is False and rp.converged is False
@@ -744,10 +752,10 @@ def test_lapack_and_builtin_factorizations_agree(scenes):
     _, plan = _plan_for(scene, fem(16))
     if not plan.problem.lapack.potrf:
         pytest.skip("SciPy's LAPACK routines are not available")
-    assert plan.q.size >= max(16, plan.problem.lapack.min_size)
+    assert plan.q.size >= max(16, plan.problem.settings.lapack_min_size)
     assert plan.run() == clib.SOLVED
     lapack = (plan.q.copy(), plan.pose.copy(), plan.compliance.copy(), plan.answer.iterations)
-    plan.problem.lapack.min_size = 10 ** 9
+    plan.problem.settings.lapack_min_size = 10 ** 9
     assert plan.run() == clib.SOLVED
     builtin = (plan.q.copy(), plan.pose.copy(), plan.compliance.copy(), plan.answer.iterations)
     assert lapack[3] == builtin[3]

@@ -76,11 +76,11 @@ def test_lapack_row(lapack):
 def test_lapack_min_size_restored(sb, scenes):
     from flexgen.compiled import library
     plan = sb.prepare(scenes["cantilever"], model_factory=sb.fem(16))
-    before = plan.problem.lapack.min_size
+    before = plan.problem.settings.lapack_min_size
     r = sb.lapack_row(scenes["cantilever"], None, rounds=1, budget_s=0.1, plan=plan)
     assert r["agree"]
-    assert plan.problem.lapack.min_size == before == library.LAPACK_MIN_SIZE
-    assert library.lapack().min_size == library.LAPACK_MIN_SIZE
+    assert plan.problem.settings.lapack_min_size == before == library.LAPACK_MIN_SIZE
+    assert library.LAPACK_MIN_SIZE == 32
 
 
 def test_page(sb, speed, lapack):

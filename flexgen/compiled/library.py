@@ -10,6 +10,7 @@ The ctypes structs here mirror ``chain_solver.h``.
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import hashlib
 import os
 import tempfile
@@ -17,6 +18,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from .. import kernels
+from ..settings import SolverSettings
 
 HERE = Path(__file__).resolve().parent
 _c_double_p = ctypes.POINTER(ctypes.c_double)
@@ -42,7 +44,13 @@ class Point(ctypes.Structure):
 class Lapack(ctypes.Structure):
     _fields_ = [("potrf", ctypes.c_void_p), ("potrs", ctypes.c_void_p),
                 ("getrf", ctypes.c_void_p), ("getrs", ctypes.c_void_p),
-                ("min_size", ctypes.c_int), ("syev", ctypes.c_void_p)]
+                ("syev", ctypes.c_void_p)]
+
+
+class Settings(ctypes.Structure):
+    """fg_settings: the fields of flexgen.settings.SolverSettings, in order (float: double)."""
+    _fields_ = [(f.name, ctypes.c_int if f.type == "int" else ctypes.c_double)
+                for f in dataclasses.fields(SolverSettings)]
 
 
 class Problem(ctypes.Structure):
@@ -51,10 +59,7 @@ class Problem(ctypes.Structure):
                 ("flex", ctypes.POINTER(Flexure)), ("points", ctypes.POINTER(Point)),
                 ("load_point", _c_int_p), ("load", _c_double_p), ("tension", _c_double_p),
                 ("route_start", _c_int_p), ("route_len", _c_int_p), ("route", _c_int_p),
-                ("outputs", _c_int_p), ("stiffness", _c_double_p), ("tol", ctypes.c_double),
-                ("max_dq", ctypes.c_double), ("max_iterations", ctypes.c_int),
-                ("max_steps", ctypes.c_int), ("initial_step", ctypes.c_double),
-                ("max_step", ctypes.c_double), ("min_step", ctypes.c_double),
+                ("outputs", _c_int_p), ("stiffness", _c_double_p), ("settings", Settings),
                 ("lapack", Lapack), ("q0", _c_double_p)]
 
 
@@ -65,11 +70,22 @@ class Answer(ctypes.Structure):
                 ("iterations", ctypes.c_int), ("stable", ctypes.c_int),
                 ("critical", _c_double_p), ("critical_kind", _c_int_p),
                 ("max_critical", ctypes.c_int), ("ncritical", ctypes.c_int),
-                ("switched", _c_int_p)]
+                ("switched", _c_int_p),
+                ("failure", ctypes.c_int), ("failure_load_factor", ctypes.c_double),
+                ("last_error", ctypes.c_int), ("last_error_load_factor", ctypes.c_double),
+                ("last_error_residual", ctypes.c_double),
+                ("last_error_iterations", ctypes.c_int), ("last_error_flexure", ctypes.c_int),
+                ("last_error_route", ctypes.c_int), ("model_error", ctypes.c_int),
+                ("model_error_flexure", ctypes.c_int), ("model_error_route", ctypes.c_int),
+                ("evaluations", ctypes.c_int)]
 
 
 MODEL_KERNEL, MODEL_FEM, MODEL_PRB = 0, 1, 2
-SOLVED, FALLBACK, MODEL_ERROR = 0, 1, 2
+SOLVED, NO_EQUILIBRIUM, MODEL_ERROR = 0, 1, 2
+# Answer.failure (FG_FAIL_*) and Answer.last_error / model_error (FG_ERR_*)
+FAIL_NONE, FAIL_UNLOADED, FAIL_STEPS, FAIL_BIFURCATION, FAIL_LIMIT = range(5)
+(ERR_NONE, ERR_STAGNATION, ERR_NOT_CONVERGED, ERR_LINE_SEARCH, ERR_JUMP, ERR_NONFINITE,
+ ERR_KERNEL_RANGE, ERR_TENDON) = range(8)
 # Answer.critical_kind: the path snapped through at a limit point, or crossed a bifurcation and
 # took the side chosen for the reason equilibrium.BUCKLING_SIDES[kind - 1]
 SNAP_THROUGH = 0
@@ -146,7 +162,8 @@ _loaded: list[ctypes.CDLL] = []
 # code numpy.linalg and scipy.linalg run for the Python solver); below it the built-in unblocked
 # factorizations are faster (no call overhead). Measured with benchmarks/solver_speed.py
 # (docs/solver-speed.md): built-in faster at 16 coordinates (fem16), LAPACK from 32 on.
-LAPACK_MIN_SIZE = 32
+# (SolverSettings.lapack_min_size, the setting the solver reads, defaults to it.)
+LAPACK_MIN_SIZE = SolverSettings().lapack_min_size
 
 
 @lru_cache(maxsize=None)
@@ -155,7 +172,6 @@ def lapack() -> Lapack:
     exports them as capsules); all None if that fails, and the solver uses its built-in
     factorizations and eigen-decomposition (Jacobi)."""
     table = Lapack()
-    table.min_size = LAPACK_MIN_SIZE
     try:
         from scipy.linalg import cython_lapack
         name_of = ctypes.pythonapi.PyCapsule_GetName

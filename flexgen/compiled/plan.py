@@ -9,10 +9,12 @@ know (anything but the built-in scm/cc, fem and prb classes) gives no plan.
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 
 import numpy as np
 
 from ..chain import BASE, Chain
+from ..settings import SolverSettings
 from ..models.fem import FEMModel
 from ..models.prb import PRBModel
 from ..models.scm import SCMModel
@@ -90,8 +92,9 @@ class Plan:
         p.route = ints(route or [0])
         p.outputs = ints([pindex[ref] for ref in outputs] or [0])
         p.stiffness = doubles(stiffness)
-        for key, value in {**DEFAULTS, **settings}.items():
-            setattr(p, key, value)
+        chosen = SolverSettings(**settings)          # validated; copied field by field
+        for f in dataclasses.fields(chosen):
+            setattr(p.settings, f.name, getattr(chosen, f.name))
         p.lapack = lib.lapack()
         self._keep += [flex, points]
         self.problem = p
@@ -125,7 +128,7 @@ class Plan:
 
     def run(self, q0: np.ndarray | None = None) -> int:
         """One solve (from the unloaded state, or Newton at the full load from the packed ``q0``);
-        the status (library.SOLVED, FALLBACK or MODEL_ERROR). When SOLVED, ``q``, ``pose``,
+        the status (library.SOLVED, NO_EQUILIBRIUM or MODEL_ERROR). When SOLVED, ``q``, ``pose``,
         ``compliance`` and ``answer`` (energy, residual, iterations, stable, ncritical) hold it,
         and the first ``answer.ncritical`` entries of ``critical`` / ``critical_kind`` the
         critical load factors met on the way (a bifurcation crossed, a snap-through);
@@ -141,13 +144,13 @@ class Plan:
         return self._solve(*self._args)
 
 
-# the most critical events (bifurcations crossed, snap-throughs) a solve may meet and still be
-# answered in C (more: handed back to the Python solver)
+# the most critical events (bifurcations crossed, snap-throughs) a solve stores (more are
+# counted in answer.ncritical; solver.py hands such a solve back to the Python solver)
 MAX_CRITICAL = 64
 
-# the solver settings of flexgen.equilibrium.solve that the C solver takes, with its defaults
-DEFAULTS = {"tol": 1e-12, "max_iterations": 50, "max_steps": 500, "initial_step": 0.1,
-            "max_step": 0.25, "min_step": 1e-5, "max_dq": 0.5}
+# the solver settings (flexgen.settings.SolverSettings) with their defaults
+DEFAULTS = {f.name: getattr(SolverSettings(), f.name)
+            for f in dataclasses.fields(SolverSettings)}
 
 
 def build_plan(chain: Chain, loads, tendons, outputs: list[str], **settings) -> Plan | None:

@@ -75,7 +75,10 @@ def solve_compiled(scene, models, settings: dict, prepare,
             for name, sl in slices.items():
                 v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]
                 start[sl.start:sl.start + v.size] = v
-        if plan is None or plan.run(start) != lib.SOLVED:
+        # for now (the Python solver still exists) a solve without an equilibrium, or with more
+        # critical events than the plan stores, is handed back to it for its reason and warnings
+        if (plan is None or plan.run(start) != lib.SOLVED
+                or plan.answer.ncritical > plan.answer.max_critical):
             return None, unavailable
         res = result_of(plan, scene.name, slices, {k: dict(v) for k, v in info.items()},
                         models)
