@@ -27,6 +27,7 @@
  * C99, no heap, no globals: the caller provides the workspace (fg_work_size doubles and
  * fg_iwork_size ints). Compiled with gcc -std=c99 -Wall -Wextra -Werror -pedantic.
  */
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <string.h>
@@ -44,12 +45,14 @@ typedef struct {
     double *r, *K, *Q;              /* at the state's load factor */
     double *out;                    /* per output point: pose (3), J (3 x n), at q */
     double U, W, V, gmax, rmax, Pi, scale, rel, lam;
+    int sfinite, kfinite;           /* every entry of S, K is finite */
 } fg_state;
 
 typedef struct {
     const fg_problem *p;
     const fg_settings *set;
     int n;
+    size_t tstride;         /* doubles per flexure tip block (tip_block) */
     /* kinematics at the last evaluated q */
     double *fpose, *fJ;     /* per flexure tip frame: pose (3), J (3 x n) */
     double *fdata;          /* per flexure (FG_FDATA): moving_parent, awx, awy, c, s (root frame
@@ -80,17 +83,6 @@ typedef struct {
     fg_state st[FG_NSTATES];
 } fg_ws;
 
-static size_t tip_size(const fg_problem *p)
-{
-    size_t s = 0;
-    int i;
-    for (i = 0; i < p->nflex; ++i) {
-        size_t k = (size_t)p->flex[i].ndof;
-        s += 3 + 3 * k + 3 * k * k + 2 * k;
-    }
-    return s;
-}
-
 static int kmax(const fg_problem *p)
 {
     int i, m = 0;
@@ -98,6 +90,18 @@ static int kmax(const fg_problem *p)
         if (p->flex[i].ndof > m)
             m = p->flex[i].ndof;
     return m;
+}
+
+/* the doubles of one flexure's tip block: J (3 k), H (3 k k), RJ (2 k) for k = kmax */
+static size_t tip_stride(const fg_problem *p)
+{
+    size_t k = (size_t)kmax(p);
+    return 3 * k + 3 * k * k + 2 * k;
+}
+
+static size_t tip_size(const fg_problem *p)
+{
+    return (size_t)p->nflex * (3 + tip_stride(p));
 }
 
 static size_t history_size(const fg_problem *p)
@@ -126,6 +130,7 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
     int i;
     w->p = p;
     w->set = &p->settings;
+    w->tstride = tip_stride(p);
     w->n = p->ndof;
     w->kin_ok = 0;
     w->evaluations = 0;
@@ -188,13 +193,7 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
 /* the tip block of flexure i: J (3 k), H (3 k k), RJ (2 k), after the F tip poses */
 static double *tip_block(const fg_ws *w, int i)
 {
-    double *x = w->tJ;
-    int j;
-    for (j = 0; j < i; ++j) {
-        size_t k = (size_t)w->p->flex[j].ndof;
-        x += 3 * k + 3 * k * k + 2 * k;
-    }
-    return x;
+    return w->tJ + (size_t)i * w->tstride;
 }
 
 /* ---- flexure models ------------------------------------------------------------------------ */
@@ -313,16 +312,6 @@ static int kinematics(fg_ws *w, const double *q)
         rp[0] = pp[0] + awx;
         rp[1] = pp[1] + awy;
         rp[2] = th + f->at[2];
-        /* J = root J (parent J with the offset's rotation) */
-        if (PJ != NULL)
-            memcpy(J, PJ, sizeof(double) * 3 * (size_t)n);
-        else
-            memset(J, 0, sizeof(double) * 3 * (size_t)n);
-        if (moving)
-            for (j = 0; j < n; ++j) {
-                J[j] -= awy * J[2 * n + j];
-                J[n + j] += awx * J[2 * n + j];
-            }
         if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i])) {
             w->fail_flex = i;
             w->fail_route = -1;
@@ -338,10 +327,17 @@ static int kinematics(fg_ws *w, const double *q)
         pose[0] = rp[0] + wx;
         pose[1] = rp[1] + wy;
         pose[2] = rp[2] + tp[2];
-        if (moving)
+        /* J = the parent's J moved by the offset (aw) and by the tip (w), in one pass */
+        if (PJ == NULL)
+            memset(J, 0, sizeof(double) * 3 * (size_t)n);
+        else if (!moving)
+            memcpy(J, PJ, sizeof(double) * 3 * (size_t)n);
+        else
             for (j = 0; j < n; ++j) {
-                J[j] -= wy * J[2 * n + j];
-                J[n + j] += wx * J[2 * n + j];
+                double jt = PJ[2 * n + j];
+                J[j] = (PJ[j] - awy * jt) - wy * jt;
+                J[n + j] = (PJ[n + j] + awx * jt) + wx * jt;
+                J[2 * n + j] = jt;
             }
         for (a = 0; a < k; ++a) {
             RJ[a] = c * tJ[a] - s * tJ[k + a];
@@ -415,6 +411,24 @@ static void add_coefficient(fg_ws *w, int point, double c0, double c1, double c2
     }
 }
 
+/* G = (G + G^T) / 2: hessian_sum adds a symmetric pair of off-diagonal terms t, t as 2t on one
+ * side (contiguous rows only); this makes the pair (t, t) again, and G symmetric, so K is
+ * lam G + diag without a transposed read. 1 if every entry is finite. */
+static int symmetrize(double *G, int n)
+{
+    int i, j, bad = 0;
+    for (i = 0; i < n; ++i) {
+        bad |= !(fabs(G[(size_t)i * n + i]) <= DBL_MAX);
+        for (j = i + 1; j < n; ++j) {
+            double v = 0.5 * (G[(size_t)i * n + j] + G[(size_t)j * n + i]);
+            G[(size_t)i * n + j] = v;
+            G[(size_t)j * n + i] = v;
+            bad |= !(fabs(v) <= DBL_MAX);
+        }
+    }
+    return !bad;
+}
+
 /* The Hessian term sum_p c_p . H_p of every point p (chain.py: hessian_sum), accumulated frame
  * by frame from the leaves to the base: each frame's coefficients (force c0, c1, moment c2 and
  * the rank-one coefficient kk of its angle row) act on its own tip Hessian, on the cross terms
@@ -450,12 +464,12 @@ static void hessian_sum(fg_ws *w, double *G)
                     double m = dki * ah[a];
                     if (m == 0.0)
                         continue;
-                    for (b = 0; b < k; ++b) {
-                        double t = m * ag[b];
-                        G[(oh + a) * n + off + b] -= t;
-                        if (h != i)
-                            G[(off + b) * n + oh + a] -= t;
-                    }
+                    if (h == i)
+                        for (b = 0; b < k; ++b)
+                            G[(oh + a) * n + off + b] -= m * ag[b];
+                    else        /* both (h, i) blocks at once: see symmetrize */
+                        for (b = 0; b < k; ++b)
+                            G[(oh + a) * n + off + b] -= 2.0 * (m * ag[b]);
                 }
             }
         }
@@ -476,10 +490,13 @@ static void hessian_sum(fg_ws *w, double *G)
             if (d[0] != 0.0) {   /* the parent frame moves: cross terms with its angle */
                 const double *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
                 for (a = 0; a < k; ++a) {
-                    double m = c1 * RJ[a] - c0 * RJ[k + a];
-                    for (j = 0; j < n; ++j) {
-                        G[(off + a) * n + j] += m * Jr[j];
-                        G[j * n + off + a] += m * Jr[j];
+                    double m = c1 * RJ[a] - c0 * RJ[k + a], *row = G + (size_t)(off + a) * n;
+                    /* the parent's angle row is nonzero on its ancestors' coordinates only;
+                     * each term with its transpose: see symmetrize */
+                    for (h = f->parent; h >= 0; h = p->flex[h].parent) {
+                        int oh = p->flex[h].offset, eh = oh + p->flex[h].ndof;
+                        for (j = oh; j < eh; ++j)
+                            row[j] += 2.0 * (m * Jr[j]);
                     }
                 }
             }
@@ -513,6 +530,7 @@ static void at_lambda(const fg_ws *w, fg_state *st, double lam)
     const fg_problem *p = w->p;
     int n = w->n, i, j;
     double rn = 0.0;
+    int bad = 0;
     st->lam = lam;
     for (i = 0; i < n; ++i) {
         st->r[i] = st->gU[i] - lam * st->QL[i] + lam * st->QT[i];
@@ -520,15 +538,21 @@ static void at_lambda(const fg_ws *w, fg_state *st, double lam)
         if (fabs(st->r[i]) > rn)
             rn = fabs(st->r[i]);
     }
-    for (i = 0; i < n; ++i)
-        for (j = 0; j < n; ++j) {
-            double kij = lam * st->S[i * n + j], kji = lam * st->S[j * n + i];
-            if (i == j) {
-                kij += p->stiffness[i];
-                kji += p->stiffness[i];
-            }
-            st->K[i * n + j] = 0.5 * (kij + kji);
-        }
+    /* K = stiffness + lam S (S is symmetric: evaluate symmetrized it). Every entry finite: an
+     * off-diagonal lam S_ij is, for |lam| <= 1 (every load factor of the solve), exactly when
+     * S_ij is (sfinite); the diagonal and any other lam are checked here. */
+    if (!(fabs(lam) <= 1.0))
+        for (i = 0; i < n * n; ++i)
+            bad |= !(fabs(lam * st->S[i]) <= DBL_MAX);
+    for (i = 0; i < n; ++i) {
+        const double *Si = st->S + (size_t)i * (size_t)n;
+        double *Ki = st->K + (size_t)i * (size_t)n;
+        for (j = 0; j < n; ++j)
+            Ki[j] = lam * Si[j];
+        Ki[i] += p->stiffness[i];
+        bad |= !(fabs(Ki[i]) <= DBL_MAX);
+    }
+    st->kfinite = st->sfinite && !bad;
     st->Pi = st->U - lam * st->W + lam * st->V;
     st->scale = st->gmax > fabs(lam) * st->rmax ? st->gmax : fabs(lam) * st->rmax;
     if (rn == 0.0)
@@ -598,8 +622,7 @@ static void restore_errors(fg_ws *w, const fg_errors *e)
 /* the state's values are finite (else the last error says so: equilibrium._Solver.evaluate) */
 static int state_finite(fg_ws *w, const fg_state *st)
 {
-    if (!isfinite(st->Pi) || !finite_all(st->r, (size_t)w->n)
-        || !finite_all(st->K, (size_t)w->n * (size_t)w->n)) {
+    if (!isfinite(st->Pi) || !finite_all(st->r, (size_t)w->n) || !st->kfinite) {
         set_error(w, FG_ERR_NONFINITE, st->lam, 0.0);
         return 0;
     }
@@ -696,6 +719,7 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
             st->QT[i] += T * gl[i];
     }
     hessian_sum(w, st->S);
+    st->sfinite = symmetrize(st->S, n);
     st->rmax = 0.0;
     for (i = 0; i < n; ++i)
         if (w->reach[i] > st->rmax)
@@ -1241,6 +1265,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     c->V = st0->V;
     c->gmax = st0->gmax;
     c->rmax = st0->rmax;
+    c->sfinite = st0->sfinite;
     at_lambda(w, c, 1.0);
     if (!state_finite(w, c) || !cholesky(p, c->K, w->la, n))
         goto done;                /* the full load may buckle the unloaded state */
