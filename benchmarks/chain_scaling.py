@@ -5,7 +5,7 @@
 The chain: n flexures of length 1/n (EI = 1) in a row, each on its parent's tip, a tip force
 (0, -2) (the cantilever of examples/cantilever_tip_load.toml cut into n pieces), scm3 with the
 "auto" kernel. Timed: ``plan.run()`` of ``flexgen.compiled.solver.prepare`` alone (median over
-batches of calls lasting at least BATCH_S, after a warm-up call), with the Newton iterations
+batches of calls lasting at least BATCH_S, after WARMUP_S of warm-up calls), with the Newton iterations
 and, where the compiled solver reports it (``fg_answer.evaluations``), the chain evaluations per
 solve. The last column is the time relative to n = 1.
 """
@@ -31,6 +31,7 @@ from flexgen.models.scm import SCMModel          # noqa: E402
 from flexgen.scene import scene_from_dict        # noqa: E402
 
 BATCH_S = 5e-3
+WARMUP_S = 0.3          # calls before timing (caches, CPU frequency)
 
 
 def chain_scene(n: int, force=(0.0, -2.0)):
@@ -47,6 +48,9 @@ def time_plan(plan, rounds: int) -> float:
     status = plan.run()
     if status != library.SOLVED:
         raise SystemExit(f"not solved in C (status {status})")
+    t_end = time.perf_counter() + WARMUP_S
+    while time.perf_counter() < t_end:
+        plan.run()
     calls = 1
     while True:
         t0 = time.perf_counter()

@@ -1226,7 +1226,8 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor
 
 /* The full load in one Newton solve from the unloaded state *st0 (equilibrium._direct_solve):
  * 1 with the equilibrium in *cur if every check passes, else 0 (the continuation runs). The
- * caller factored st0->K into w->la. end_factor (n x n) receives the Cholesky factor of the
+ * caller checked that st0->K, K at lam = 0 (the elastic stiffness: diagonal), is positive
+ * definite. end_factor (n x n) receives the Cholesky factor of the
  * end state's K, for the polishing and the compliance.
  *
  * The checks are those of _direct_solve, in an order that spends no chain evaluation on an
@@ -1253,7 +1254,8 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
 
     save_errors(w, &saved);
     memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)p->nflex);
-    cholesky_solve(p, w->la, n, st0->Q, t0);     /* la: K(q0, 0), factored by the caller */
+    for (i = 0; i < n; ++i)                       /* K(q0, 0) is diagonal (the caller) */
+        t0[i] = st0->Q[i] / st0->K[(size_t)i * (size_t)n + i];
     memcpy(c->q, st0->q, sizeof(double) * (size_t)n);
     memcpy(c->gU, st0->gU, sizeof(double) * (size_t)n);
     memcpy(c->QL, st0->QL, sizeof(double) * (size_t)n);
@@ -1621,6 +1623,17 @@ static int well_formed(const fg_problem *p, const fg_answer *out)
     return 1;
 }
 
+/* K at lam = 0 is the diagonal elastic stiffness (at_lambda: 0 S + diag): positive definite
+ * exactly when its diagonal is positive, no factorization needed */
+static int diagonal_positive(const double *K, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i)
+        if (!(K[(size_t)i * (size_t)n + i] > 0.0))
+            return 0;
+    return 1;
+}
+
 static void clear_switched(fg_ws *w)
 {
     memset(w->switched, 0, sizeof(int) * (size_t)w->p->nflex);
@@ -1681,7 +1694,7 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     }
     {
         int it0 = iterations;
-        if (p->settings.max_steps >= 1 && cholesky(p, st0->K, w->la, n)
+        if (p->settings.max_steps >= 1 && diagonal_positive(st0->K, n)
             && direct_solve(w, st0, &cur, &spare, smp, w->lb, &iterations)) {
             factor = w->lb;
         } else {
