@@ -37,7 +37,8 @@
 /* ---- workspace ------------------------------------------------------------------------- */
 
 #define FG_NSTATES 6        /* states held at once (the bifurcation crossing needs five) */
-#define FG_FDATA 10         /* doubles of per-flexure kinematics data (fg_ws.fdata) */
+#define FG_FDATA 12         /* doubles of per-flexure kinematics data (fg_ws.fdata) */
+#define FG_TILE 16          /* tile of at_lambda's symmetrizing pass */
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
 
 typedef struct {
@@ -56,7 +57,9 @@ typedef struct {
     /* kinematics at the last evaluated q */
     double *fpose, *fJ;     /* per flexure tip frame: pose (3), J (3 x n) */
     double *fdata;          /* per flexure (FG_FDATA): moving_parent, awx, awy, c, s (root frame
-                             * rotation), wx, wy, moving, ct, st (tip frame rotation) */
+                             * rotation), wx, wy, moving, ct, st (tip frame rotation), lo, hi
+                             * (the tip frame's J is zero outside the coordinates [lo, hi): those
+                             * of the flexure and its ancestors lie in it) */
     double *dk;             /* per flexure: the rank-one coefficients summed over its subtree */
     double *kq;             /* the q of the last kinematics (kin_ok: they succeeded) */
     int kin_ok;
@@ -296,7 +299,7 @@ static int kinematics(fg_ws *w, const double *q)
         double *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
         double pp[3] = {0.0, 0.0, 0.0};
         const double *PJ = NULL;
-        int moving = 0, tmoving = 0;
+        int moving = 0, tmoving = 0, lo, hi;
         double th, c = 1.0, s = 0.0, awx, awy, rp[3], wx, wy;
         if (f->parent >= 0) {
             const double *pd = w->fdata + FG_FDATA * f->parent;
@@ -328,17 +331,31 @@ static int kinematics(fg_ws *w, const double *q)
         pose[1] = rp[1] + wy;
         pose[2] = rp[2] + tp[2];
         /* J = the parent's J moved by the offset (aw) and by the tip (w), in one pass */
+        lo = off;
+        hi = off + k;
         if (PJ == NULL)
             memset(J, 0, sizeof(double) * 3 * (size_t)n);
         else if (!moving)
             memcpy(J, PJ, sizeof(double) * 3 * (size_t)n);
-        else
-            for (j = 0; j < n; ++j) {
+        else {
+            int plo = (int)w->fdata[FG_FDATA * f->parent + 10];
+            int phi = (int)w->fdata[FG_FDATA * f->parent + 11];
+            for (a = 0; a < 3; ++a) {   /* the parent's J is zero outside [plo, phi) */
+                memset(J + a * n, 0, sizeof(double) * (size_t)plo);
+                memset(J + a * n + phi, 0, sizeof(double) * (size_t)(n - phi));
+            }
+            for (j = plo; j < phi; ++j) {
                 double jt = PJ[2 * n + j];
                 J[j] = (PJ[j] - awy * jt) - wy * jt;
                 J[n + j] = (PJ[n + j] + awx * jt) + wx * jt;
                 J[2 * n + j] = jt;
             }
+        }
+        if (f->parent >= 0) {
+            const double *pd = w->fdata + FG_FDATA * f->parent;
+            lo = (int)pd[10] < lo ? (int)pd[10] : lo;
+            hi = (int)pd[11] > hi ? (int)pd[11] : hi;
+        }
         for (a = 0; a < k; ++a) {
             RJ[a] = c * tJ[a] - s * tJ[k + a];
             RJ[k + a] = s * tJ[a] + c * tJ[k + a];
@@ -358,6 +375,8 @@ static int kinematics(fg_ws *w, const double *q)
         d[7] = moving || tmoving;
         d[8] = cos(pose[2]);      /* the tip frame's rotation (its children, points) */
         d[9] = sin(pose[2]);
+        d[10] = lo;
+        d[11] = hi;
     }
     for (i = 0; i < p->npoints; ++i) {
         const fg_point *pt = &p->points[i];
@@ -411,24 +430,6 @@ static void add_coefficient(fg_ws *w, int point, double c0, double c1, double c2
     }
 }
 
-/* G = (G + G^T) / 2: hessian_sum adds a symmetric pair of off-diagonal terms t, t as 2t on one
- * side (contiguous rows only); this makes the pair (t, t) again, and G symmetric, so K is
- * lam G + diag without a transposed read. 1 if every entry is finite. */
-static int symmetrize(double *G, int n)
-{
-    int i, j, bad = 0;
-    for (i = 0; i < n; ++i) {
-        bad |= !(fabs(G[(size_t)i * n + i]) <= DBL_MAX);
-        for (j = i + 1; j < n; ++j) {
-            double v = 0.5 * (G[(size_t)i * n + j] + G[(size_t)j * n + i]);
-            G[(size_t)i * n + j] = v;
-            G[(size_t)j * n + i] = v;
-            bad |= !(fabs(v) <= DBL_MAX);
-        }
-    }
-    return !bad;
-}
-
 /* The Hessian term sum_p c_p . H_p of every point p (chain.py: hessian_sum), accumulated frame
  * by frame from the leaves to the base: each frame's coefficients (force c0, c1, moment c2 and
  * the rank-one coefficient kk of its angle row) act on its own tip Hessian, on the cross terms
@@ -439,7 +440,11 @@ static int symmetrize(double *G, int n)
  * its ancestors, where it is their own tip angle derivative a_j (tJ's angle row). So entry (i, j)
  * of the sum is a_i a_j times the sum of kk over the frames that lie below (or at) both the
  * flexure of i and that of j: none unless one of the two flexures, h, is an ancestor of (or is)
- * the other, g, and then the sum dk_g of kk over g's subtree. Each pair (h, g) is one block. */
+ * the other, g, and then the sum dk_g of kk over g's subtree. Each pair (h, g) is one block.
+ *
+ * An off-diagonal pair of equal terms (t at (a, b) and at (b, a)) is added as 2t at (a, b)
+ * alone, so every write runs along a row; at_lambda's first pass halves the pairs into place
+ * (G + G^T) / 2, which makes G symmetric (K = lam G + diag needs no transposed reads after). */
 static void hessian_sum(fg_ws *w, double *G)
 {
     const fg_problem *p = w->p;
@@ -467,7 +472,7 @@ static void hessian_sum(fg_ws *w, double *G)
                     if (h == i)
                         for (b = 0; b < k; ++b)
                             G[(oh + a) * n + off + b] -= m * ag[b];
-                    else        /* both (h, i) blocks at once: see symmetrize */
+                    else        /* both (h, i) blocks at once: see at_lambda */
                         for (b = 0; b < k; ++b)
                             G[(oh + a) * n + off + b] -= 2.0 * (m * ag[b]);
                 }
@@ -491,13 +496,12 @@ static void hessian_sum(fg_ws *w, double *G)
                 const double *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
                 for (a = 0; a < k; ++a) {
                     double m = c1 * RJ[a] - c0 * RJ[k + a], *row = G + (size_t)(off + a) * n;
-                    /* the parent's angle row is nonzero on its ancestors' coordinates only;
-                     * each term with its transpose: see symmetrize */
-                    for (h = f->parent; h >= 0; h = p->flex[h].parent) {
-                        int oh = p->flex[h].offset, eh = oh + p->flex[h].ndof;
-                        for (j = oh; j < eh; ++j)
-                            row[j] += 2.0 * (m * Jr[j]);
-                    }
+                    /* the parent's angle row is zero outside [lo, hi) (kinematics); each
+                     * term with its transpose: see above */
+                    int lo = (int)w->fdata[FG_FDATA * f->parent + 10];
+                    int hi = (int)w->fdata[FG_FDATA * f->parent + 11];
+                    for (j = lo; j < hi; ++j)
+                        row[j] += 2.0 * (m * Jr[j]);
                 }
             }
             pa[0] += c0;
@@ -525,7 +529,10 @@ static size_t out_size(const fg_ws *w)
     return (size_t)w->p->noutputs * (3 + 3 * (size_t)w->n);
 }
 
-static void at_lambda(const fg_ws *w, fg_state *st, double lam)
+/* The state at load factor lam from its load-independent parts. fresh: S was just accumulated
+ * by hessian_sum (one-sided: see there), and is symmetrized in the same pass that builds
+ * K (and its finiteness found), one pass over the matrix per evaluation. */
+static void at_lambda(const fg_ws *w, fg_state *st, double lam, int fresh)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, j;
@@ -538,9 +545,39 @@ static void at_lambda(const fg_ws *w, fg_state *st, double lam)
         if (fabs(st->r[i]) > rn)
             rn = fabs(st->r[i]);
     }
-    /* K = stiffness + lam S (S is symmetric: evaluate symmetrized it). Every entry finite: an
+    /* K = stiffness + lam S (S is symmetric: its fresh pass symmetrized it). Every entry finite: an
      * off-diagonal lam S_ij is, for |lam| <= 1 (every load factor of the solve), exactly when
      * S_ij is (sfinite); the diagonal and any other lam are checked here. */
+    if (fresh) {
+        /* tile by tile (FG_TILE x FG_TILE, the transposed tile stays in cache) */
+        double *S = st->S, *K = st->K;
+        int sbad = 0, ib, jb;
+        for (i = 0; i < n; ++i) {
+            size_t ii = (size_t)i * (size_t)n + i;
+            sbad |= !(fabs(S[ii]) <= DBL_MAX);
+            K[ii] = lam * S[ii] + p->stiffness[i];
+            bad |= !(fabs(K[ii]) <= DBL_MAX);
+        }
+        for (ib = 0; ib < n; ib += FG_TILE)
+            for (jb = ib; jb < n; jb += FG_TILE) {
+                int ie = ib + FG_TILE < n ? ib + FG_TILE : n;
+                int je = jb + FG_TILE < n ? jb + FG_TILE : n;
+                for (i = ib; i < ie; ++i)
+                    for (j = jb > i + 1 ? jb : i + 1; j < je; ++j) {
+                        size_t ij = (size_t)i * (size_t)n + j, ji = (size_t)j * (size_t)n + i;
+                        double v = 0.5 * (S[ij] + S[ji]);
+                        S[ij] = S[ji] = v;
+                        K[ij] = K[ji] = lam * v;
+                        sbad |= !(fabs(v) <= DBL_MAX);
+                    }
+            }
+        if (!(fabs(lam) <= 1.0))     /* else lam S_ij is finite exactly when S_ij is */
+            for (i = 0; i < n * n; ++i)
+                bad |= !(fabs(K[i]) <= DBL_MAX);
+        st->sfinite = !sbad;
+        st->kfinite = !sbad && !bad;
+        goto scalars;
+    }
     if (!(fabs(lam) <= 1.0))
         for (i = 0; i < n * n; ++i)
             bad |= !(fabs(lam * st->S[i]) <= DBL_MAX);
@@ -553,6 +590,7 @@ static void at_lambda(const fg_ws *w, fg_state *st, double lam)
         bad |= !(fabs(Ki[i]) <= DBL_MAX);
     }
     st->kfinite = st->sfinite && !bad;
+scalars:
     st->Pi = st->U - lam * st->W + lam * st->V;
     st->scale = st->gmax > fabs(lam) * st->rmax ? st->gmax : fabs(lam) * st->rmax;
     if (rn == 0.0)
@@ -719,12 +757,11 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
             st->QT[i] += T * gl[i];
     }
     hessian_sum(w, st->S);
-    st->sfinite = symmetrize(st->S, n);
     st->rmax = 0.0;
     for (i = 0; i < n; ++i)
         if (w->reach[i] > st->rmax)
             st->rmax = w->reach[i];
-    at_lambda(w, st, lam);
+    at_lambda(w, st, lam, 1);
     return 1;
 }
 
@@ -1268,7 +1305,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     c->gmax = st0->gmax;
     c->rmax = st0->rmax;
     c->sfinite = st0->sfinite;
-    at_lambda(w, c, 1.0);
+    at_lambda(w, c, 1.0, 0);
     if (!state_finite(w, c) || !cholesky(p, c->K, w->la, n))
         goto done;                /* the full load may buckle the unloaded state */
     if (!newton(w, cur, spare, NULL, max_it, 1, iterations))
