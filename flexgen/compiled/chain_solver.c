@@ -871,14 +871,41 @@ static int cholesky(const fg_problem *p, const double *A, double *F, int n)
     return cholesky_builtin(A, F, n);
 }
 
+/* x = A^-1 b with dpotrf's factor L (column-major lower: column j of L is row j of the
+ * row-major F, from entry j on). dpotrs would do the same two triangular solves, but for one
+ * right-hand side its blocked dtrsm costs more than these loops (the forward one an axpy per
+ * column, the backward one a dot product per column, four partial sums). */
+static void cholesky_solve_lapack_factor(const double *F, int n, const double *b, double *x)
+{
+    int i, j;
+    memcpy(x, b, sizeof(double) * (size_t)n);
+    for (j = 0; j < n; ++j) {
+        const double *col = F + (size_t)j * (size_t)n;
+        double yj = x[j] / col[j];
+        x[j] = yj;
+        for (i = j + 1; i < n; ++i)
+            x[i] -= col[i] * yj;
+    }
+    for (j = n - 1; j >= 0; --j) {
+        const double *col = F + (size_t)j * (size_t)n;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        for (i = j + 1; i + 3 < n; i += 4) {
+            s0 += col[i] * x[i];
+            s1 += col[i + 1] * x[i + 1];
+            s2 += col[i + 2] * x[i + 2];
+            s3 += col[i + 3] * x[i + 3];
+        }
+        for (; i < n; ++i)
+            s0 += col[i] * x[i];
+        x[j] = (x[j] - ((s0 + s1) + (s2 + s3))) / col[j];
+    }
+}
+
 static void cholesky_solve(const fg_problem *p, const double *F, int n, const double *b,
                            double *x)
 {
     if (use_lapack(p, n)) {
-        char uplo = 'L';
-        int info = 0, lda = n, nrhs = 1;
-        memcpy(x, b, sizeof(double) * (size_t)n);
-        p->lapack.potrs(&uplo, &n, &nrhs, (double *)F, &lda, x, &lda, &info);
+        cholesky_solve_lapack_factor(F, n, b, x);
         return;
     }
     cholesky_solve_builtin(F, n, b, x);
