@@ -38,7 +38,6 @@
 
 #define FG_NSTATES 6        /* states held at once (the bifurcation crossing needs five) */
 #define FG_FDATA 12         /* doubles of per-flexure kinematics data (fg_ws.fdata) */
-#define FG_TILE 16          /* tile of at_lambda's symmetrizing pass */
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
 
 typedef struct {
@@ -442,9 +441,9 @@ static void add_coefficient(fg_ws *w, int point, double c0, double c1, double c2
  * flexure of i and that of j: none unless one of the two flexures, h, is an ancestor of (or is)
  * the other, g, and then the sum dk_g of kk over g's subtree. Each pair (h, g) is one block.
  *
- * An off-diagonal pair of equal terms (t at (a, b) and at (b, a)) is added as 2t at (a, b)
- * alone, so every write runs along a row; at_lambda's first pass halves the pairs into place
- * (G + G^T) / 2, which makes G symmetric (K = lam G + diag needs no transposed reads after). */
+ * G is symmetric and only its upper triangle (row-major: column >= row; LAPACK's column-major
+ * lower triangle) is built, everywhere in this file: an off-diagonal pair of equal terms goes to
+ * the upper one of its two places. The lower triangle of S and K is never read (sym_copy). */
 static void hessian_sum(fg_ws *w, double *G)
 {
     const fg_problem *p = w->p;
@@ -465,17 +464,19 @@ static void hessian_sum(fg_ws *w, double *G)
                 const fg_flexure *fh = &p->flex[h];
                 int kh = fh->ndof, oh = fh->offset;
                 const double *ah = tip_block(w, h) + 2 * kh;
-                for (a = 0; a < kh; ++a) {
-                    double m = dki * ah[a];
-                    if (m == 0.0)
-                        continue;
-                    if (h == i)
-                        for (b = 0; b < k; ++b)
-                            G[(oh + a) * n + off + b] -= m * ag[b];
-                    else        /* both (h, i) blocks at once: see at_lambda */
-                        for (b = 0; b < k; ++b)
-                            G[(oh + a) * n + off + b] -= 2.0 * (m * ag[b]);
-                }
+                if (h == i || oh < off)     /* the block (h, i) lies in the upper triangle */
+                    for (a = 0; a < kh; ++a) {
+                        double m = dki * ah[a];
+                        if (m != 0.0)
+                            for (b = 0; b < k; ++b)
+                                G[(oh + a) * n + off + b] -= m * ag[b];
+                    }
+                else                        /* its transpose (i, h) does */
+                    for (b = 0; b < k; ++b) {
+                        double *row = G + (size_t)(off + b) * n + oh;
+                        for (a = 0; a < kh; ++a)
+                            row[a] -= (dki * ah[a]) * ag[b];
+                    }
             }
         }
         if (f->parent >= 0)
@@ -494,14 +495,24 @@ static void hessian_sum(fg_ws *w, double *G)
             double *pa = w->acc + 4 * f->parent;
             if (d[0] != 0.0) {   /* the parent frame moves: cross terms with its angle */
                 const double *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
+                /* the parent's angle row is zero outside [lo, hi) (kinematics) and on this
+                 * flexure's own coordinates; each term with its transpose, in the upper
+                 * triangle: rows j < off (k entries each), row off + a right of it */
+                int lo = (int)w->fdata[FG_FDATA * f->parent + 10];
+                int hi = (int)w->fdata[FG_FDATA * f->parent + 11];
+                int left = hi < off ? hi : off, right = lo > off + k ? lo : off + k;
+                double *m = w->scratch;     /* k entries (the fem scratch, free here) */
+                for (a = 0; a < k; ++a)
+                    m[a] = c1 * RJ[a] - c0 * RJ[k + a];
+                for (j = lo; j < left; ++j) {
+                    double *row = G + (size_t)j * n + off, jr = Jr[j];
+                    for (a = 0; a < k; ++a)
+                        row[a] += m[a] * jr;
+                }
                 for (a = 0; a < k; ++a) {
-                    double m = c1 * RJ[a] - c0 * RJ[k + a], *row = G + (size_t)(off + a) * n;
-                    /* the parent's angle row is zero outside [lo, hi) (kinematics); each
-                     * term with its transpose: see above */
-                    int lo = (int)w->fdata[FG_FDATA * f->parent + 10];
-                    int hi = (int)w->fdata[FG_FDATA * f->parent + 11];
-                    for (j = lo; j < hi; ++j)
-                        row[j] += 2.0 * (m * Jr[j]);
+                    double *row = G + (size_t)(off + a) * n;
+                    for (j = right; j < hi; ++j)
+                        row[j] += m[a] * Jr[j];
                 }
             }
             pa[0] += c0;
@@ -529,9 +540,7 @@ static size_t out_size(const fg_ws *w)
     return (size_t)w->p->noutputs * (3 + 3 * (size_t)w->n);
 }
 
-/* The state at load factor lam from its load-independent parts. fresh: S was just accumulated
- * by hessian_sum (one-sided: see there), and is symmetrized in the same pass that builds
- * K (and its finiteness found), one pass over the matrix per evaluation. */
+/* The state at load factor lam from its load-independent parts (fresh: S was just built). */
 static void at_lambda(const fg_ws *w, fg_state *st, double lam, int fresh)
 {
     const fg_problem *p = w->p;
@@ -545,52 +554,31 @@ static void at_lambda(const fg_ws *w, fg_state *st, double lam, int fresh)
         if (fabs(st->r[i]) > rn)
             rn = fabs(st->r[i]);
     }
-    /* K = stiffness + lam S (S is symmetric: its fresh pass symmetrized it). Every entry finite: an
-     * off-diagonal lam S_ij is, for |lam| <= 1 (every load factor of the solve), exactly when
-     * S_ij is (sfinite); the diagonal and any other lam are checked here. */
+    /* K = stiffness + lam S, the upper triangles (hessian_sum). Every entry finite: S's
+     * (sfinite, found here once per evaluation: fresh), and then lam S_ij is too for
+     * |lam| <= 1 (every load factor of the solve); the diagonal and other lam checked here. */
     if (fresh) {
-        /* tile by tile (FG_TILE x FG_TILE, the transposed tile stays in cache) */
-        double *S = st->S, *K = st->K;
-        int sbad = 0, ib, jb;
         for (i = 0; i < n; ++i) {
-            size_t ii = (size_t)i * (size_t)n + i;
-            sbad |= !(fabs(S[ii]) <= DBL_MAX);
-            K[ii] = lam * S[ii] + p->stiffness[i];
-            bad |= !(fabs(K[ii]) <= DBL_MAX);
+            const double *Si = st->S + (size_t)i * (size_t)n;
+            for (j = i; j < n; ++j)
+                bad |= !(fabs(Si[j]) <= DBL_MAX);
         }
-        for (ib = 0; ib < n; ib += FG_TILE)
-            for (jb = ib; jb < n; jb += FG_TILE) {
-                int ie = ib + FG_TILE < n ? ib + FG_TILE : n;
-                int je = jb + FG_TILE < n ? jb + FG_TILE : n;
-                for (i = ib; i < ie; ++i)
-                    for (j = jb > i + 1 ? jb : i + 1; j < je; ++j) {
-                        size_t ij = (size_t)i * (size_t)n + j, ji = (size_t)j * (size_t)n + i;
-                        double v = 0.5 * (S[ij] + S[ji]);
-                        S[ij] = S[ji] = v;
-                        K[ij] = K[ji] = lam * v;
-                        sbad |= !(fabs(v) <= DBL_MAX);
-                    }
-            }
-        if (!(fabs(lam) <= 1.0))     /* else lam S_ij is finite exactly when S_ij is */
-            for (i = 0; i < n * n; ++i)
-                bad |= !(fabs(K[i]) <= DBL_MAX);
-        st->sfinite = !sbad;
-        st->kfinite = !sbad && !bad;
-        goto scalars;
+        st->sfinite = !bad;
+        bad = 0;
     }
-    if (!(fabs(lam) <= 1.0))
-        for (i = 0; i < n * n; ++i)
-            bad |= !(fabs(lam * st->S[i]) <= DBL_MAX);
     for (i = 0; i < n; ++i) {
         const double *Si = st->S + (size_t)i * (size_t)n;
         double *Ki = st->K + (size_t)i * (size_t)n;
-        for (j = 0; j < n; ++j)
+        for (j = i; j < n; ++j)
             Ki[j] = lam * Si[j];
         Ki[i] += p->stiffness[i];
         bad |= !(fabs(Ki[i]) <= DBL_MAX);
     }
+    if (!(fabs(lam) <= 1.0))
+        for (i = 0; i < n; ++i)
+            for (j = i + 1; j < n; ++j)
+                bad |= !(fabs(st->K[(size_t)i * (size_t)n + j]) <= DBL_MAX);
     st->kfinite = st->sfinite && !bad;
-scalars:
     st->Pi = st->U - lam * st->W + lam * st->V;
     st->scale = st->gmax > fabs(lam) * st->rmax ? st->gmax : fabs(lam) * st->rmax;
     if (rn == 0.0)
@@ -747,7 +735,7 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
             }
             for (a = 0; a < n; ++a)       /* T times the rank-one part of hess l */
                 if (m[a] != 0.0)
-                    for (b = 0; b < n; ++b)
+                    for (b = a; b < n; ++b)       /* the upper triangle (hessian_sum) */
                         st->S[a * n + b] += T * m[a] * (m[b] / rho);
             add_coefficient(w, pb, T * ux, T * uy, 0.0);
             add_coefficient(w, pa, -T * ux, -T * uy, 0.0);
@@ -767,49 +755,84 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
 
 /* ---- dense linear algebra (n is small: a few flexures' coordinates) ----------------------- */
 
-/* Cholesky factor L (lower, row-major) of the symmetric A in F; 0 if A is not positive definite */
+/* F = the symmetric matrix whose upper triangle is A's (S and K hold only their upper
+ * triangles: hessian_sum), for the routines that read a full matrix */
+static void sym_copy(double *F, const double *A, int n)
+{
+    int i, j;
+    for (i = 0; i < n; ++i) {
+        const double *Ai = A + (size_t)i * (size_t)n;
+        double *Fi = F + (size_t)i * (size_t)n;
+        for (j = i; j < n; ++j) {
+            Fi[j] = Ai[j];
+            F[(size_t)j * (size_t)n + i] = Ai[j];
+        }
+    }
+}
+
+/* The Cholesky factor U (A = U^T U, row-major upper: dpotrf's column-major lower L = U^T, the
+ * same array) of the symmetric A (its upper triangle) in F, by rows: each pivot row scaled,
+ * then subtracted from the trailing rows (an axpy along each); 0 if A is not positive definite */
 static int cholesky_builtin(const double *A, double *F, int n)
 {
     int i, j, k;
     for (i = 0; i < n; ++i)
-        for (j = 0; j <= i; ++j) {
-            double sum = A[i * n + j];
-            for (k = 0; k < j; ++k)
-                sum -= F[i * n + k] * F[j * n + k];
-            if (i == j) {
-                if (!(sum > 0.0))
-                    return 0;
-                F[i * n + i] = sqrt(sum);
-            } else {
-                F[i * n + j] = sum / F[j * n + j];
-            }
+        memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
+               sizeof(double) * (size_t)(n - i));
+    for (k = 0; k < n; ++k) {
+        double *Fk = F + (size_t)k * (size_t)n, d = Fk[k];
+        if (!(d > 0.0))
+            return 0;
+        d = sqrt(d);
+        Fk[k] = d;
+        for (j = k + 1; j < n; ++j)
+            Fk[j] /= d;
+        for (i = k + 1; i < n; ++i) {
+            double u = Fk[i], *Fi = F + (size_t)i * (size_t)n;
+            if (u != 0.0)
+                for (j = i; j < n; ++j)
+                    Fi[j] -= u * Fk[j];
         }
+    }
     return 1;
 }
 
+/* x = A^-1 b with A = U^T U, U in F (cholesky's factor, built-in or dpotrf's): U^T y = b by an
+ * axpy along each row of U, U x = y by a dot product along each row (four partial sums). For
+ * one right-hand side these loops cost less than dpotrs's blocked dtrsm. */
 static void cholesky_solve_builtin(const double *F, int n, const double *b, double *x)
 {
-    int i, k;
-    for (i = 0; i < n; ++i) {
-        double sum = b[i];
-        for (k = 0; k < i; ++k)
-            sum -= F[i * n + k] * x[k];
-        x[i] = sum / F[i * n + i];
+    int i, j;
+    memcpy(x, b, sizeof(double) * (size_t)n);
+    for (j = 0; j < n; ++j) {
+        const double *Fj = F + (size_t)j * (size_t)n;
+        double yj = x[j] / Fj[j];
+        x[j] = yj;
+        for (i = j + 1; i < n; ++i)
+            x[i] -= Fj[i] * yj;
     }
-    for (i = n - 1; i >= 0; --i) {
-        double sum = x[i];
-        for (k = i + 1; k < n; ++k)
-            sum -= F[k * n + i] * x[k];
-        x[i] = sum / F[i * n + i];
+    for (j = n - 1; j >= 0; --j) {
+        const double *Fj = F + (size_t)j * (size_t)n;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        for (i = j + 1; i + 3 < n; i += 4) {
+            s0 += Fj[i] * x[i];
+            s1 += Fj[i + 1] * x[i + 1];
+            s2 += Fj[i + 2] * x[i + 2];
+            s3 += Fj[i + 3] * x[i + 3];
+        }
+        for (; i < n; ++i)
+            s0 += Fj[i] * x[i];
+        x[j] = (x[j] - ((s0 + s1) + (s2 + s3))) / Fj[j];
     }
 }
 
-/* x = A^-1 b by LU with partial pivoting (A copied into F); 0 if A is singular */
+/* x = A^-1 b by LU with partial pivoting (the symmetric A, its lower triangle, copied into F);
+ * 0 if A is singular */
 static int lu_solve_builtin(const double *A, double *F, int *piv, int n, const double *b,
                             double *x)
 {
     int i, j, k;
-    memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+    sym_copy(F, A, n);
     for (k = 0; k < n; ++k) {
         int pk = k;
         double big = fabs(F[k * n + k]);
@@ -862,7 +885,7 @@ static int use_lapack(const fg_problem *p, int n)
 static int cholesky(const fg_problem *p, const double *A, double *F, int n)
 {
     if (use_lapack(p, n)) {
-        char uplo = 'L';
+        char uplo = 'L';          /* column-major lower: the row-major upper triangle */
         int info = 0, lda = n;
         memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
         p->lapack.potrf(&uplo, &n, F, &lda, &info);
@@ -871,43 +894,11 @@ static int cholesky(const fg_problem *p, const double *A, double *F, int n)
     return cholesky_builtin(A, F, n);
 }
 
-/* x = A^-1 b with dpotrf's factor L (column-major lower: column j of L is row j of the
- * row-major F, from entry j on). dpotrs would do the same two triangular solves, but for one
- * right-hand side its blocked dtrsm costs more than these loops (the forward one an axpy per
- * column, the backward one a dot product per column, four partial sums). */
-static void cholesky_solve_lapack_factor(const double *F, int n, const double *b, double *x)
-{
-    int i, j;
-    memcpy(x, b, sizeof(double) * (size_t)n);
-    for (j = 0; j < n; ++j) {
-        const double *col = F + (size_t)j * (size_t)n;
-        double yj = x[j] / col[j];
-        x[j] = yj;
-        for (i = j + 1; i < n; ++i)
-            x[i] -= col[i] * yj;
-    }
-    for (j = n - 1; j >= 0; --j) {
-        const double *col = F + (size_t)j * (size_t)n;
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-        for (i = j + 1; i + 3 < n; i += 4) {
-            s0 += col[i] * x[i];
-            s1 += col[i + 1] * x[i + 1];
-            s2 += col[i + 2] * x[i + 2];
-            s3 += col[i + 3] * x[i + 3];
-        }
-        for (; i < n; ++i)
-            s0 += col[i] * x[i];
-        x[j] = (x[j] - ((s0 + s1) + (s2 + s3))) / col[j];
-    }
-}
-
 static void cholesky_solve(const fg_problem *p, const double *F, int n, const double *b,
                            double *x)
 {
-    if (use_lapack(p, n)) {
-        cholesky_solve_lapack_factor(F, n, b, x);
-        return;
-    }
+    (void)p;                  /* both factors have the same layout (cholesky_solve_builtin);
+                               * dpotrs's blocked dtrsm costs more for one right-hand side */
     cholesky_solve_builtin(F, n, b, x);
 }
 
@@ -917,7 +908,7 @@ static int lu_solve(const fg_problem *p, const double *A, double *F, int *piv, i
     if (use_lapack(p, n)) {
         char trans = 'N';
         int info = 0, lda = n, nrhs = 1;
-        memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+        sym_copy(F, A, n);
         p->lapack.getrf(&n, &n, F, &lda, piv, &info);
         if (info != 0)
             return 0;
@@ -965,7 +956,7 @@ static void jacobi_builtin(const double *A, int n, double *ev, double *V, double
 {
     double *a = scratch, *u = scratch + (size_t)n * (size_t)n, fro = 0.0, small;
     int i, j, k, sweep, rotated = 1;
-    memcpy(a, A, sizeof(double) * (size_t)n * (size_t)n);
+    sym_copy(a, A, n);
     for (i = 0; i < n; ++i)
         for (j = 0; j < n; ++j) {
             u[i * n + j] = i == j ? 1.0 : 0.0;
@@ -1040,7 +1031,7 @@ static void eigen(fg_ws *w, const double *A)
     const fg_problem *p = w->p;
     int n = w->n;
     if (p->lapack.syev != NULL && n >= p->settings.lapack_min_size) {
-        char jobz = 'V', uplo = 'L';
+        char jobz = 'V', uplo = 'L';   /* column-major lower: the row-major upper triangle */
         int info = 0, lda = n, lwork = FG_LWORK(n);
         memcpy(w->eV, A, sizeof(double) * (size_t)n * (size_t)n);
         p->lapack.syev(&jobz, &uplo, &n, w->eV, &lda, w->ew, w->ework, &lwork, &info);
@@ -1259,7 +1250,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor
     out->residual = cur->rel;
     memcpy(out->q, cur->q, sizeof(double) * (size_t)n);
     if (out->stiffness != NULL)
-        memcpy(out->stiffness, cur->K, sizeof(double) * (size_t)n * (size_t)n);
+        sym_copy(out->stiffness, cur->K, n);
     for (j = 0; j < p->noutputs; ++j) {
         const double *J = cur->out + (size_t)j * (3 + 3 * (size_t)n) + 3;
         double *C = out->compliance + 9 * j, *X = w->lc;   /* X = K^-1 J^T, 3 columns */
@@ -1414,9 +1405,12 @@ static int is_bifurcation(fg_ws *w, const fg_state *b)
     int n = w->n, i;
     double kg = 0.0, scale;
     min_eig(w, b->K);
-    for (i = 0; i < n * n; ++i) {
-        double g = b->lam * b->S[i];
-        kg += g * g;
+    for (i = 0; i < n; ++i) {     /* S's upper triangle: the strict part counts twice */
+        int j;
+        for (j = i; j < n; ++j) {
+            double g = b->lam * b->S[(size_t)i * (size_t)n + j];
+            kg += j > i ? 2.0 * (g * g) : g * g;
+        }
     }
     scale = norm2(b->Q, n) + sqrt(kg);
     return scale > 0.0 ? fabs(dot(w->eV, b->Q, n)) <= w->set->bifurcation_threshold * scale : 1;
@@ -1489,9 +1483,12 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
                 mu_lo *= 0.5;
             side = 1;
         }
-        for (i = 0; i < n * n; ++i)
-            if (fabs(m->K[i]) > kmax)
-                kmax = fabs(m->K[i]);
+        for (i = 0; i < n; ++i) {             /* K's upper triangle */
+            int j;
+            for (j = i; j < n; ++j)
+                if (fabs(m->K[(size_t)i * (size_t)n + j]) > kmax)
+                    kmax = fabs(m->K[(size_t)i * (size_t)n + j]);
+        }
         if (fabs(mu_m) <= set->bracket_tol * kmax)
             break;
     }
