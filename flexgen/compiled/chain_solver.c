@@ -540,8 +540,9 @@ static size_t out_size(const fg_ws *w)
     return (size_t)w->p->noutputs * (3 + 3 * (size_t)w->n);
 }
 
-/* The state at load factor lam from its load-independent parts (fresh: S was just built). */
-static void at_lambda(const fg_ws *w, fg_state *st, double lam, int fresh)
+/* The state at load factor lam from its load-independent parts (fresh: S was just built);
+ * S: NULL (st's own), or the S to use instead (st's own is then not read) */
+static void at_lambda(const fg_ws *w, fg_state *st, const double *S, double lam, int fresh)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, j;
@@ -557,23 +558,30 @@ static void at_lambda(const fg_ws *w, fg_state *st, double lam, int fresh)
     /* K = stiffness + lam S, the upper triangles (hessian_sum). Every entry finite: S's
      * (sfinite, found here once per evaluation: fresh), and then lam S_ij is too for
      * |lam| <= 1 (every load factor of the solve); the diagonal and other lam checked here. */
+    if (S == NULL)
+        S = st->S;
     if (fresh) {
+        int sbad = 0;
         for (i = 0; i < n; ++i) {
-            const double *Si = st->S + (size_t)i * (size_t)n;
-            for (j = i; j < n; ++j)
-                bad |= !(fabs(Si[j]) <= DBL_MAX);
+            const double *Si = S + (size_t)i * (size_t)n;
+            double *Ki = st->K + (size_t)i * (size_t)n;
+            for (j = i; j < n; ++j) {
+                Ki[j] = lam * Si[j];
+                sbad |= !(fabs(Si[j]) <= DBL_MAX);
+            }
+            Ki[i] += p->stiffness[i];
+            bad |= !(fabs(Ki[i]) <= DBL_MAX);
         }
-        st->sfinite = !bad;
-        bad = 0;
-    }
-    for (i = 0; i < n; ++i) {
-        const double *Si = st->S + (size_t)i * (size_t)n;
-        double *Ki = st->K + (size_t)i * (size_t)n;
-        for (j = i; j < n; ++j)
-            Ki[j] = lam * Si[j];
-        Ki[i] += p->stiffness[i];
-        bad |= !(fabs(Ki[i]) <= DBL_MAX);
-    }
+        st->sfinite = !sbad;
+    } else
+        for (i = 0; i < n; ++i) {
+            const double *Si = S + (size_t)i * (size_t)n;
+            double *Ki = st->K + (size_t)i * (size_t)n;
+            for (j = i; j < n; ++j)
+                Ki[j] = lam * Si[j];
+            Ki[i] += p->stiffness[i];
+            bad |= !(fabs(Ki[i]) <= DBL_MAX);
+        }
     if (!(fabs(lam) <= 1.0))
         for (i = 0; i < n; ++i)
             for (j = i + 1; j < n; ++j)
@@ -691,7 +699,8 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
             st->gmax = fabs(st->gU[i]);
         st->QL[i] = st->QT[i] = w->reach[i] = 0.0;
     }
-    memset(st->S, 0, sizeof(double) * (size_t)n * (size_t)n);
+    for (i = 0; i < n; ++i)       /* the upper triangle (hessian_sum) */
+        memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(double) * (size_t)(n - i));
     memset(w->acc, 0, sizeof(double) * 4 * (size_t)p->nflex);
     memset(w->dk, 0, sizeof(double) * (size_t)p->nflex);
     st->W = st->V = 0.0;
@@ -749,7 +758,7 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
     for (i = 0; i < n; ++i)
         if (w->reach[i] > st->rmax)
             st->rmax = w->reach[i];
-    at_lambda(w, st, lam, 1);
+    at_lambda(w, st, NULL, lam, 1);
     return 1;
 }
 
@@ -1315,7 +1324,6 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     memcpy(c->gU, st0->gU, sizeof(double) * (size_t)n);
     memcpy(c->QL, st0->QL, sizeof(double) * (size_t)n);
     memcpy(c->QT, st0->QT, sizeof(double) * (size_t)n);
-    memcpy(c->S, st0->S, sizeof(double) * (size_t)n * (size_t)n);
     memcpy(c->out, st0->out, sizeof(double) * out_size(w));
     c->U = st0->U;
     c->W = st0->W;
@@ -1323,7 +1331,9 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     c->gmax = st0->gmax;
     c->rmax = st0->rmax;
     c->sfinite = st0->sfinite;
-    at_lambda(w, c, 1.0, 0);
+    /* K(q0, 1) from st0's S, not copied: the states of this solve at lam = 1 never need
+     * their S again (Newton, finish: r, K, Pi, out), so c->S is left as it is */
+    at_lambda(w, c, st0->S, 1.0, 0);
     if (!state_finite(w, c) || !cholesky(p, c->K, w->la, n))
         goto done;                /* the full load may buckle the unloaded state */
     if (!newton(w, cur, spare, NULL, max_it, 1, iterations))
