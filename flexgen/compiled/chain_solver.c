@@ -11,9 +11,25 @@
  * path ends the solve descends to the equilibrium it snaps to. Each such critical load factor is
  * reported in fg_answer.critical with its kind (the Python side rebuilds the Python solver's
  * warnings from them), and so is every flexure whose "auto" model switched to its Gauss kernel
- * (fg_answer.switched). Where the Python solver would do more than that -- a warm start fails,
- * the critical array is full, no equilibrium is found -- fg_solve returns FG_FALLBACK and the
- * Python solver runs the scene. So the two give the same answers (tests/test_compiled.py).
+ * (fg_answer.switched).
+ *
+ * This is the only solver: every solve ends with an answer (FG_SOLVED) or with the reason there
+ * is none (FG_NO_EQUILIBRIUM), what the Python solver reported: fg_answer.failure (FG_FAIL_*: the
+ * unloaded state cannot be evaluated, the step budget ran out, no stable state past a
+ * bifurcation, none beyond a limit point) at failure_load_factor, the last error met on the way
+ * (last_error: FG_ERR_* with the load factor, relative residual, iteration limit, flexure or
+ * tendon segment its message names) and the last model error (model_error*), from which the
+ * caller writes equilibrium.solve's reason strings. A warm start that is not accepted goes on
+ * from the unloaded state, an unstable unloaded state or max_steps < 1 goes to the
+ * continuation (which then proceeds or fails as the Python solver's did), critical events beyond
+ * the caller's array are counted, not stored. FG_MODEL_ERROR: a malformed fg_problem only
+ * (well_formed). tests/test_compiled.py compares the answers with the Python solver's.
+ *
+ * Every tuning constant comes from fg_problem.settings (fg_settings: flexgen/settings.py).
+ *
+ * Cost: a chain evaluation (kinematics, potential, residual, stiffness: evaluate) is O(n^2) in
+ * the n coordinates (hessian_sum's blockwise rank-one terms, each frame's rotation computed
+ * once); the factorizations are O(n^3) (LAPACK's from lapack_min_size coordinates on).
  *
  * Flexure models: the generated smooth curvature kernels (scm{N}, scm{N}_gauss{G}: function
  * pointers, so this file needs no header of theirs), the n-element chain ("fem", the same
@@ -21,8 +37,10 @@
  * Every elastic energy is quadratic with a diagonal Hessian (``stiffness``).
  *
  * Linear algebra: built-in Cholesky, LU and (cyclic Jacobi) symmetric eigen-decomposition, or
- * LAPACK's dpotrf/dpotrs, dgetrf/dgetrs and dsyev by function pointer (fg_lapack) from
- * lapack.min_size coordinates on.
+ * LAPACK's dpotrf, dgetrf/dgetrs and dsyev by function pointer (fg_lapack) from
+ * settings.lapack_min_size coordinates on (the triangular solves with a Cholesky factor are
+ * always the built-in ones; fg_lapack.potrs is not called). The symmetric S and K hold their
+ * upper triangles only (hessian_sum).
  *
  * C99, no heap, no globals: the caller provides the workspace (fg_work_size doubles and
  * fg_iwork_size ints). Compiled with gcc -std=c99 -Wall -Wextra -Werror -pedantic.
@@ -38,6 +56,12 @@
 
 #define FG_NSTATES 6        /* states held at once (the bifurcation crossing needs five) */
 #define FG_FDATA 12         /* doubles of per-flexure kinematics data (fg_ws.fdata) */
+/* The built-in Jacobi eigen-solver's own accuracy (rotations stop below this fraction of |A|,
+ * so its eigenvalues are LAPACK's to a few ulps) and a bound on its sweeps (it converges
+ * quadratically, in about ten): properties of the numerical method, not tuning of the solve
+ * (fg_settings holds those). */
+#define FG_JACOBI_SMALL 1e-18
+#define FG_JACOBI_SWEEPS 100
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
 
 typedef struct {
@@ -971,8 +995,8 @@ static void jacobi_builtin(const double *A, int n, double *ev, double *V, double
             u[i * n + j] = i == j ? 1.0 : 0.0;
             fro += a[i * n + j] * a[i * n + j];
         }
-    small = 1e-18 * sqrt(fro);
-    for (sweep = 0; sweep < 100 && rotated; ++sweep) {
+    small = FG_JACOBI_SMALL * sqrt(fro);
+    for (sweep = 0; sweep < FG_JACOBI_SWEEPS && rotated; ++sweep) {
         rotated = 0;
         for (i = 0; i + 1 < n; ++i)
             for (j = i + 1; j < n; ++j) {

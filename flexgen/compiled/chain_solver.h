@@ -82,8 +82,8 @@ typedef void (*fg_syev)(char *jobz, char *uplo, int *n, double *a, int *lda, dou
                         double *work, int *lwork, int *info);
 
 typedef struct {
-    fg_potrf potrf;
-    fg_potrs potrs;
+    fg_potrf potrf;       /* called with uplo 'L' */
+    fg_potrs potrs;       /* not called: the solves with its factor are built in */
     fg_getrf getrf;
     fg_getrs getrs;
     fg_syev syev;         /* symmetric eigen-decomposition (NULL: the built-in Jacobi method) */
