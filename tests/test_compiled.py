@@ -894,3 +894,132 @@ def test_cache_dir_falls_back_to_the_temp_dir(monkeypatch, tmp_path):
     monkeypatch.setattr(Path, "home", staticmethod(lambda: blocker))
     got = clib.cache_dir()
     assert got.parent == Path(__import__("tempfile").gettempdir()) and "flexgen" in got.name
+
+
+# -- 4. no equilibrium: the C answer carries the Python solver's reason ---------------------------
+
+def c_reason(plan, models, tendons, max_dq) -> str:
+    """equilibrium.solve's reason string, written from the C answer's failure, last error and
+    model error fields alone (what the Python glue of the C-only solver will do)."""
+    a = plan.answer
+    route = [ref for _, r in tendons for ref in r]     # fg_problem.route's entries
+
+    def model_message(code, flexure, entry):
+        if code == clib.ERR_KERNEL_RANGE:
+            m = models[plan.flexure_order[flexure]]
+            with pytest.raises(ValueError) as exc:       # its message names no q
+                m.kernel_at(np.full(m.n_dof, 1e6))
+            return str(exc.value)
+        if code == clib.ERR_TENDON:
+            return f"tendon segment {route[entry]!r} -> {route[entry + 1]!r} has zero length"
+        return None
+
+    def last_error():
+        e, lam, rel = a.last_error, a.last_error_load_factor, a.last_error_residual
+        if e == clib.ERR_STAGNATION:
+            return f"Newton stagnates at load factor {lam:.6g} (relative residual {rel:.2e})"
+        if e == clib.ERR_NOT_CONVERGED:
+            return (f"Newton did not converge in {a.last_error_iterations} iterations "
+                    f"(relative residual {rel:.2e})")
+        if e == clib.ERR_LINE_SEARCH:
+            return f"line search failed at load factor {lam:.6g} (relative residual {rel:.2e})"
+        if e == clib.ERR_JUMP:
+            return f"the path jumped by more than {max_dq} in q at load factor {lam:.6g}"
+        if e == clib.ERR_NONFINITE:
+            return "a model returned a non-finite value"
+        return str(model_message(e, a.last_error_flexure, a.last_error_route))
+
+    lam = a.failure_load_factor
+    reason = {
+        clib.FAIL_UNLOADED: f"no equilibrium of the unloaded scene: {last_error()}",
+        clib.FAIL_STEPS: (f"load continuation needed more than "
+                          f"{plan.problem.settings.max_steps} steps (reached load factor "
+                          f"{lam:.6g})"),
+        clib.FAIL_BIFURCATION: (f"no stable equilibrium found past the bifurcation near load "
+                                f"factor {lam:.6g}: {last_error()}"),
+        clib.FAIL_LIMIT: f"no equilibrium found beyond load factor {lam:.6g}: {last_error()}",
+    }[a.failure]
+    model_error = model_message(a.model_error, a.model_error_flexure, a.model_error_route)
+    if model_error and model_error not in reason:
+        reason = f"{reason} (last model error: {model_error})"
+    return reason
+
+
+def finger(tension: float):
+    """The two-link finger with its tendon at this tension (400 N: no equilibrium beyond a load
+    factor of about 0.16)."""
+    from dataclasses import replace
+    scene = example("two_link_finger")
+    return replace(scene, tendons=tuple(replace(t, tension=tension) for t in scene.tendons))
+
+
+def zero_tendon():
+    """A tendon whose two route points coincide in the unloaded state: no unloaded equilibrium."""
+    return scene_from_dict({
+        "name": "zero tendon", "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
+        "link": [{"name": "l", "parent": "a", "points": {"p": [0.0, 0.0]}}],
+        "tendon": [{"tension": 1.0, "route": ["a.tip", "l.p"]}],
+        "output": {"points": ["a.tip"]}})
+
+
+@pytest.mark.parametrize("scene, factory, settings", [
+    (cantilever(moment=math.radians(150.0)), scm(3, "poly"), {}),
+    (cantilever(force=(0.0, -2.0)), scm(3), dict(max_iterations=0)),
+    (cantilever(force=(0.0, -2.0)), scm(3), dict(max_steps=0)),
+    (cantilever(force=(-3.4375929, 0.0)), scm(5), dict(max_iterations=1, max_steps=3)),
+    (cantilever(force=(0.0, -2.0)), fem(8), dict(max_dq=1e-3, max_steps=20)),
+    (cantilever(**SNAP), scm(5, "gauss"), dict(max_iterations=1)),
+    (column(25.0, 0.0), scm(3, "gauss"), dict(max_iterations=1)),
+], ids=["poly-range", "no-iterations", "no-steps", "few-steps", "jumps", "snap", "buckling"])
+def test_no_equilibrium_reason_from_the_c_answer(scene, factory, settings):
+    """Where the Python solver finds no equilibrium, so does the C solver (FG_NO_EQUILIBRIUM),
+    and its answer's fields give the same reason, load factor and iterations."""
+    rp = solve(scene, model_factory=factory, **settings)
+    models = build_models(scene, None, factory)
+    chain = Chain(scene, models)
+    system = eq.System(chain)
+    outputs = eq._output_points(scene, chain)
+    plan = build_plan(chain, system.loads, system.tendons, outputs, **settings)
+    status = plan.run()
+    if rp.converged:
+        assert status == clib.SOLVED
+        pytest.skip("the Python solver finds an equilibrium here")
+    assert status == clib.NO_EQUILIBRIUM
+    max_dq = settings.get("max_dq", 0.5)
+    assert c_reason(plan, models, system.tendons, max_dq) == rp.reason
+    assert plan.answer.failure_load_factor == rp.load_factor
+    assert plan.answer.iterations == rp.iterations
+    assert plan.answer.ncritical == len(rp.critical_load_factors)
+
+
+def test_limit_point_failure_from_the_c_answer():
+    """The finger at 400 N: the path ends near lam = 0.16316 and the descent to the state it would
+    snap to fails. Same failure and load factor; the last error comes from a descent that wanders
+    for hundreds of iterations without converging, whose end (a failed line search after 671
+    iterations in Python, 673 with LAPACK's dsyev in C, the iteration limit with the built-in
+    Jacobi method) depends on the eigen-solver's rounding: not compared."""
+    scene = finger(400.0)
+    rp = solve(scene, model_factory=scm(3))
+    models = build_models(scene, None, scm(3))
+    chain = Chain(scene, models)
+    system = eq.System(chain)
+    plan = build_plan(chain, system.loads, system.tendons, eq._output_points(scene, chain))
+    assert plan.run() == clib.NO_EQUILIBRIUM and plan.answer.failure == clib.FAIL_LIMIT
+    assert plan.answer.failure_load_factor == rp.load_factor
+    head = c_reason(plan, models, system.tendons, 0.5).split(": ")[0]
+    assert rp.reason.split(": ")[0] == head
+    assert plan.answer.last_error in (clib.ERR_LINE_SEARCH, clib.ERR_NOT_CONVERGED)
+
+
+def test_no_unloaded_equilibrium_reason_from_the_c_answer():
+    scene = zero_tendon()
+    rp = solve(scene, model_factory=scm(3))
+    assert not rp.converged and "zero length" in rp.reason
+    models = build_models(scene, None, scm(3))
+    chain = Chain(scene, models)
+    system = eq.System(chain)
+    plan = build_plan(chain, system.loads, system.tendons, eq._output_points(scene, chain))
+    assert plan.run() == clib.NO_EQUILIBRIUM
+    assert plan.answer.failure == clib.FAIL_UNLOADED
+    assert plan.answer.last_error == plan.answer.model_error == clib.ERR_TENDON
+    assert c_reason(plan, models, system.tendons, 0.5) == rp.reason
