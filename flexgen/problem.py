@@ -99,10 +99,9 @@ class Problem:
         p.route = self._ints([i for r in routes for i in r])
         p.outputs = self._ints([pindex[ref] for ref in self.outputs])
         p.stiffness = self._doubles(self.stiffness)
-        copy_settings(settings, p)
+        copy_settings(settings, p.settings)
         for routine, fn in lapack().items():
             setattr(p.lapack, routine, fn)
-        p.lapack.min_size = settings.lapack_min_size
         self.struct = p
 
     def _ints(self, values) -> Any:
@@ -126,11 +125,10 @@ class Problem:
 
 
 def copy_settings(settings: SolverSettings, struct: Any) -> None:
-    """Every field of ``settings`` into the ``fg_problem``'s fields of the same name (the C
+    """Every field of ``settings`` into the ``fg_settings`` field of the same name (the C
     struct has no defaults of its own)."""
     for f in fields(settings):
-        if f.name != "lapack_min_size":
-            setattr(struct, f.name, getattr(settings, f.name))
+        setattr(struct, f.name, getattr(settings, f.name))
 
 
 class Workspace:

@@ -2,8 +2,9 @@
 
 The core (chain_solver.h) reports what failed (``failure``: FG_FAIL_*, at
 ``failure_load_factor``), the last error of its Newton solves (``last_error``: FG_ERR_*, with
-the load factor and relative residual it happened at) and the flexure whose kernel could not be
-evaluated last (``model_error_flexure``). The words live here, once.
+the load factor, relative residual, iteration limit, flexure or tendon segment it concerns) and
+the last model error (a kernel past its range, a zero-length tendon segment). The words live
+here, once.
 """
 
 from __future__ import annotations
@@ -13,49 +14,57 @@ from typing import Any
 from .core import lib
 
 
-def _last_error(a: Any, settings: Any) -> str:
-    lam, rel = a.last_error_load_factor, a.last_error_residual
-    table = {
-        lib.FG_ERR_STAGNATION: f"Newton stagnates at load factor {lam:.6g} "
-        f"(relative residual {rel:.2e})",
-        lib.FG_ERR_NOT_CONVERGED: f"Newton did not converge in {settings.max_iterations} "
-        f"iterations (relative residual {rel:.2e})",
-        lib.FG_ERR_LINE_SEARCH: f"line search failed at load factor {lam:.6g} "
-        f"(relative residual {rel:.2e})",
-        lib.FG_ERR_JUMP: f"the path jumped by more than {settings.max_dq} in q at load factor "
-        f"{lam:.6g}",
-        lib.FG_ERR_NONFINITE: "a model returned a non-finite value",
-        lib.FG_ERR_TENDON: "a tendon segment has zero length",
-    }
-    return table.get(a.last_error, "")
+def _model_message(solver: Any, code: int, flexure: int, entry: int) -> str | None:
+    """The text of a model error: a kernel evaluated past its range, a degenerate tendon."""
+    if code == lib.FG_ERR_KERNEL_RANGE and flexure >= 0:
+        name = solver.problem.flexure_order[flexure]
+        range_error = getattr(solver.models[name], "range_error", None)
+        return range_error() if range_error else f"flexure {name!r} could not be evaluated"
+    if code == lib.FG_ERR_TENDON and entry >= 0:
+        route = [ref for t in solver.scene.tendons for ref in t.route]
+        return f"tendon segment {route[entry]!r} -> {route[entry + 1]!r} has zero length"
+    return None
 
 
-def _model_error(solver: Any, a: Any) -> str | None:
-    i = a.model_error_flexure
-    if i < 0:
-        return None
-    name = solver.problem.flexure_order[i]
-    range_error = getattr(solver.models[name], "range_error", None)
-    return range_error() if range_error is not None else f"flexure {name!r} could not be evaluated"
+def _last_error(solver: Any, a: Any) -> str:
+    e, lam, rel = a.last_error, a.last_error_load_factor, a.last_error_residual
+    if e == lib.FG_ERR_STAGNATION:
+        return f"Newton stagnates at load factor {lam:.6g} (relative residual {rel:.2e})"
+    if e == lib.FG_ERR_NOT_CONVERGED:
+        return (
+            f"Newton did not converge in {a.last_error_iterations} iterations "
+            f"(relative residual {rel:.2e})"
+        )
+    if e == lib.FG_ERR_LINE_SEARCH:
+        return f"line search failed at load factor {lam:.6g} (relative residual {rel:.2e})"
+    if e == lib.FG_ERR_JUMP:
+        return (
+            f"the path jumped by more than {solver.settings.max_dq} in q at load factor "
+            f"{lam:.6g}"
+        )
+    if e == lib.FG_ERR_NONFINITE:
+        return "a model returned a non-finite value"
+    return str(_model_message(solver, e, a.last_error_flexure, a.last_error_route))
 
 
 def failure_reason(solver: Any, status: int) -> str:
     """The one-line reason of a failed solve (``Solver._result``)."""
     a = solver.workspace.answer
     lam = a.failure_load_factor
-    last = _last_error(a, solver.settings)
-    model = _model_error(solver, a)
-    if a.last_error == lib.FG_ERR_KERNEL_RANGE and model:
-        last = model
-    what = {
-        lib.FG_FAIL_UNLOADED: "no equilibrium of the unloaded scene",
-        lib.FG_FAIL_STEPS: f"load continuation needed more than {solver.settings.max_steps} "
-        f"steps (reached load factor {lam:.6g})",
-        lib.FG_FAIL_BIFURCATION: f"no stable equilibrium found past the bifurcation near load "
-        f"factor {lam:.6g}",
-        lib.FG_FAIL_LIMIT: f"no equilibrium found beyond load factor {lam:.6g}",
-    }.get(a.failure, f"no equilibrium found (core status {status})")
-    reason = f"{what}: {last}" if last and a.failure != lib.FG_FAIL_STEPS else what
+    if a.failure == lib.FG_FAIL_STEPS:
+        reason = (
+            f"load continuation needed more than {solver.settings.max_steps} steps "
+            f"(reached load factor {lam:.6g})"
+        )
+    else:
+        what = {
+            lib.FG_FAIL_UNLOADED: "no equilibrium of the unloaded scene",
+            lib.FG_FAIL_BIFURCATION: "no stable equilibrium found past the bifurcation near "
+            f"load factor {lam:.6g}",
+            lib.FG_FAIL_LIMIT: f"no equilibrium found beyond load factor {lam:.6g}",
+        }.get(a.failure, f"the solver core could not run this problem (status {status})")
+        reason = f"{what}: {_last_error(solver, a)}"
+    model = _model_message(solver, a.model_error, a.model_error_flexure, a.model_error_route)
     if model and model not in reason:
         reason = f"{reason} (last model error: {model})"
     return reason

@@ -18,7 +18,6 @@ object again costs the core call and the Result.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import fields, replace
 from typing import Any
@@ -28,7 +27,7 @@ import numpy as np
 from . import core
 from .models.base import FlexureModel
 from .models.registry import build_models, model_info
-from .problem import MAX_CRITICAL, Problem, Workspace
+from .problem import Problem, Workspace
 from .result import UNSTABLE, Result, point_result
 from .scene import Scene
 from .settings import DEFAULT, SolverSettings
@@ -168,9 +167,9 @@ class Solver:
         critical: list[float] = []
         ncritical = a.ncritical
         if ncritical:
+            stored = min(ncritical, a.max_critical)
             for lam, kind in zip(
-                ws.critical[: min(ncritical, MAX_CRITICAL)].tolist(),
-                ws.critical_kind[: min(ncritical, MAX_CRITICAL)].tolist(),
+                ws.critical[:stored].tolist(), ws.critical_kind[:stored].tolist()
             ):
                 critical.append(lam)
                 warnings.append(
@@ -178,10 +177,9 @@ class Solver:
                     if kind == core.SNAP_THROUGH
                     else buckling_warning(lam, BUCKLING_SIDES[kind - 1])
                 )
-            if ncritical > MAX_CRITICAL:
+            if ncritical > stored:
                 warnings.append(
-                    f"{ncritical - MAX_CRITICAL} more critical events on the load "
-                    f"path are not listed"
+                    f"{ncritical - stored} more critical events on the load path are not listed"
                 )
         solved = status == core.SOLVED
         q = ws.q
@@ -205,7 +203,7 @@ class Solver:
                 warnings=warnings,
                 reason=self._reason(status),
                 critical_load_factors=critical,
-                load_factor=float(getattr(a, "failure_load_factor", math.nan)),
+                load_factor=a.failure_load_factor,
             )
         stable = bool(a.stable)
         if not stable:

@@ -1,10 +1,7 @@
 """The C finger controller example (examples/controller/finger_controller.c) compiles with the
-strict flags, embeds the chain solver core with the scm3 / scm3_gauss25 kernels, and fills its
-fg_problem by hand as flexgen.problem does: on examples/two_link_finger.toml it gives the answer
-of flexgen.solve (the same core, fed by flexgen), which is an equilibrium of the reference
-kinematics (flexgen.chain); a tendon tension that needs a kernel switch (which the example does
-not take: it passes no switch flags) or has no equilibrium is handed back (status "fallback",
-exit 3)."""
+strict flags, embeds the compiled chain solver with the scm3 / scm3_gauss25 kernels, and agrees
+with flexgen.solve on examples/two_link_finger.toml, also past a kernel switch; a tendon
+tension with no equilibrium ends with the reason (status "no_equilibrium", exit 3)."""
 import json
 import re
 import subprocess
@@ -119,20 +116,40 @@ def test_energy_weights_are_the_generated_ones():
     np.testing.assert_allclose(weights, expected, rtol=0, atol=1e-15)
 
 
-@pytest.mark.parametrize("tension", [15.0, 400.0])
-def test_a_tension_the_example_hands_back_exits_3(controller, tension):
-    """15 N bends the distal flexure past the polynomial kernel's range (flexgen.solve switches
-    to the Gauss kernel and says so; the example passes no switch flags, so the core hands any
-    switch back); at 400 N flexgen.solve finds no equilibrium."""
-    ref = python_solve(tension)
-    if tension == 15.0:
-        assert ref.converged and ref.stable
-        assert any("switched to the Gauss kernel" in w for w in ref.warnings)
-    else:
-        assert ref.converged is False and "no equilibrium" in ref.reason
-    code, out = run(controller, tension)
+def test_a_kernel_switch_is_solved_in_c(controller):
+    """15 N bends the distal flexure past the polynomial kernel's range: the Python solver
+    switches to the Gauss kernel (and warns); the C solver does the same (the example takes no
+    switch flags: answer.switched NULL, not reported) and gives the same answer."""
+    ref = python_solve(15.0)
+    assert ref.converged and any("switched to the Gauss kernel" in w for w in ref.warnings)
+    code, out = run(controller, 15.0)
+    assert code == 0 and out["status"] == "solved"
+    q = np.concatenate([ref.q["proximal"], ref.q["distal"]])
+    np.testing.assert_allclose(out["q"], q, rtol=0, atol=1e-9)
+    assert out["iterations"] == ref.iterations
+
+
+def test_no_equilibrium_exits_3_with_the_reason(controller):
+    """At 400 N both flexures pass the polynomial range and the continuation finds no equilibrium
+    beyond a load factor of about 0.16: the C solver says so (FG_FAIL_LIMIT, that load factor)."""
+    ref = python_solve(400.0)
+    assert not ref.converged and ref.reason.startswith("no equilibrium found beyond load factor")
+    code, out = run(controller, 400.0)
     assert code == 3
-    assert out == {"status": "fallback", "converged": False}
+    assert out["status"] == "no_equilibrium" and out["converged"] is False
+    assert out["failure"] == 4                                    # FG_FAIL_LIMIT
+    assert out["load_factor"] == ref.load_factor
+
+
+def test_settings_are_the_python_defaults():
+    """default_settings fills every field of fg_settings with flexgen.settings' default."""
+    from dataclasses import fields
+    from flexgen.settings import DEFAULT
+    source = EXAMPLE.read_text()
+    found = dict(re.findall(r"s->(\w+) = ([^;]+);", source))
+    assert list(found) == [f.name for f in fields(DEFAULT)]
+    for f in fields(DEFAULT):
+        assert float(found[f.name]) == getattr(DEFAULT, f.name), f.name
 
 
 def test_bad_arguments_are_refused(controller):

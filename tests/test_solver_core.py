@@ -676,14 +676,18 @@ def test_lapack_and_builtin_factorizations_agree(name, label):
         assert np.linalg.norm(Ca - Cb) <= 1e-9 * np.linalg.norm(Ca)
 
 
-def test_critical_events_beyond_the_capacity_are_not_an_answer():
+def test_critical_events_beyond_the_capacity_are_counted_and_said():
     """The caller gives the capacity of the critical arrays (fg_answer.max_critical): a path
-    with more critical events than that is handed back, never answered with events missing."""
+    with more critical events than that is still solved; the first ones are listed and a
+    warning counts the others."""
     solver = Solver(column(25.0, 0.0), models(column(25.0, 0.0), "scm3 gauss"))
     full = solver.solve()
     assert full.converged and len(full.critical_load_factors) == 2      # two bifurcations
     solver.workspace.answer.max_critical = 1
-    assert solver.solve().converged is False
+    cut = solver.solve()
+    assert cut.converged and cut.critical_load_factors == full.critical_load_factors[:1]
+    assert cut.q == full.q
+    assert "1 more critical events on the load path are not listed" in cut.warnings
     solver.workspace.answer.max_critical = 2
     again = solver.solve()
     assert again.converged and again.critical_load_factors == full.critical_load_factors

@@ -1,16 +1,15 @@
 /* A controller-side use of the compiled chain solver: the tendon-driven two-link finger of
  * examples/two_link_finger.toml (two 3-mode smooth curvature flexures, a palm, a middle link and a
  * fingertip; a flexor tendon from the palm through the middle link to the fingertip; a contact
- * force on the fingertip pad), filled into an fg_problem by hand the way flexgen/problem.py
+ * force on the fingertip pad), filled into an fg_problem by hand the way flexgen/compiled/plan.py
  * flattens the scene, and solved in one fg_solve call per control cycle: equilibrium, pad poses
  * and pad compliances. No heap, no globals: the workspace is a fixed-size stack array, checked
  * against fg_work_size / fg_iwork_size at start.
  *
- * Each flexure uses the kernel pair of the model kind "auto": the polynomial kernel scm3 within
- * its range, the Gauss kernel scm3_gauss25 past it. The answer passes no switch flags (nor
- * critical arrays), so fg_solve hands the problem back (FG_FALLBACK) on a kernel switch or a loss
- * of stability on the load path, as when there is no path to the full load; a real controller
- * then keeps its last answer, or calls flexgen.solve offline, which reports those cases.
+ * Each flexure uses the kernel pair of the Python model kind "auto": the polynomial kernel scm3
+ * within its range, the Gauss kernel scm3_gauss25 past it. When fg_solve finds no equilibrium
+ * (FG_NO_EQUILIBRIUM: e.g. no path to the full load) it says why (answer.failure, at
+ * answer.failure_load_factor); a real controller then keeps its last answer.
  *
  * Build:  gcc -std=c99 -Wall -Wextra -Werror -pedantic -O2 -I../../flexgen/compiled \
  *             -I../../generated/c finger_controller.c ../../flexgen/compiled/chain_solver.c \
@@ -18,8 +17,9 @@
  * Run:    ./finger_controller [tension [pad_force_y]]     (defaults: 10 N and -0.2 N, the TOML's)
  * Prints one JSON object: status, converged, q (6), the poses (x, y in m; angle in rad) and 2x2
  * compliances (m/N) of middle.pad and fingertip.pad, the Newton iterations and the mean time of
- * one fg_solve in microseconds. Exit status: 0 solved, 3 fallback, 4 model error, 1 workspace too
- * small, 2 bad arguments.
+ * one fg_solve in microseconds; or status "no_equilibrium" with the failure (FG_FAIL_*) and its
+ * load factor. Exit status: 0 solved, 3 no equilibrium, 4 model error, 1 workspace too small,
+ * 2 bad arguments.
  */
 #define _POSIX_C_SOURCE 199309L
 
@@ -95,6 +95,45 @@ static void set_point(fg_point *p, int frame, double x, double y)
     p->y = y;
 }
 
+/* the solver settings: the defaults of flexgen/settings.py (SolverSettings), field by field
+ * (tests/test_finger_controller_example.py checks that they are) */
+static void default_settings(fg_settings *s)
+{
+    s->tol = 1e-12;
+    s->max_dq = 0.5;
+    s->max_iterations = 50;
+    s->max_steps = 500;
+    s->initial_step = 0.1;
+    s->max_step = 0.25;
+    s->min_step = 1e-05;
+    s->polish_target = 1e-14;
+    s->polish_steps = 3;
+    s->direct_max_iterations = 12;
+    s->direct_correction = 0.2;
+    s->direct_samples = 3;
+    s->stagnation_after = 8;
+    s->stagnation_ratio = 0.5;
+    s->stagnation_lag = 6;
+    s->armijo = 0.0001;
+    s->line_search_halvings = 30;
+    s->expansion_doublings = 40;
+    s->eigenvalue_floor = 1e-10;
+    s->roundoff_tol = 1e-13;
+    s->bifurcation_threshold = 1e-06;
+    s->bracket_tol = 1e-13;
+    s->bracket_iterations = 100;
+    s->bracket_clamp = 0.01;
+    s->descent_eps = 0.001;
+    s->descent_iteration_factor = 20;
+    s->tie_tol = 1e-09;
+    s->fast_iterations = 3;
+    s->fast_growth = 2.0;
+    s->moderate_iterations = 6;
+    s->moderate_growth = 1.2;
+    s->step_shrink = 0.5;
+    s->lapack_min_size = 32;
+}
+
 /* The finger of examples/two_link_finger.toml with this tendon tension and pad force (y). */
 static void finger_setup(Finger *f, double tension, double pad_fy)
 {
@@ -140,18 +179,12 @@ static void finger_setup(Finger *f, double tension, double pad_fy)
     p->route = f->route;
     p->outputs = f->outputs;
     p->stiffness = f->stiffness;
-    p->tol = 1e-12;                 /* the defaults of flexgen.SolverSettings */
-    p->max_dq = 0.5;
-    p->max_iterations = 50;
-    p->max_steps = 500;
-    p->initial_step = 0.1;
-    p->max_step = 0.25;
-    p->min_step = 1e-5;
+    default_settings(&p->settings);
     p->lapack.potrf = NULL;         /* built-in factorizations: as fast for 6 coordinates */
     p->lapack.potrs = NULL;
     p->lapack.getrf = NULL;
     p->lapack.getrs = NULL;
-    p->lapack.min_size = 0;
+    p->lapack.syev = NULL;
     p->q0 = NULL;                   /* from the unloaded state (no warm start) */
 }
 
@@ -207,9 +240,10 @@ int main(int argc, char **argv)
     answer.compliance = compliance;
 
     status = fg_solve(&finger.problem, work, iwork, &answer);
-    if (status == FG_FALLBACK) {
-        /* a real controller keeps its last answer, or runs the continuation offline */
-        printf("{\"status\": \"fallback\", \"converged\": false}\n");
+    if (status == FG_NO_EQUILIBRIUM) {
+        /* a real controller keeps its last answer */
+        printf("{\"status\": \"no_equilibrium\", \"converged\": false, \"failure\": %d, "
+               "\"load_factor\": %.17g}\n", answer.failure, answer.failure_load_factor);
         return 3;
     }
     if (status != FG_SOLVED) {

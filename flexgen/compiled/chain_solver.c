@@ -11,9 +11,25 @@
  * path ends the solve descends to the equilibrium it snaps to. Each such critical load factor is
  * reported in fg_answer.critical with its kind (the Python side rebuilds the Python solver's
  * warnings from them), and so is every flexure whose "auto" model switched to its Gauss kernel
- * (fg_answer.switched). Where the Python solver would do more than that -- a warm start fails,
- * the critical array is full, no equilibrium is found -- fg_solve returns FG_FALLBACK and the
- * Python solver runs the scene. So the two give the same answers (tests/test_compiled.py).
+ * (fg_answer.switched).
+ *
+ * This is the only solver: every solve ends with an answer (FG_SOLVED) or with the reason there
+ * is none (FG_NO_EQUILIBRIUM), what the Python solver reported: fg_answer.failure (FG_FAIL_*: the
+ * unloaded state cannot be evaluated, the step budget ran out, no stable state past a
+ * bifurcation, none beyond a limit point) at failure_load_factor, the last error met on the way
+ * (last_error: FG_ERR_* with the load factor, relative residual, iteration limit, flexure or
+ * tendon segment its message names) and the last model error (model_error*), from which the
+ * caller writes equilibrium.solve's reason strings. A warm start that is not accepted goes on
+ * from the unloaded state, an unstable unloaded state or max_steps < 1 goes to the
+ * continuation (which then proceeds or fails as the Python solver's did), critical events beyond
+ * the caller's array are counted, not stored. FG_MODEL_ERROR: a malformed fg_problem only
+ * (well_formed). tests/test_compiled.py compares the answers with the Python solver's.
+ *
+ * Every tuning constant comes from fg_problem.settings (fg_settings: flexgen/settings.py).
+ *
+ * Cost: a chain evaluation (kinematics, potential, residual, stiffness: evaluate) is O(n^2) in
+ * the n coordinates (hessian_sum's blockwise rank-one terms, each frame's rotation computed
+ * once); the factorizations are O(n^3) (LAPACK's from lapack_min_size coordinates on).
  *
  * Flexure models: the generated smooth curvature kernels (scm{N}, scm{N}_gauss{G}: function
  * pointers, so this file needs no header of theirs), the n-element chain ("fem", the same
@@ -21,12 +37,15 @@
  * Every elastic energy is quadratic with a diagonal Hessian (``stiffness``).
  *
  * Linear algebra: built-in Cholesky, LU and (cyclic Jacobi) symmetric eigen-decomposition, or
- * LAPACK's dpotrf/dpotrs, dgetrf/dgetrs and dsyev by function pointer (fg_lapack) from
- * lapack.min_size coordinates on.
+ * LAPACK's dpotrf, dgetrf/dgetrs and dsyev by function pointer (fg_lapack) from
+ * settings.lapack_min_size coordinates on (the triangular solves with a Cholesky factor are
+ * always the built-in ones; fg_lapack.potrs is not called). The symmetric S and K hold their
+ * upper triangles only (hessian_sum).
  *
  * C99, no heap, no globals: the caller provides the workspace (fg_work_size doubles and
  * fg_iwork_size ints). Compiled with gcc -std=c99 -Wall -Wextra -Werror -pedantic.
  */
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <string.h>
@@ -36,20 +55,43 @@
 /* ---- workspace ------------------------------------------------------------------------- */
 
 #define FG_NSTATES 6        /* states held at once (the bifurcation crossing needs five) */
+#define FG_FDATA 12         /* doubles of per-flexure kinematics data (fg_ws.fdata) */
+/* The built-in Jacobi eigen-solver's own accuracy (rotations stop below this fraction of |A|,
+ * so its eigenvalues are LAPACK's to a few ulps) and a bound on its sweeps (it converges
+ * quadratically, in about ten): properties of the numerical method, not tuning of the solve
+ * (fg_settings holds those). */
+#define FG_JACOBI_SMALL 1e-18
+#define FG_JACOBI_SWEEPS 100
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
 
 typedef struct {
     double *q, *gU, *QL, *QT, *S;   /* load-independent parts (S: load Hessian at lam = 1) */
     double *r, *K, *Q;              /* at the state's load factor */
+    double *out;                    /* per output point: pose (3), J (3 x n), at q */
     double U, W, V, gmax, rmax, Pi, scale, rel, lam;
+    int sfinite, kfinite;           /* every entry of S, K is finite */
 } fg_state;
 
 typedef struct {
     const fg_problem *p;
+    const fg_settings *set;
     int n;
+    size_t tstride;         /* doubles per flexure tip block (tip_block) */
     /* kinematics at the last evaluated q */
     double *fpose, *fJ;     /* per flexure tip frame: pose (3), J (3 x n) */
-    double *fdata;          /* per flexure: moving_parent, awx, awy, c, s, wx, wy, moving */
+    double *fdata;          /* per flexure (FG_FDATA): moving_parent, awx, awy, c, s (root frame
+                             * rotation), wx, wy, moving, ct, st (tip frame rotation), lo, hi
+                             * (the tip frame's J is zero outside the coordinates [lo, hi): those
+                             * of the flexure and its ancestors lie in it) */
+    double *dk;             /* per flexure: the rank-one coefficients summed over its subtree */
+    double *kq;             /* the q of the last kinematics (kin_ok: they succeeded) */
+    int kin_ok;
+    int evaluations;        /* kinematics evaluated in this solve */
+    /* the last error and the last model error (fg_answer.last_error*, model_error*) */
+    int err, err_flex, err_route, err_iterations;
+    double err_lam, err_rel;
+    int merr, merr_flex, merr_route;
+    int fail_flex, fail_route;      /* where the last failed evaluation failed */
     double *tpose, *tJ, *tH, *RJ;   /* per flexure tip kinematics (root frame), R dv rows */
     double *ppose, *pJ;     /* per point: pose (3), J (3 x n) */
     double *acc;            /* per flexure: hessian_sum accumulators (4) */
@@ -58,23 +100,14 @@ typedef struct {
     double *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
     double *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
     double *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
+    double *hist;           /* Newton's last stagnation_lag + 1 relative residuals */
     double *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
     int *switched;          /* per flexure: an "auto" flexure used its Gauss kernel since the
                              * flags were last cleared (SCMModel.switched) */
+    int *saved_switched;    /* per flexure: the flags before the direct attempt */
     fg_state st[FG_NSTATES];
 } fg_ws;
-
-static size_t tip_size(const fg_problem *p)
-{
-    size_t s = 0;
-    int i;
-    for (i = 0; i < p->nflex; ++i) {
-        size_t k = (size_t)p->flex[i].ndof;
-        s += 3 + 3 * k + 3 * k * k + 2 * k;
-    }
-    return s;
-}
 
 static int kmax(const fg_problem *p)
 {
@@ -85,18 +118,35 @@ static int kmax(const fg_problem *p)
     return m;
 }
 
+/* the doubles of one flexure's tip block: J (3 k), H (3 k k), RJ (2 k) for k = kmax */
+static size_t tip_stride(const fg_problem *p)
+{
+    size_t k = (size_t)kmax(p);
+    return 3 * k + 3 * k * k + 2 * k;
+}
+
+static size_t tip_size(const fg_problem *p)
+{
+    return (size_t)p->nflex * (3 + tip_stride(p));
+}
+
+static size_t history_size(const fg_problem *p)
+{
+    return (size_t)(p->settings.stagnation_lag > 0 ? p->settings.stagnation_lag : 0) + 1;
+}
+
 size_t fg_work_size(const fg_problem *p)
 {
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
-    size_t state = 6 * n + 2 * n * n;
-    return F * (3 + 3 * n) + 8 * F + tip_size(p) + P * (3 + 3 * n) + 4 * F
+    size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
+    return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
         + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 10 * n
-        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
+        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + history_size(p) + 16;
 }
 
 size_t fg_iwork_size(const fg_problem *p)
 {
-    return (size_t)p->ndof + 1 + (size_t)p->nflex;    /* pivots, kernel-switch flags */
+    return (size_t)p->ndof + 1 + 2 * (size_t)p->nflex;    /* pivots, kernel-switch flags (2) */
 }
 
 static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
@@ -105,10 +155,23 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
     double *x = work;
     int i;
     w->p = p;
+    w->set = &p->settings;
+    w->tstride = tip_stride(p);
     w->n = p->ndof;
+    w->kin_ok = 0;
+    w->evaluations = 0;
+    w->err = FG_ERR_NONE;
+    w->err_flex = w->err_route = -1;
+    w->err_iterations = 0;
+    w->err_lam = w->err_rel = 0.0;
+    w->merr = FG_ERR_NONE;
+    w->merr_flex = w->merr_route = -1;
+    w->fail_flex = w->fail_route = -1;
     w->fpose = x; x += 3 * F;
     w->fJ = x; x += 3 * n * F;
-    w->fdata = x; x += 8 * F;
+    w->fdata = x; x += FG_FDATA * F;
+    w->dk = x; x += F;
+    w->kq = x; x += n;
     w->tpose = x; x += 3 * F;
     w->tJ = x;
     w->tH = NULL;
@@ -135,6 +198,7 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
     w->ew = x; x += n;
     w->eV = x; x += n * n;
     w->ework = x; x += 2 * n * n + FG_LWORK(n);
+    w->hist = x; x += history_size(p);
     for (i = 0; i < FG_NSTATES; ++i) {
         fg_state *s = &w->st[i];
         s->q = x; x += n;
@@ -145,21 +209,17 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
         s->Q = x; x += n;
         s->S = x; x += n * n;
         s->K = x; x += n * n;
+        s->out = x; x += (size_t)p->noutputs * (3 + 3 * n);
     }
     w->piv = iwork;
     w->switched = iwork + p->ndof + 1;
+    w->saved_switched = w->switched + p->nflex;
 }
 
 /* the tip block of flexure i: J (3 k), H (3 k k), RJ (2 k), after the F tip poses */
 static double *tip_block(const fg_ws *w, int i)
 {
-    double *x = w->tJ;
-    int j;
-    for (j = 0; j < i; ++j) {
-        size_t k = (size_t)w->p->flex[j].ndof;
-        x += 3 * k + 3 * k * k + 2 * k;
-    }
-    return x;
+    return w->tJ + (size_t)i * w->tstride;
 }
 
 /* ---- flexure models ------------------------------------------------------------------------ */
@@ -251,54 +311,74 @@ static int kinematics(fg_ws *w, const double *q)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, a, j;
+    ++w->evaluations;
+    w->kin_ok = 0;
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
         int k = f->ndof, off = f->offset;
-        double *pose = w->fpose + 3 * i, *J = w->fJ + (size_t)3 * n * i, *d = w->fdata + 8 * i;
+        double *pose = w->fpose + 3 * i, *J = w->fJ + (size_t)3 * n * i;
+        double *d = w->fdata + FG_FDATA * i;
         double *tp = w->tpose + 3 * i, *blk = tip_block(w, i);
         double *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
         double pp[3] = {0.0, 0.0, 0.0};
         const double *PJ = NULL;
-        int moving = 0, tmoving = 0;
-        double th, c, s, awx, awy, rp[3], wx, wy;
+        int moving = 0, tmoving = 0, lo, hi;
+        double th, c = 1.0, s = 0.0, awx, awy, rp[3], wx, wy;
         if (f->parent >= 0) {
+            const double *pd = w->fdata + FG_FDATA * f->parent;
             memcpy(pp, w->fpose + 3 * f->parent, sizeof pp);
             PJ = w->fJ + (size_t)3 * n * f->parent;
-            moving = w->fdata[8 * f->parent + 7] != 0.0;
+            moving = pd[7] != 0.0;
+            c = pd[8];            /* the parent frame's rotation, computed once */
+            s = pd[9];
         }
         th = pp[2];
-        c = cos(th);
-        s = sin(th);
         awx = c * f->at[0] - s * f->at[1];
         awy = s * f->at[0] + c * f->at[1];
         rp[0] = pp[0] + awx;
         rp[1] = pp[1] + awy;
         rp[2] = th + f->at[2];
-        /* J = root J (parent J with the offset's rotation) */
-        if (PJ != NULL)
-            memcpy(J, PJ, sizeof(double) * 3 * (size_t)n);
-        else
-            memset(J, 0, sizeof(double) * 3 * (size_t)n);
-        if (moving)
-            for (j = 0; j < n; ++j) {
-                J[j] -= awy * J[2 * n + j];
-                J[n + j] += awx * J[2 * n + j];
-            }
-        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i]))
+        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i])) {
+            w->fail_flex = i;
+            w->fail_route = -1;
             return 0;
-        th = rp[2];
-        c = cos(th);
-        s = sin(th);
+        }
+        if (f->at[2] != 0.0) {    /* the root frame is rotated against the parent frame */
+            th = rp[2];
+            c = cos(th);
+            s = sin(th);
+        }
         wx = c * tp[0] - s * tp[1];
         wy = s * tp[0] + c * tp[1];
         pose[0] = rp[0] + wx;
         pose[1] = rp[1] + wy;
-        pose[2] = th + tp[2];
-        if (moving)
-            for (j = 0; j < n; ++j) {
-                J[j] -= wy * J[2 * n + j];
-                J[n + j] += wx * J[2 * n + j];
+        pose[2] = rp[2] + tp[2];
+        /* J = the parent's J moved by the offset (aw) and by the tip (w), in one pass */
+        lo = off;
+        hi = off + k;
+        if (PJ == NULL)
+            memset(J, 0, sizeof(double) * 3 * (size_t)n);
+        else if (!moving)
+            memcpy(J, PJ, sizeof(double) * 3 * (size_t)n);
+        else {
+            int plo = (int)w->fdata[FG_FDATA * f->parent + 10];
+            int phi = (int)w->fdata[FG_FDATA * f->parent + 11];
+            for (a = 0; a < 3; ++a) {   /* the parent's J is zero outside [plo, phi) */
+                memset(J + a * n, 0, sizeof(double) * (size_t)plo);
+                memset(J + a * n + phi, 0, sizeof(double) * (size_t)(n - phi));
             }
+            for (j = plo; j < phi; ++j) {
+                double jt = PJ[2 * n + j];
+                J[j] = (PJ[j] - awy * jt) - wy * jt;
+                J[n + j] = (PJ[n + j] + awx * jt) + wx * jt;
+                J[2 * n + j] = jt;
+            }
+        }
+        if (f->parent >= 0) {
+            const double *pd = w->fdata + FG_FDATA * f->parent;
+            lo = (int)pd[10] < lo ? (int)pd[10] : lo;
+            hi = (int)pd[11] > hi ? (int)pd[11] : hi;
+        }
         for (a = 0; a < k; ++a) {
             RJ[a] = c * tJ[a] - s * tJ[k + a];
             RJ[k + a] = s * tJ[a] + c * tJ[k + a];
@@ -316,6 +396,10 @@ static int kinematics(fg_ws *w, const double *q)
         d[5] = wx;
         d[6] = wy;
         d[7] = moving || tmoving;
+        d[8] = cos(pose[2]);      /* the tip frame's rotation (its children, points) */
+        d[9] = sin(pose[2]);
+        d[10] = lo;
+        d[11] = hi;
     }
     for (i = 0; i < p->npoints; ++i) {
         const fg_point *pt = &p->points[i];
@@ -329,19 +413,23 @@ static int kinematics(fg_ws *w, const double *q)
         }
         {
             const double *fp = w->fpose + 3 * pt->frame, *FJ = w->fJ + (size_t)3 * n * pt->frame;
-            double c = cos(fp[2]), s = sin(fp[2]);
+            const double *fd = w->fdata + FG_FDATA * pt->frame;
+            double c = fd[8], s = fd[9];
             double wx = c * pt->x - s * pt->y, wy = s * pt->x + c * pt->y;
             pose[0] = fp[0] + wx;
             pose[1] = fp[1] + wy;
             pose[2] = fp[2];
             memcpy(J, FJ, sizeof(double) * 3 * (size_t)n);
-            if (w->fdata[8 * pt->frame + 7] != 0.0)
+            if (fd[7] != 0.0)
                 for (j = 0; j < n; ++j) {
                     J[j] -= wy * FJ[2 * n + j];
                     J[n + j] += wx * FJ[2 * n + j];
                 }
         }
     }
+    if (q != w->kq)
+        memcpy(w->kq, q, sizeof(double) * (size_t)n);
+    w->kin_ok = 1;
     return 1;
 }
 
@@ -357,30 +445,66 @@ static void add_coefficient(fg_ws *w, int point, double c0, double c1, double c2
     a[1] += c1;
     a[2] += c2;
     if (pt->x != 0.0 || pt->y != 0.0) {
-        double th = w->fpose[3 * pt->frame + 2], c = cos(th), s = sin(th);
+        const double *fd = w->fdata + FG_FDATA * pt->frame;
+        double c = fd[8], s = fd[9];
         double wx = c * pt->x - s * pt->y, wy = s * pt->x + c * pt->y;
         a[2] += c1 * wx - c0 * wy;
         a[3] += c0 * wx + c1 * wy;
     }
 }
 
+/* The Hessian term sum_p c_p . H_p of every point p (chain.py: hessian_sum), accumulated frame
+ * by frame from the leaves to the base: each frame's coefficients (force c0, c1, moment c2 and
+ * the rank-one coefficient kk of its angle row) act on its own tip Hessian, on the cross terms
+ * with its parent's angle, and pass on to the parent frame.
+ *
+ * The rank-one terms -sum_f kk_f Jth_f Jth_f^T (Jth_f: frame f's angle row) are summed in O(n^2)
+ * rather than one n x n update per frame: Jth_f is nonzero exactly on the coordinates of f and
+ * its ancestors, where it is their own tip angle derivative a_j (tJ's angle row). So entry (i, j)
+ * of the sum is a_i a_j times the sum of kk over the frames that lie below (or at) both the
+ * flexure of i and that of j: none unless one of the two flexures, h, is an ancestor of (or is)
+ * the other, g, and then the sum dk_g of kk over g's subtree. Each pair (h, g) is one block.
+ *
+ * G is symmetric and only its upper triangle (row-major: column >= row; LAPACK's column-major
+ * lower triangle) is built, everywhere in this file: an off-diagonal pair of equal terms goes to
+ * the upper one of its two places. The lower triangle of S and K is never read (sym_copy). */
 static void hessian_sum(fg_ws *w, double *G)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, a, b, j;
     for (i = p->nflex - 1; i >= 0; --i) {
         const fg_flexure *f = &p->flex[i];
-        int k = f->ndof, off = f->offset;
-        double *acc = w->acc + 4 * i, *d = w->fdata + 8 * i, *blk = tip_block(w, i);
-        double *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
+        int k = f->ndof, off = f->offset, h;
+        double *acc = w->acc + 4 * i, *d = w->fdata + FG_FDATA * i, *blk = tip_block(w, i);
+        double *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
         double c0 = acc[0], c1 = acc[1], c2 = acc[2], kk = acc[3];
         double c = d[3], s = d[4], e0, e1;
-        if (kk != 0.0) {
-            const double *Jth = w->fJ + (size_t)3 * n * i + 2 * (size_t)n;
-            for (a = 0; a < n; ++a)
-                for (b = 0; b < n; ++b)
-                    G[a * n + b] -= kk * Jth[a] * Jth[b];
+        /* dk: kk summed over the subtree (the children, later in the list, added theirs) */
+        w->dk[i] += kk;
+        if (w->dk[i] != 0.0) {
+            double dki = w->dk[i];
+            const double *ag = tJ + 2 * k;
+            for (h = i; h >= 0; h = p->flex[h].parent) {
+                const fg_flexure *fh = &p->flex[h];
+                int kh = fh->ndof, oh = fh->offset;
+                const double *ah = tip_block(w, h) + 2 * kh;
+                if (h == i || oh < off)     /* the block (h, i) lies in the upper triangle */
+                    for (a = 0; a < kh; ++a) {
+                        double m = dki * ah[a];
+                        if (m != 0.0)
+                            for (b = 0; b < k; ++b)
+                                G[(oh + a) * n + off + b] -= m * ag[b];
+                    }
+                else                        /* its transpose (i, h) does */
+                    for (b = 0; b < k; ++b) {
+                        double *row = G + (size_t)(off + b) * n + oh;
+                        for (a = 0; a < kh; ++a)
+                            row[a] -= (dki * ah[a]) * ag[b];
+                    }
+            }
         }
+        if (f->parent >= 0)
+            w->dk[f->parent] += w->dk[i];
         e0 = c * c0 + s * c1;
         e1 = c * c1 - s * c0;
         for (a = 0; a < k; ++a)
@@ -395,12 +519,24 @@ static void hessian_sum(fg_ws *w, double *G)
             double *pa = w->acc + 4 * f->parent;
             if (d[0] != 0.0) {   /* the parent frame moves: cross terms with its angle */
                 const double *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
+                /* the parent's angle row is zero outside [lo, hi) (kinematics) and on this
+                 * flexure's own coordinates; each term with its transpose, in the upper
+                 * triangle: rows j < off (k entries each), row off + a right of it */
+                int lo = (int)w->fdata[FG_FDATA * f->parent + 10];
+                int hi = (int)w->fdata[FG_FDATA * f->parent + 11];
+                int left = hi < off ? hi : off, right = lo > off + k ? lo : off + k;
+                double *m = w->scratch;     /* k entries (the fem scratch, free here) */
+                for (a = 0; a < k; ++a)
+                    m[a] = c1 * RJ[a] - c0 * RJ[k + a];
+                for (j = lo; j < left; ++j) {
+                    double *row = G + (size_t)j * n + off, jr = Jr[j];
+                    for (a = 0; a < k; ++a)
+                        row[a] += m[a] * jr;
+                }
                 for (a = 0; a < k; ++a) {
-                    double m = c1 * RJ[a] - c0 * RJ[k + a];
-                    for (j = 0; j < n; ++j) {
-                        G[(off + a) * n + j] += m * Jr[j];
-                        G[j * n + off + a] += m * Jr[j];
-                    }
+                    double *row = G + (size_t)(off + a) * n;
+                    for (j = right; j < hi; ++j)
+                        row[j] += m[a] * Jr[j];
                 }
             }
             pa[0] += c0;
@@ -412,6 +548,7 @@ static void hessian_sum(fg_ws *w, double *G)
 }
 
 /* ---- the potential: parts at q, then the state at a load factor -------------------------- */
+static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st);
 
 static int finite_all(const double *x, size_t m)
 {
@@ -422,11 +559,19 @@ static int finite_all(const double *x, size_t m)
     return 1;
 }
 
-static void at_lambda(const fg_ws *w, fg_state *st, double lam)
+static size_t out_size(const fg_ws *w)
+{
+    return (size_t)w->p->noutputs * (3 + 3 * (size_t)w->n);
+}
+
+/* The state at load factor lam from its load-independent parts (fresh: S was just built);
+ * S: NULL (st's own), or the S to use instead (st's own is then not read) */
+static void at_lambda(const fg_ws *w, fg_state *st, const double *S, double lam, int fresh)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, j;
     double rn = 0.0;
+    int bad = 0;
     st->lam = lam;
     for (i = 0; i < n; ++i) {
         st->r[i] = st->gU[i] - lam * st->QL[i] + lam * st->QT[i];
@@ -434,15 +579,38 @@ static void at_lambda(const fg_ws *w, fg_state *st, double lam)
         if (fabs(st->r[i]) > rn)
             rn = fabs(st->r[i]);
     }
-    for (i = 0; i < n; ++i)
-        for (j = 0; j < n; ++j) {
-            double kij = lam * st->S[i * n + j], kji = lam * st->S[j * n + i];
-            if (i == j) {
-                kij += p->stiffness[i];
-                kji += p->stiffness[i];
+    /* K = stiffness + lam S, the upper triangles (hessian_sum). Every entry finite: S's
+     * (sfinite, found here once per evaluation: fresh), and then lam S_ij is too for
+     * |lam| <= 1 (every load factor of the solve); the diagonal and other lam checked here. */
+    if (S == NULL)
+        S = st->S;
+    if (fresh) {
+        int sbad = 0;
+        for (i = 0; i < n; ++i) {
+            const double *Si = S + (size_t)i * (size_t)n;
+            double *Ki = st->K + (size_t)i * (size_t)n;
+            for (j = i; j < n; ++j) {
+                Ki[j] = lam * Si[j];
+                sbad |= !(fabs(Si[j]) <= DBL_MAX);
             }
-            st->K[i * n + j] = 0.5 * (kij + kji);
+            Ki[i] += p->stiffness[i];
+            bad |= !(fabs(Ki[i]) <= DBL_MAX);
         }
+        st->sfinite = !sbad;
+    } else
+        for (i = 0; i < n; ++i) {
+            const double *Si = S + (size_t)i * (size_t)n;
+            double *Ki = st->K + (size_t)i * (size_t)n;
+            for (j = i; j < n; ++j)
+                Ki[j] = lam * Si[j];
+            Ki[i] += p->stiffness[i];
+            bad |= !(fabs(Ki[i]) <= DBL_MAX);
+        }
+    if (!(fabs(lam) <= 1.0))
+        for (i = 0; i < n; ++i)
+            for (j = i + 1; j < n; ++j)
+                bad |= !(fabs(st->K[(size_t)i * (size_t)n + j]) <= DBL_MAX);
+    st->kfinite = st->sfinite && !bad;
     st->Pi = st->U - lam * st->W + lam * st->V;
     st->scale = st->gmax > fabs(lam) * st->rmax ? st->gmax : fabs(lam) * st->rmax;
     if (rn == 0.0)
@@ -451,8 +619,88 @@ static void at_lambda(const fg_ws *w, fg_state *st, double lam)
         st->rel = st->scale > 0.0 ? rn / st->scale : INFINITY;
 }
 
-/* the state at (q, lam); 0 if a model cannot be evaluated or a value is not finite */
+/* ---- the last error (equilibrium._Solver.last_error, model_error) ----------------------- */
+
+static void set_error(fg_ws *w, int code, double lam, double rel)
+{
+    w->err = code;
+    w->err_lam = lam;
+    w->err_rel = rel;
+    w->err_iterations = 0;
+    w->err_flex = w->err_route = -1;
+}
+
+/* the model error of the last failed evaluation: both the last error and the model error */
+static void set_model_error(fg_ws *w)
+{
+    int code = w->fail_flex >= 0 ? FG_ERR_KERNEL_RANGE : FG_ERR_TENDON;
+    set_error(w, code, 0.0, 0.0);
+    w->err_flex = w->merr_flex = w->fail_flex;
+    w->err_route = w->merr_route = w->fail_route;
+    w->merr = code;
+}
+
+static void clear_model_error(fg_ws *w)
+{
+    w->merr = FG_ERR_NONE;
+    w->merr_flex = w->merr_route = -1;
+}
+
+typedef struct {
+    int err, err_flex, err_route, err_iterations, merr, merr_flex, merr_route;
+    double err_lam, err_rel;
+} fg_errors;
+
+static void save_errors(const fg_ws *w, fg_errors *e)
+{
+    e->err = w->err;
+    e->err_flex = w->err_flex;
+    e->err_route = w->err_route;
+    e->err_iterations = w->err_iterations;
+    e->err_lam = w->err_lam;
+    e->err_rel = w->err_rel;
+    e->merr = w->merr;
+    e->merr_flex = w->merr_flex;
+    e->merr_route = w->merr_route;
+}
+
+static void restore_errors(fg_ws *w, const fg_errors *e)
+{
+    w->err = e->err;
+    w->err_flex = e->err_flex;
+    w->err_route = e->err_route;
+    w->err_iterations = e->err_iterations;
+    w->err_lam = e->err_lam;
+    w->err_rel = e->err_rel;
+    w->merr = e->merr;
+    w->merr_flex = e->merr_flex;
+    w->merr_route = e->merr_route;
+}
+
+/* the state's values are finite (else the last error says so: equilibrium._Solver.evaluate) */
+static int state_finite(fg_ws *w, const fg_state *st)
+{
+    if (!isfinite(st->Pi) || !finite_all(st->r, (size_t)w->n) || !st->kfinite) {
+        set_error(w, FG_ERR_NONFINITE, st->lam, 0.0);
+        return 0;
+    }
+    return 1;
+}
+
+/* the state at (q, lam); 0 if a model cannot be evaluated or a value is not finite (the last
+ * error, and for a model, the model error, say which) */
 static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
+{
+    if (!evaluate_parts(w, q, lam, st)) {
+        set_model_error(w);
+        return 0;
+    }
+    return state_finite(w, st);
+}
+
+/* the state at (q, lam), its values unchecked; 0 if a model cannot be evaluated (fail_flex) or
+ * a tendon segment has zero length (fail_route) */
+static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, j, t, a, b;
@@ -460,6 +708,12 @@ static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
         memcpy(st->q, q, sizeof(double) * (size_t)n);
     if (!kinematics(w, st->q))
         return 0;
+    for (i = 0; i < p->noutputs; ++i) {
+        int pt = p->outputs[i];
+        double *o = st->out + (size_t)i * (3 + 3 * (size_t)n);
+        memcpy(o, w->ppose + 3 * pt, sizeof(double) * 3);
+        memcpy(o + 3, w->pJ + (size_t)3 * n * pt, sizeof(double) * 3 * (size_t)n);
+    }
     st->U = 0.0;
     st->gmax = 0.0;
     for (i = 0; i < n; ++i) {
@@ -469,8 +723,10 @@ static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
             st->gmax = fabs(st->gU[i]);
         st->QL[i] = st->QT[i] = w->reach[i] = 0.0;
     }
-    memset(st->S, 0, sizeof(double) * (size_t)n * (size_t)n);
+    for (i = 0; i < n; ++i)       /* the upper triangle (hessian_sum) */
+        memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(double) * (size_t)(n - i));
     memset(w->acc, 0, sizeof(double) * 4 * (size_t)p->nflex);
+    memset(w->dk, 0, sizeof(double) * (size_t)p->nflex);
     st->W = st->V = 0.0;
     for (t = 0; t < p->nloads; ++t) {
         int pt = p->load_point[t];
@@ -496,8 +752,11 @@ static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
             const double *A = w->ppose + 3 * pa, *B = w->ppose + 3 * pb;
             const double *JA = w->pJ + (size_t)3 * n * pa, *JB = w->pJ + (size_t)3 * n * pb;
             double dx = B[0] - A[0], dy = B[1] - A[1], rho = hypot(dx, dy), ux, uy;
-            if (rho == 0.0)
+            if (rho == 0.0) {
+                w->fail_flex = -1;
+                w->fail_route = p->route_start[t] + j;
                 return 0;
+            }
             ux = dx / rho;
             uy = dy / rho;
             l += rho;
@@ -509,7 +768,7 @@ static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
             }
             for (a = 0; a < n; ++a)       /* T times the rank-one part of hess l */
                 if (m[a] != 0.0)
-                    for (b = 0; b < n; ++b)
+                    for (b = a; b < n; ++b)       /* the upper triangle (hessian_sum) */
                         st->S[a * n + b] += T * m[a] * (m[b] / rho);
             add_coefficient(w, pb, T * ux, T * uy, 0.0);
             add_coefficient(w, pa, -T * ux, -T * uy, 0.0);
@@ -523,58 +782,90 @@ static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
     for (i = 0; i < n; ++i)
         if (w->reach[i] > st->rmax)
             st->rmax = w->reach[i];
-    at_lambda(w, st, lam);
-    if (!isfinite(st->Pi) || !finite_all(st->r, (size_t)n)
-        || !finite_all(st->K, (size_t)n * (size_t)n))
-        return 0;
+    at_lambda(w, st, NULL, lam, 1);
     return 1;
 }
 
 /* ---- dense linear algebra (n is small: a few flexures' coordinates) ----------------------- */
 
-/* Cholesky factor L (lower, row-major) of the symmetric A in F; 0 if A is not positive definite */
+/* F = the symmetric matrix whose upper triangle is A's (S and K hold only their upper
+ * triangles: hessian_sum), for the routines that read a full matrix */
+static void sym_copy(double *F, const double *A, int n)
+{
+    int i, j;
+    for (i = 0; i < n; ++i) {
+        const double *Ai = A + (size_t)i * (size_t)n;
+        double *Fi = F + (size_t)i * (size_t)n;
+        for (j = i; j < n; ++j) {
+            Fi[j] = Ai[j];
+            F[(size_t)j * (size_t)n + i] = Ai[j];
+        }
+    }
+}
+
+/* The Cholesky factor U (A = U^T U, row-major upper: dpotrf's column-major lower L = U^T, the
+ * same array) of the symmetric A (its upper triangle) in F, by rows: each pivot row scaled,
+ * then subtracted from the trailing rows (an axpy along each); 0 if A is not positive definite */
 static int cholesky_builtin(const double *A, double *F, int n)
 {
     int i, j, k;
     for (i = 0; i < n; ++i)
-        for (j = 0; j <= i; ++j) {
-            double sum = A[i * n + j];
-            for (k = 0; k < j; ++k)
-                sum -= F[i * n + k] * F[j * n + k];
-            if (i == j) {
-                if (!(sum > 0.0))
-                    return 0;
-                F[i * n + i] = sqrt(sum);
-            } else {
-                F[i * n + j] = sum / F[j * n + j];
-            }
+        memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
+               sizeof(double) * (size_t)(n - i));
+    for (k = 0; k < n; ++k) {
+        double *Fk = F + (size_t)k * (size_t)n, d = Fk[k];
+        if (!(d > 0.0))
+            return 0;
+        d = sqrt(d);
+        Fk[k] = d;
+        for (j = k + 1; j < n; ++j)
+            Fk[j] /= d;
+        for (i = k + 1; i < n; ++i) {
+            double u = Fk[i], *Fi = F + (size_t)i * (size_t)n;
+            if (u != 0.0)
+                for (j = i; j < n; ++j)
+                    Fi[j] -= u * Fk[j];
         }
+    }
     return 1;
 }
 
+/* x = A^-1 b with A = U^T U, U in F (cholesky's factor, built-in or dpotrf's): U^T y = b by an
+ * axpy along each row of U, U x = y by a dot product along each row (four partial sums). For
+ * one right-hand side these loops cost less than dpotrs's blocked dtrsm. */
 static void cholesky_solve_builtin(const double *F, int n, const double *b, double *x)
 {
-    int i, k;
-    for (i = 0; i < n; ++i) {
-        double sum = b[i];
-        for (k = 0; k < i; ++k)
-            sum -= F[i * n + k] * x[k];
-        x[i] = sum / F[i * n + i];
+    int i, j;
+    memcpy(x, b, sizeof(double) * (size_t)n);
+    for (j = 0; j < n; ++j) {
+        const double *Fj = F + (size_t)j * (size_t)n;
+        double yj = x[j] / Fj[j];
+        x[j] = yj;
+        for (i = j + 1; i < n; ++i)
+            x[i] -= Fj[i] * yj;
     }
-    for (i = n - 1; i >= 0; --i) {
-        double sum = x[i];
-        for (k = i + 1; k < n; ++k)
-            sum -= F[k * n + i] * x[k];
-        x[i] = sum / F[i * n + i];
+    for (j = n - 1; j >= 0; --j) {
+        const double *Fj = F + (size_t)j * (size_t)n;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        for (i = j + 1; i + 3 < n; i += 4) {
+            s0 += Fj[i] * x[i];
+            s1 += Fj[i + 1] * x[i + 1];
+            s2 += Fj[i + 2] * x[i + 2];
+            s3 += Fj[i + 3] * x[i + 3];
+        }
+        for (; i < n; ++i)
+            s0 += Fj[i] * x[i];
+        x[j] = (x[j] - ((s0 + s1) + (s2 + s3))) / Fj[j];
     }
 }
 
-/* x = A^-1 b by LU with partial pivoting (A copied into F); 0 if A is singular */
+/* x = A^-1 b by LU with partial pivoting (the symmetric A, its lower triangle, copied into F);
+ * 0 if A is singular */
 static int lu_solve_builtin(const double *A, double *F, int *piv, int n, const double *b,
                             double *x)
 {
     int i, j, k;
-    memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+    sym_copy(F, A, n);
     for (k = 0; k < n; ++k) {
         int pk = k;
         double big = fabs(F[k * n + k]);
@@ -621,13 +912,13 @@ static int lu_solve_builtin(const double *A, double *F, int *piv, int n, const d
  * built-in ones. K is symmetric, so its row-major storage is also its column-major storage. */
 static int use_lapack(const fg_problem *p, int n)
 {
-    return p->lapack.potrf != NULL && n >= p->lapack.min_size;
+    return p->lapack.potrf != NULL && n >= p->settings.lapack_min_size;
 }
 
 static int cholesky(const fg_problem *p, const double *A, double *F, int n)
 {
     if (use_lapack(p, n)) {
-        char uplo = 'L';
+        char uplo = 'L';          /* column-major lower: the row-major upper triangle */
         int info = 0, lda = n;
         memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
         p->lapack.potrf(&uplo, &n, F, &lda, &info);
@@ -639,13 +930,8 @@ static int cholesky(const fg_problem *p, const double *A, double *F, int n)
 static void cholesky_solve(const fg_problem *p, const double *F, int n, const double *b,
                            double *x)
 {
-    if (use_lapack(p, n)) {
-        char uplo = 'L';
-        int info = 0, lda = n, nrhs = 1;
-        memcpy(x, b, sizeof(double) * (size_t)n);
-        p->lapack.potrs(&uplo, &n, &nrhs, (double *)F, &lda, x, &lda, &info);
-        return;
-    }
+    (void)p;                  /* both factors have the same layout (cholesky_solve_builtin);
+                               * dpotrs's blocked dtrsm costs more for one right-hand side */
     cholesky_solve_builtin(F, n, b, x);
 }
 
@@ -655,7 +941,7 @@ static int lu_solve(const fg_problem *p, const double *A, double *F, int *piv, i
     if (use_lapack(p, n)) {
         char trans = 'N';
         int info = 0, lda = n, nrhs = 1;
-        memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+        sym_copy(F, A, n);
         p->lapack.getrf(&n, &n, F, &lda, piv, &info);
         if (info != 0)
             return 0;
@@ -703,14 +989,14 @@ static void jacobi_builtin(const double *A, int n, double *ev, double *V, double
 {
     double *a = scratch, *u = scratch + (size_t)n * (size_t)n, fro = 0.0, small;
     int i, j, k, sweep, rotated = 1;
-    memcpy(a, A, sizeof(double) * (size_t)n * (size_t)n);
+    sym_copy(a, A, n);
     for (i = 0; i < n; ++i)
         for (j = 0; j < n; ++j) {
             u[i * n + j] = i == j ? 1.0 : 0.0;
             fro += a[i * n + j] * a[i * n + j];
         }
-    small = 1e-18 * sqrt(fro);
-    for (sweep = 0; sweep < 100 && rotated; ++sweep) {
+    small = FG_JACOBI_SMALL * sqrt(fro);
+    for (sweep = 0; sweep < FG_JACOBI_SWEEPS && rotated; ++sweep) {
         rotated = 0;
         for (i = 0; i + 1 < n; ++i)
             for (j = i + 1; j < n; ++j) {
@@ -777,8 +1063,8 @@ static void eigen(fg_ws *w, const double *A)
 {
     const fg_problem *p = w->p;
     int n = w->n;
-    if (p->lapack.syev != NULL && n >= p->lapack.min_size) {
-        char jobz = 'V', uplo = 'L';
+    if (p->lapack.syev != NULL && n >= p->settings.lapack_min_size) {
+        char jobz = 'V', uplo = 'L';   /* column-major lower: the row-major upper triangle */
         int info = 0, lda = n, lwork = FG_LWORK(n);
         memcpy(w->eV, A, sizeof(double) * (size_t)n * (size_t)n);
         p->lapack.syev(&jobz, &uplo, &n, w->eV, &lda, w->ew, w->ework, &lwork, &info);
@@ -797,34 +1083,55 @@ static double min_eig(fg_ws *w, const double *A)
 
 /* ---- Newton with a line search (equilibrium.py: _Solver.newton, _line_search) ------------- */
 
+/* d = K^-1 r: by Cholesky into w->la when K is positive definite (the usual case, half the work
+ * of LU), else by LU (numpy.linalg.solve); 0 if K is singular. factored: w->la already holds
+ * K's Cholesky factor. The two agree to rounding. */
+static int newton_step(fg_ws *w, const fg_state *st, int factored, double *d)
+{
+    const fg_problem *p = w->p;
+    int n = w->n;
+    if (factored || cholesky(p, st->K, w->la, n)) {
+        cholesky_solve(p, w->la, n, st->r, d);
+        return 1;
+    }
+    return lu_solve(p, st->K, w->la, w->piv, n, st->r, d);
+}
+
 /* Newton from *cur (evaluated) at its load factor, using *spare (and, for descent, *extra) for
  * trial states; on success *cur points at the converged state and the others at spare buffers.
  * Plain: Newton steps with a backtracking line search on |r|, given up when the residual
  * stagnates. Descent (extra != NULL): every step a descent direction of Pi (the eigenvalues of K
- * replaced by their magnitudes, at least 1e-10 of the largest), an Armijo line search on Pi that
- * also takes a step changing Pi by rounding only if it lowers |r|, and, along negative curvature,
- * steps doubled while Pi keeps falling; it ends at a stable equilibrium or fails. */
+ * replaced by their magnitudes, at least eigenvalue_floor of the largest), an Armijo line search
+ * on Pi that also takes a step changing Pi by rounding only if it lowers |r|, and, along negative
+ * curvature, steps doubled while Pi keeps falling; it ends at a stable equilibrium or fails.
+ * factored (plain only): w->la holds the Cholesky factor of (*cur)->K. On failure the last
+ * error says why. */
 static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, int max_it,
-                  int *iterations)
+                  int factored, int *iterations)
 {
-    const fg_problem *p = w->p;
+    const fg_settings *set = w->set;
     int n = w->n, k, i, tries, descent = extra != NULL;
-    double history[8];      /* the relative residuals of the last 8 iterations */
+    int lag = set->stagnation_lag, ring = lag + 1;
+    double *history = w->hist;      /* the relative residuals of the last lag + 1 iterations */
     for (k = 0; k <= max_it; ++k) {
         fg_state *st = *cur;
         double rn, slope = 0.0, top = 0.0, *d = w->vec3, *qt = w->vec4, alpha = 1.0;
+        double floor_;
         int accepted = 0, indefinite = 0;
-        if (st->rel <= p->tol)
+        if (st->rel <= set->tol)
             return 1;
         if (k == max_it)
             break;
-        history[k & 7] = st->rel;
-        if (!descent && k >= 8 && st->rel > 0.5 * history[(k - 6) & 7])
+        history[k % ring] = st->rel;
+        if (!descent && k >= set->stagnation_after && k >= lag
+            && st->rel > set->stagnation_ratio * history[(k - lag) % ring]) {
+            set_error(w, FG_ERR_STAGNATION, st->lam, st->rel);
             return 0;
+        }
         ++*iterations;
         rn = norm2(st->r, n);
         if (descent) {
-            /* d = -V diag(1 / max(|w|, 1e-10 top)) V^T r */
+            /* d = -V diag(1 / max(|w|, floor top)) V^T r */
             double *ew = w->ew, *V = w->eV, *c = w->cvec;
             int j;
             eigen(w, st->K);
@@ -833,9 +1140,10 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
                     top = fabs(ew[j]);
             if (top < 1e-300)
                 top = 1e-300;
-            indefinite = n > 0 && ew[0] <= 1e-10 * top;
+            floor_ = set->eigenvalue_floor * top;
+            indefinite = n > 0 && ew[0] <= floor_;
             for (j = 0; j < n; ++j) {
-                double wm = fabs(ew[j]) > 1e-10 * top ? fabs(ew[j]) : 1e-10 * top;
+                double wm = fabs(ew[j]) > floor_ ? fabs(ew[j]) : floor_;
                 c[j] = dot(V + (size_t)j * (size_t)n, st->r, n) / wm;
             }
             for (i = 0; i < n; ++i) {
@@ -845,10 +1153,12 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
                 d[i] = -s;
             }
             slope = dot(st->r, d, n);
-        } else if (!lu_solve(p, st->K, w->la, w->piv, n, st->r, d)) {
+        } else if (!newton_step(w, st, factored && k == 0, d)) {
+            /* singular K (numpy would take the least-squares step; not reached in practice) */
+            set_error(w, FG_ERR_LINE_SEARCH, st->lam, st->rel);
             return 0;
         }
-        for (tries = 0; tries < 30 && !accepted; ++tries, alpha *= 0.5) {
+        for (tries = 0; tries < set->line_search_halvings && !accepted; ++tries, alpha *= 0.5) {
             fg_state *trial = *spare;
             if (descent)
                 for (i = 0; i < n; ++i)
@@ -859,7 +1169,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
             if (!evaluate(w, qt, st->lam, trial))
                 continue;
             if (!descent) {
-                if (norm2(trial->r, n) <= (1.0 - 1e-4 * alpha) * rn) {
+                if (norm2(trial->r, n) <= (1.0 - set->armijo * alpha) * rn) {
                     *spare = st;
                     *cur = trial;
                     accepted = 1;
@@ -867,8 +1177,9 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
                 continue;
             }
             {
-                int ok = trial->Pi <= st->Pi + 1e-4 * alpha * slope;
-                int roundoff = fabs(trial->Pi - st->Pi) <= 1e-13 * (fabs(st->Pi) + fabs(st->U))
+                int ok = trial->Pi <= st->Pi + set->armijo * alpha * slope;
+                int roundoff = fabs(trial->Pi - st->Pi)
+                                   <= set->roundoff_tol * (fabs(st->Pi) + fabs(st->U))
                                && norm2(trial->r, n) < rn;
                 fg_state *best = trial, *cand = *extra;
                 if (!(ok || roundoff))
@@ -877,7 +1188,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
                     /* negative curvature: expand while the potential keeps falling */
                     double a = alpha;
                     int e;
-                    for (e = 0; e < 40; ++e) {
+                    for (e = 0; e < set->expansion_doublings; ++e) {
                         a *= 2.0;
                         for (i = 0; i < n; ++i)
                             qt[i] = st->q[i] + a * d[i];
@@ -897,9 +1208,13 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
                 accepted = 1;
             }
         }
-        if (!accepted)
+        if (!accepted) {
+            set_error(w, FG_ERR_LINE_SEARCH, st->lam, st->rel);
             return 0;
+        }
     }
+    set_error(w, FG_ERR_NOT_CONVERGED, (*cur)->lam, (*cur)->rel);
+    w->err_iterations = max_it;
     return 0;
 }
 
@@ -920,15 +1235,26 @@ static int in_kernel_range(const fg_problem *p, const double *q)
 
 /* ---- the solve ---------------------------------------------------------------------------- */
 
-/* polish the equilibrium *cur, then the answer: q, the output points' poses and compliances */
-static int finish(fg_ws *w, fg_state *cur, fg_state *spare, int iterations, fg_answer *out)
+/* polish the equilibrium *cur, then the answer: q, the output points' poses and compliances.
+ * factor: NULL, or the Cholesky factor of cur->K (n x n, not in w->la), used by the first
+ * polishing step and, if no step is taken, for the stability and the compliance. */
+static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor,
+                  int iterations, fg_answer *out)
 {
     const fg_problem *p = w->p;
+    const fg_settings *set = w->set;
     int n = w->n, i, j, a;
-    /* polish: plain Newton steps while they lower the relative residual below 1e-14 */
-    for (j = 0; j < 3 && cur->rel > 1e-14; ++j) {
+    const double *F = NULL;       /* cur->K's Cholesky factor, when known */
+    /* polish: plain Newton steps while they lower the relative residual below polish_target
+     * (equilibrium._polish; K^-1 r by Cholesky where K is positive definite: the same to
+     * rounding as numpy's LU) */
+    if (factor != NULL)
+        F = factor;
+    for (j = 0; j < set->polish_steps && cur->rel > set->polish_target; ++j) {
         double *d = w->vec3, *qt = w->vec4;
-        if (!lu_solve(p, cur->K, w->la, w->piv, n, cur->r, d))
+        if (F != NULL)
+            cholesky_solve(p, F, n, cur->r, d);
+        else if (!newton_step(w, cur, 0, d))
             break;
         for (i = 0; i < n; ++i)
             qt[i] = cur->q[i] - d[i];
@@ -940,24 +1266,29 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, int iterations, fg_a
             cur = spare;
             spare = tmp;
         }
+        F = NULL;
     }
 
-    /* the answer: kinematics at the equilibrium, compliance J K^-1 J^T of the output points */
-    if (!kinematics(w, cur->q))
-        return FG_MODEL_ERROR;
-    out->stable = cholesky(p, cur->K, w->la, n);
+    /* the answer: the output points' kinematics saved with the state (no evaluation), the
+     * compliance J K^-1 J^T of each */
+    if (F != NULL) {
+        out->stable = 1;
+        if (F != w->la)
+            memcpy(w->la, F, sizeof(double) * (size_t)n * (size_t)n);
+    } else {
+        out->stable = cholesky(p, cur->K, w->la, n);
+    }
     out->iterations = iterations;
     out->energy = cur->U;
     out->residual = cur->rel;
     memcpy(out->q, cur->q, sizeof(double) * (size_t)n);
     if (out->stiffness != NULL)
-        memcpy(out->stiffness, cur->K, sizeof(double) * (size_t)n * (size_t)n);
+        sym_copy(out->stiffness, cur->K, n);
     for (j = 0; j < p->noutputs; ++j) {
-        int pt = p->outputs[j];
-        const double *J = w->pJ + (size_t)3 * n * pt;
+        const double *J = cur->out + (size_t)j * (3 + 3 * (size_t)n) + 3;
         double *C = out->compliance + 9 * j, *X = w->lc;   /* X = K^-1 J^T, 3 columns */
         int ok = 1;
-        memcpy(out->pose + 3 * j, w->ppose + 3 * pt, sizeof(double) * 3);
+        memcpy(out->pose + 3 * j, J - 3, sizeof(double) * 3);
         for (a = 0; a < 3 && ok; ++a) {
             if (out->stable)
                 cholesky_solve(p, w->la, n, J + a * n, X + a * n);
@@ -982,52 +1313,79 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, int iterations, fg_a
 }
 
 /* The full load in one Newton solve from the unloaded state *st0 (equilibrium._direct_solve):
- * 1 with the equilibrium in *cur if every check passes, else 0 (the continuation runs). */
+ * 1 with the equilibrium in *cur if every check passes, else 0 (the continuation runs). The
+ * caller checked that st0->K, K at lam = 0 (the elastic stiffness: diagonal), is positive
+ * definite. end_factor (n x n) receives the Cholesky factor of the
+ * end state's K, for the polishing and the compliance.
+ *
+ * The checks are those of _direct_solve, in an order that spends no chain evaluation on an
+ * attempt a cheaper check rejects: K(q0, 1) positive definite (from st0's parts: no
+ * evaluation); Newton at lam = 1 (its first step solves with that factor: no second
+ * factorization); the end state in every kernel's range (before the samples, which cannot
+ * change that outcome); K at the end positive definite (the factor is also the polishing's and
+ * the compliance's); then the direct_samples points of the Hermite path, each one evaluation:
+ * positive definite and a Newton correction of at most direct_correction max_dq, and in range.
+ * Python checks the ranges of all visited points at the end; the outcome is the same. A rejected
+ * attempt leaves no trace: iterations (the caller), the last error, the model error and the
+ * kernel-switch flags are restored. */
 static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state **spare,
-                        fg_state *smp, int *iterations)
+                        fg_state *smp, double *end_factor, int *iterations)
 {
     const fg_problem *p = w->p;
-    int n = w->n, i, j, max_it = p->max_iterations < 12 ? p->max_iterations : 12;
+    const fg_settings *set = w->set;
+    int n = w->n, i, j, ok = 0;
+    int max_it = set->max_iterations < set->direct_max_iterations ? set->max_iterations
+                                                                   : set->direct_max_iterations;
     double *t0 = w->t0, *t1 = w->t1;     /* path tangents dq/dlam at the two ends */
-    const double samples[3] = {0.25, 0.5, 0.75};
     fg_state *c = *cur;
+    fg_errors saved;
 
-    cholesky_solve(p, w->la, n, st0->Q, t0);     /* la: K(q0, 0), factored by the caller */
+    save_errors(w, &saved);
+    memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)p->nflex);
+    for (i = 0; i < n; ++i)                       /* K(q0, 0) is diagonal (the caller) */
+        t0[i] = st0->Q[i] / st0->K[(size_t)i * (size_t)n + i];
     memcpy(c->q, st0->q, sizeof(double) * (size_t)n);
     memcpy(c->gU, st0->gU, sizeof(double) * (size_t)n);
     memcpy(c->QL, st0->QL, sizeof(double) * (size_t)n);
     memcpy(c->QT, st0->QT, sizeof(double) * (size_t)n);
-    memcpy(c->S, st0->S, sizeof(double) * (size_t)n * (size_t)n);
+    memcpy(c->out, st0->out, sizeof(double) * out_size(w));
     c->U = st0->U;
     c->W = st0->W;
     c->V = st0->V;
     c->gmax = st0->gmax;
     c->rmax = st0->rmax;
-    at_lambda(w, c, 1.0);
-    if (!cholesky(p, c->K, w->la, n))
-        return 0;                 /* the full load may buckle the unloaded state */
-    if (!newton(w, cur, spare, NULL, max_it, iterations))
-        return 0;
+    c->sfinite = st0->sfinite;
+    /* K(q0, 1) from st0's S, not copied: the states of this solve at lam = 1 never need
+     * their S again (Newton, finish: r, K, Pi, out), so c->S is left as it is */
+    at_lambda(w, c, st0->S, 1.0, 0);
+    if (!state_finite(w, c) || !cholesky(p, c->K, w->la, n))
+        goto done;                /* the full load may buckle the unloaded state */
+    if (!newton(w, cur, spare, NULL, max_it, 1, iterations))
+        goto done;
     c = *cur;
-    if (!cholesky(p, c->K, w->la, n))
-        return 0;
-    cholesky_solve(p, w->la, n, c->Q, t1);
-    if (!in_kernel_range(p, c->q))
-        return 0;
+    if (!in_kernel_range(p, c->q) || !cholesky(p, c->K, end_factor, n))
+        goto done;
+    cholesky_solve(p, end_factor, n, c->Q, t1);
     /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
-    for (j = 0; j < 3; ++j) {
-        double t = samples[j], *qt = w->vec4, *corr = w->vec3;
+    for (j = 1; j <= set->direct_samples; ++j) {
+        double t = (double)j / (set->direct_samples + 1), *qt = w->vec4, *corr = w->vec3;
         double h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
         double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
         for (i = 0; i < n; ++i)
             qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
-        if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
-            return 0;
+        if (!in_kernel_range(p, qt) || !evaluate(w, qt, t, smp)
+            || !cholesky(p, smp->K, w->la, n))
+            goto done;
         cholesky_solve(p, w->la, n, smp->r, corr);
-        if (!(norm_inf(corr, n) <= 0.2 * p->max_dq) || !in_kernel_range(p, qt))
-            return 0;
+        if (!(norm_inf(corr, n) <= set->direct_correction * set->max_dq))
+            goto done;
     }
-    return 1;
+    ok = 1;
+done:
+    /* the trial steps and samples are no part of the path: the flags and errors as before */
+    memcpy(w->switched, w->saved_switched, sizeof(int) * (size_t)p->nflex);
+    restore_errors(w, &saved);
+    return ok;
 }
 
 /* ---- stability along the path (equilibrium.py: _is_bifurcation, _cross_bifurcation) ------- */
@@ -1045,21 +1403,20 @@ static fg_state *free_state(fg_ws *w, const fg_state *x0, const fg_state *x1,
     return NULL;            /* not reached: FG_NSTATES > 4 */
 }
 
-/* a critical load factor of this kind, in order; 0 if the caller's array is full */
-static int record_critical(fg_answer *out, double lam, int kind)
+/* a critical load factor of this kind, in order: counted always, stored while there is room */
+static void record_critical(fg_answer *out, double lam, int kind)
 {
-    if (out->critical == NULL || out->critical_kind == NULL
-        || out->ncritical >= out->max_critical)
-        return 0;
-    out->critical[out->ncritical] = lam;
-    out->critical_kind[out->ncritical] = kind;
+    if (out->critical != NULL && out->critical_kind != NULL
+        && out->ncritical < out->max_critical) {
+        out->critical[out->ncritical] = lam;
+        out->critical_kind[out->ncritical] = kind;
+    }
     ++out->ncritical;
-    return 1;
 }
 
-/* Newton with descent from q at load factor lam, up to 20 max_iterations (the snap-through and
- * the leaving of an unstable branch in equilibrium.py); the stable equilibrium it ends at, or
- * NULL. The states keep and keep2 are not touched. */
+/* Newton with descent from q at load factor lam, up to descent_iteration_factor max_iterations
+ * (the snap-through and the leaving of an unstable branch in equilibrium.py); the stable
+ * equilibrium it ends at, or NULL. The states keep and keep2 are not touched. */
 static fg_state *descend(fg_ws *w, const double *q, double lam, const fg_state *keep,
                          const fg_state *keep2, int *iterations)
 {
@@ -1067,76 +1424,79 @@ static fg_state *descend(fg_ws *w, const double *q, double lam, const fg_state *
     fg_state *b = free_state(w, keep, keep2, a, NULL);
     fg_state *c = free_state(w, keep, keep2, a, b);
     if (!evaluate(w, q, lam, a)
-        || !newton(w, &a, &b, &c, 20 * w->p->max_iterations, iterations)
+        || !newton(w, &a, &b, &c, w->set->descent_iteration_factor * w->set->max_iterations, 0,
+                   iterations)
         || !cholesky(w->p, a->K, w->la, w->n))
         return NULL;
     return a;
 }
 
 /* At a bifurcation the load does no work along the lost mode v (the eigenvector of K's smallest
- * eigenvalue): |v . Q| <= 1e-6 (|Q| + |lam S|), |lam S| the Frobenius norm of the load part of K.
- * Its sign does not matter. */
+ * eigenvalue): |v . Q| <= bifurcation_threshold (|Q| + |lam S|), |lam S| the Frobenius norm of
+ * the load part of K. Its sign does not matter. */
 static int is_bifurcation(fg_ws *w, const fg_state *b)
 {
     int n = w->n, i;
     double kg = 0.0, scale;
     min_eig(w, b->K);
-    for (i = 0; i < n * n; ++i) {
-        double g = b->lam * b->S[i];
-        kg += g * g;
+    for (i = 0; i < n; ++i) {     /* S's upper triangle: the strict part counts twice */
+        int j;
+        for (j = i; j < n; ++j) {
+            double g = b->lam * b->S[(size_t)i * (size_t)n + j];
+            kg += j > i ? 2.0 * (g * g) : g * g;
+        }
     }
     scale = norm2(b->Q, n) + sqrt(kg);
-    return scale > 0.0 ? fabs(dot(w->eV, b->Q, n)) <= 1e-6 * scale : 1;
+    return scale > 0.0 ? fabs(dot(w->eV, b->Q, n)) <= w->set->bifurcation_threshold * scale : 1;
 }
 
-/* the mean world y and angle of the output points at s's q; 0 if the kinematics fail */
-static int mean_output(fg_ws *w, const fg_state *s, double *y, double *angle)
+/* the mean world y and angle of the output points at s (saved with the state) */
+static void mean_output(fg_ws *w, const fg_state *s, double *y, double *angle)
 {
     const fg_problem *p = w->p;
     int j;
+    size_t stride = 3 + 3 * (size_t)w->n;
     *y = *angle = 0.0;
     if (p->noutputs == 0)
-        return 1;
-    if (!kinematics(w, s->q))
-        return 0;
+        return;
     for (j = 0; j < p->noutputs; ++j) {
-        *y += w->ppose[3 * p->outputs[j] + 1];
-        *angle += w->ppose[3 * p->outputs[j] + 2];
+        *y += s->out[stride * (size_t)j + 1];
+        *angle += s->out[stride * (size_t)j + 2];
     }
     *y /= p->noutputs;
     *angle /= p->noutputs;
-    return 1;
 }
 
 /* The path went from the stable *a through a bifurcation to the unstable *b: the critical load
  * factor by regula falsi (Illinois) on the smallest eigenvalue with Newton at each trial load
- * factor, then the stable side at b's load factor, by descent from b +- eps v (eps = 1e-3
- * max(1, |q_b|)): the only stable one found, else the one of lower potential, else (symmetric)
- * the one whose output points lie higher (mean world y), else the counter-clockwise one. The
- * chosen state (in the pool) with the critical load factor recorded, or NULL. */
+ * factor, then the stable side at b's load factor, by descent from b +- eps v (eps =
+ * descent_eps max(1, |q_b|)): the only stable one found, else the one of lower potential, else
+ * (symmetric) the one whose output points lie higher (mean world y), else the counter-clockwise
+ * one. The chosen state (in the pool) with the critical load factor recorded, or NULL. */
 static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iterations,
                                    fg_answer *out)
 {
-    const fg_problem *p = w->p;
+    const fg_settings *set = w->set;
     int n = w->n, i, it, side = 0, why;
     fg_state *lo = a, *hi = b, *s1, *s2, *choice;
     double mu_lo = min_eig(w, a->K), mu_hi = min_eig(w, b->K);
     double e_lo = mu_lo, e_hi = mu_hi;       /* the eigenvalues themselves (no Illinois halving) */
     double lam_c, eps, lam_b = b->lam, *qm = w->t1, *v = w->vmin;
-    for (it = 0; it < 100; ++it) {
+    for (it = 0; it < set->bracket_iterations; ++it) {
         double t, lam_m, mu_m, kmax = 1.0;
         fg_state *m, *m2;
-        if (hi->lam - lo->lam <= 1e-13 * (hi->lam > 1.0 ? hi->lam : 1.0))
+        if (hi->lam - lo->lam <= set->bracket_tol * (hi->lam > 1.0 ? hi->lam : 1.0))
             break;
         t = mu_lo != mu_hi ? mu_lo / (mu_lo - mu_hi) : 0.5;
-        t = t > 0.01 ? t : 0.01;
-        t = t < 0.99 ? t : 0.99;
+        t = t > set->bracket_clamp ? t : set->bracket_clamp;
+        t = t < 1.0 - set->bracket_clamp ? t : 1.0 - set->bracket_clamp;
         lam_m = lo->lam + t * (hi->lam - lo->lam);
         for (i = 0; i < n; ++i)
             qm[i] = lo->q[i] + t * (hi->q[i] - lo->q[i]);
         m = free_state(w, lo, hi, b, NULL);
         m2 = free_state(w, lo, hi, b, m);
-        if (!evaluate(w, qm, lam_m, m) || !newton(w, &m, &m2, NULL, p->max_iterations, iterations))
+        if (!evaluate(w, qm, lam_m, m)
+            || !newton(w, &m, &m2, NULL, set->max_iterations, 0, iterations))
             break;
         mu_m = min_eig(w, m->K);
         if (mu_m == 0.0) {
@@ -1157,10 +1517,13 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
                 mu_lo *= 0.5;
             side = 1;
         }
-        for (i = 0; i < n * n; ++i)
-            if (fabs(m->K[i]) > kmax)
-                kmax = fabs(m->K[i]);
-        if (fabs(mu_m) <= 1e-13 * kmax)
+        for (i = 0; i < n; ++i) {             /* K's upper triangle */
+            int j;
+            for (j = i; j < n; ++j)
+                if (fabs(m->K[(size_t)i * (size_t)n + j]) > kmax)
+                    kmax = fabs(m->K[(size_t)i * (size_t)n + j]);
+        }
+        if (fabs(mu_m) <= set->bracket_tol * kmax)
             break;
     }
     lam_c = e_lo == e_hi ? lo->lam : lo->lam + e_lo / (e_lo - e_hi) * (hi->lam - lo->lam);
@@ -1168,7 +1531,7 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
     /* leave the unstable branch at b's load factor: descend from b +- eps v */
     min_eig(w, b->K);
     memcpy(v, w->eV, sizeof(double) * (size_t)n);
-    eps = 1e-3 * (norm2(b->q, n) > 1.0 ? norm2(b->q, n) : 1.0);
+    eps = set->descent_eps * (norm2(b->q, n) > 1.0 ? norm2(b->q, n) : 1.0);
     for (i = 0; i < n; ++i) {
         w->qplus[i] = b->q[i] + eps * v[i];
         w->qminus[i] = b->q[i] + (-eps) * v[i];
@@ -1190,14 +1553,14 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
             scale = fabs(s1->U);
         if (fabs(s2->U) > scale)
             scale = fabs(s2->U);
-        if (fabs(s1->Pi - s2->Pi) > 1e-9 * scale) {
+        if (fabs(s1->Pi - s2->Pi) > set->tie_tol * scale) {
             choice = s1->Pi < s2->Pi ? s1 : s2;
             why = FG_BUCKLING_LOWER_ENERGY;
         } else {
-            if (!mean_output(w, s1, &y1, &th1) || !mean_output(w, s2, &y2, &th2))
-                return NULL;
+            mean_output(w, s1, &y1, &th1);
+            mean_output(w, s2, &y2, &th2);
             ys = fabs(y1) > fabs(y2) ? fabs(y1) : fabs(y2);
-            if (fabs(y1 - y2) > 1e-9 * (ys > 1e-300 ? ys : 1e-300)) {
+            if (fabs(y1 - y2) > set->tie_tol * (ys > 1e-300 ? ys : 1e-300)) {
                 choice = y1 > y2 ? s1 : s2;
                 why = FG_BUCKLING_LARGER_Y;
             } else {
@@ -1206,29 +1569,34 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
             }
         }
     }
-    return record_critical(out, lam_c, why) ? choice : NULL;
+    record_critical(out, lam_c, why);
+    return choice;
 }
 
-/* Load continuation from the stable state *path (lam = 0) to lam = 1 (equilibrium.solve's
- * loop): adaptive steps, a tangent predictor while K is positive definite, Newton at each load
+/* Load continuation from the state *path (lam = 0) to lam = 1 (equilibrium.solve's loop):
+ * adaptive steps, a tangent predictor while K is positive definite, Newton at each load
  * factor, a step that changes a coordinate by more than max_dq counts as a jump. A step from a
  * stable state onto an unstable one is a bifurcation (crossed: cross_bifurcation) or else the
  * unstable side of a limit point (a shorter step); where the path ends (no step even at
  * min_step) the solve descends to the equilibrium it snaps to. The equilibrium at lam = 1 (a
- * state of the pool), or NULL (hand back to the Python solver: the step budget runs out, no
- * stable state past a bifurcation or a limit point, the critical array is full). */
+ * state of the pool), or NULL with out->failure and out->failure_load_factor set (the step
+ * budget runs out, no stable state past a bifurcation or beyond a limit point). */
 static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answer *out)
 {
     const fg_problem *p = w->p;
+    const fg_settings *set = w->set;
     int n = w->n, i, steps = 0;
-    double lam = 0.0, dlam = p->initial_step;
+    double lam = 0.0, dlam = set->initial_step;
     while (lam < 1.0) {
         double lam_n = lam + dlam < 1.0 ? lam + dlam : 1.0;
         int it0 = *iterations, used, found = 0, attempt, stable_before;
         fg_state *a = free_state(w, path, NULL, NULL, NULL);
         fg_state *b = free_state(w, path, a, NULL, NULL);
-        if (++steps > p->max_steps)
+        if (++steps > set->max_steps) {
+            out->failure = FG_FAIL_STEPS;
+            out->failure_load_factor = lam;
             return NULL;
+        }
         stable_before = cholesky(p, path->K, w->la, n);
         for (attempt = 0; attempt < 2 && !found; ++attempt) {
             double *start = w->vec1;
@@ -1242,48 +1610,123 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
                 memcpy(start, path->q, sizeof(double) * (size_t)n);
             }
             if (!evaluate(w, start, lam_n, a)
-                || !newton(w, &a, &b, NULL, p->max_iterations, iterations))
+                || !newton(w, &a, &b, NULL, set->max_iterations, 0, iterations))
                 continue;
             for (i = 0; i < n; ++i)
                 w->vec2[i] = a->q[i] - path->q[i];
-            found = norm_inf(w->vec2, n) <= p->max_dq;
+            found = norm_inf(w->vec2, n) <= set->max_dq;
+            if (!found)
+                set_error(w, FG_ERR_JUMP, lam_n, 0.0);
         }
         used = *iterations - it0;
         if (found && stable_before && !cholesky(p, a->K, w->la, n)) {
             if (is_bifurcation(w, a)) {
                 fg_state *next = cross_bifurcation(w, path, a, iterations, out);
-                if (next == NULL)
+                if (next == NULL) {
+                    out->failure = FG_FAIL_BIFURCATION;
+                    out->failure_load_factor = lam;
                     return NULL;
+                }
                 path = next;
                 lam = lam_n;
-                dlam = p->initial_step;
+                dlam = set->initial_step;
                 continue;
             }
             found = 0;            /* the unstable side of a limit point: a shorter step */
         }
         if (!found) {
             fg_state *next;
-            if (dlam > p->min_step) {
-                dlam = 0.5 * dlam > p->min_step ? 0.5 * dlam : p->min_step;
+            if (dlam > set->min_step) {
+                dlam = set->step_shrink * dlam > set->min_step ? set->step_shrink * dlam
+                                                               : set->min_step;
                 continue;
             }
             /* the path ends here (a limit point): descend to the equilibrium it snaps to */
             next = descend(w, path->q, lam_n, path, NULL, iterations);
-            if (next == NULL || !record_critical(out, lam, FG_SNAP_THROUGH))
+            if (next == NULL) {
+                out->failure = FG_FAIL_LIMIT;
+                out->failure_load_factor = lam;
                 return NULL;
+            }
+            record_critical(out, lam, FG_SNAP_THROUGH);
             path = next;
             lam = lam_n;
-            dlam = p->initial_step;
+            dlam = set->initial_step;
             continue;
         }
-        if (used <= 3)
-            dlam = 2.0 * dlam < p->max_step ? 2.0 * dlam : p->max_step;
-        else if (used <= 6)
-            dlam = 1.2 * dlam < p->max_step ? 1.2 * dlam : p->max_step;
+        if (used <= set->fast_iterations)
+            dlam = set->fast_growth * dlam < set->max_step ? set->fast_growth * dlam
+                                                           : set->max_step;
+        else if (used <= set->moderate_iterations)
+            dlam = set->moderate_growth * dlam < set->max_step ? set->moderate_growth * dlam
+                                                               : set->max_step;
         path = a;
         lam = lam_n;
+        clear_model_error(w);
     }
     return path;
+}
+
+/* the problem can be run: counts and indices in range, the arrays there (FG_MODEL_ERROR if not) */
+static int well_formed(const fg_problem *p, const fg_answer *out)
+{
+    int i, j;
+    if (p->ndof < 0 || p->nflex < 0 || p->npoints < 0 || p->nloads < 0 || p->ntendons < 0
+        || p->noutputs < 0 || out == NULL || (p->ndof > 0 && (out->q == NULL
+                                                                || p->stiffness == NULL))
+        || (p->noutputs > 0 && (out->pose == NULL || out->compliance == NULL
+                                || p->outputs == NULL))
+        || (p->nflex > 0 && p->flex == NULL) || (p->npoints > 0 && p->points == NULL)
+        || (p->nloads > 0 && (p->load_point == NULL || p->load == NULL))
+        || (p->ntendons > 0 && (p->tension == NULL || p->route_start == NULL
+                                || p->route_len == NULL || p->route == NULL))
+        || p->settings.stagnation_lag < 1)
+        return 0;
+    for (i = 0; i < p->nflex; ++i) {
+        const fg_flexure *f = &p->flex[i];
+        if (f->ndof < 1 || f->offset < 0 || f->offset + f->ndof > p->ndof || f->parent < -1
+            || f->parent >= i)
+            return 0;
+        if (f->kind == FG_MODEL_KERNEL) {
+            if ((f->poly == NULL && f->gauss == NULL) || (f->poly != NULL && f->in_range == NULL))
+                return 0;
+        } else if (f->kind == FG_MODEL_PRB) {
+            if (f->ndof != 1)
+                return 0;
+        } else if (f->kind != FG_MODEL_FEM) {
+            return 0;
+        }
+    }
+    for (i = 0; i < p->npoints; ++i)
+        if (p->points[i].frame < -1 || p->points[i].frame >= p->nflex)
+            return 0;
+    for (i = 0; i < p->nloads; ++i)
+        if (p->load_point[i] < 0 || p->load_point[i] >= p->npoints)
+            return 0;
+    for (i = 0; i < p->noutputs; ++i)
+        if (p->outputs[i] < 0 || p->outputs[i] >= p->npoints)
+            return 0;
+    for (i = 0; i < p->ntendons; ++i) {
+        if (p->route_start[i] < 0 || p->route_len[i] < 0)
+            return 0;
+        for (j = 0; j < p->route_len[i]; ++j) {
+            int r = p->route[p->route_start[i] + j];
+            if (r < 0 || r >= p->npoints)
+                return 0;
+        }
+    }
+    return 1;
+}
+
+/* K at lam = 0 is the diagonal elastic stiffness (at_lambda: 0 S + diag): positive definite
+ * exactly when its diagonal is positive, no factorization needed */
+static int diagonal_positive(const double *K, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i)
+        if (!(K[(size_t)i * (size_t)n + i] > 0.0))
+            return 0;
+    return 1;
 }
 
 static void clear_switched(fg_ws *w)
@@ -1291,21 +1734,19 @@ static void clear_switched(fg_ws *w)
     memset(w->switched, 0, sizeof(int) * (size_t)w->p->nflex);
 }
 
-static int any_switched(const fg_ws *w)
-{
-    int i;
-    for (i = 0; i < w->p->nflex; ++i)
-        if (w->switched[i])
-            return 1;
-    return 0;
-}
-
+/* Solve: the warm start, else the unloaded state, the direct solve, else the continuation
+ * (equilibrium.solve); always to an answer (FG_SOLVED) or to the reason there is none
+ * (FG_NO_EQUILIBRIUM: out->failure, last_error*, model_error*), as the Python solver did. */
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
 {
     fg_ws ws, *w = &ws;
     fg_state *st0, *cur, *spare, *smp;
-    int n = p->ndof, i, j, iterations = 0;
+    const double *factor = NULL;
+    int n, i, j, iterations = 0, status;
 
+    if (p == NULL || !well_formed(p, out))
+        return FG_MODEL_ERROR;
+    n = p->ndof;
     bind(w, p, work, iwork);
     st0 = &w->st[0];
     cur = &w->st[1];
@@ -1314,51 +1755,73 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     out->iterations = 0;
     out->stable = 0;
     out->ncritical = 0;
+    out->failure = FG_FAIL_NONE;
+    out->failure_load_factor = 0.0;
 
     clear_switched(w);
     if (p->q0 != NULL) {
         /* warm start (equilibrium._warm_start): Newton at the full load from q0, accepted if it
-         * converges to a stable equilibrium within max_dq of q0 */
-        if (!evaluate(w, p->q0, 1.0, cur)
-            || !newton(w, &cur, &spare, NULL, p->max_iterations, &iterations)
-            || !cholesky(p, cur->K, w->la, n))
-            return FG_FALLBACK;
-        for (i = 0; i < n; ++i)
-            w->vec4[i] = cur->q[i] - p->q0[i];
-        if (norm_inf(w->vec4, n) > p->max_dq)
-            return FG_FALLBACK;
-    } else {
-        /* the unloaded state (q = 0, lam = 0: an equilibrium), then the full load at once, else
-         * the continuation from it */
-        memset(w->vec1, 0, sizeof(double) * (size_t)n);
-        if (!evaluate(w, w->vec1, 0.0, st0))
-            return FG_MODEL_ERROR;
-        if (!cholesky(p, st0->K, w->la, n))
-            return FG_FALLBACK;
-        if (p->max_steps < 1)
-            return FG_FALLBACK;
-        if (direct_solve(w, st0, &cur, &spare, smp, &iterations)) {
-            clear_switched(w);    /* trial steps past a kernel's range are no part of the path */
+         * converges to a stable equilibrium within max_dq of q0; else (its iterations counted)
+         * the solve from the unloaded state, the model error cleared */
+        int warm = evaluate(w, p->q0, 1.0, cur)
+                   && newton(w, &cur, &spare, NULL, p->settings.max_iterations, 0, &iterations)
+                   && cholesky(p, cur->K, w->lb, n);
+        if (warm) {
+            for (i = 0; i < n; ++i)
+                w->vec4[i] = cur->q[i] - p->q0[i];
+            warm = norm_inf(w->vec4, n) <= p->settings.max_dq;
+        }
+        if (warm) {
+            factor = w->lb;
+            goto answer;
+        }
+        clear_model_error(w);
+        cur = &w->st[1];
+        spare = &w->st[2];
+    }
+    /* the unloaded state (q = 0, lam = 0: an equilibrium, when it can be evaluated), then the
+     * full load at once, else the continuation from it */
+    memset(w->vec1, 0, sizeof(double) * (size_t)n);
+    if (!evaluate(w, w->vec1, 0.0, st0)) {
+        out->failure = FG_FAIL_UNLOADED;
+        out->failure_load_factor = 0.0;
+        goto failed;
+    }
+    {
+        int it0 = iterations;
+        if (p->settings.max_steps >= 1 && diagonal_positive(st0->K, n)
+            && direct_solve(w, st0, &cur, &spare, smp, w->lb, &iterations)) {
+            factor = w->lb;
         } else {
-            iterations = 0;       /* a rejected direct attempt leaves no trace */
-            clear_switched(w);
+            iterations = it0;     /* a rejected direct attempt leaves no trace */
             cur = continuation(w, st0, &iterations, out);
             if (cur == NULL)
-                return FG_FALLBACK;
+                goto failed;
             spare = free_state(w, cur, NULL, NULL, NULL);
         }
     }
-    i = finish(w, cur, spare, iterations, out);
-    /* a kernel switch on the way (even on a trial step) is reported per flexure, for the
-     * Python solver's warning; a caller that takes no flags gets the solve handed back */
-    if (i == FG_SOLVED && any_switched(w)) {
-        if (out->switched == NULL)
-            return FG_FALLBACK;
+answer:
+    status = finish(w, cur, spare, factor, iterations, out);
+    if (out->switched != NULL)
         for (j = 0; j < p->nflex; ++j)
             out->switched[j] = w->switched[j];
-    } else if (i == FG_SOLVED && out->switched != NULL) {
+    goto report;
+failed:
+    status = FG_NO_EQUILIBRIUM;
+    out->iterations = iterations;
+    if (out->switched != NULL)
         for (j = 0; j < p->nflex; ++j)
-            out->switched[j] = 0;
-    }
-    return i;
+            out->switched[j] = w->switched[j];
+report:
+    out->last_error = w->err;
+    out->last_error_load_factor = w->err_lam;
+    out->last_error_residual = w->err_rel;
+    out->last_error_iterations = w->err_iterations;
+    out->last_error_flexure = w->err_flex;
+    out->last_error_route = w->err_route;
+    out->model_error = w->merr;
+    out->model_error_flexure = w->merr_flex;
+    out->model_error_route = w->merr_route;
+    out->evaluations = w->evaluations;
+    return status;
 }

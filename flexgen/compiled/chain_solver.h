@@ -1,19 +1,49 @@
 /* The compiled chain solver's problem description and answer (see chain_solver.c).
  *
- * A scene is flattened into arrays by flexgen/compiled/plan.py; ctypes mirrors of these structs
- * live in flexgen/compiled/library.py and must stay in step with them.
+ * This header is the single definition of the interface: a scene is flattened into these
+ * structs by flexgen/compiled/plan.py, which fills their fields by name. C99; also valid C++.
  */
 #ifndef FLEXGEN_CHAIN_SOLVER_H
 #define FLEXGEN_CHAIN_SOLVER_H
 
 #include <stddef.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* a generated kernel: pose (3), J (3 x k), H (3 x k x k) of the tip in units of L */
 typedef void (*fg_kernel)(const double *q, double *pose, double *J, double *H);
 typedef int (*fg_range)(const double *q);
 
 enum { FG_MODEL_KERNEL = 0, FG_MODEL_FEM = 1, FG_MODEL_PRB = 2 };
-enum { FG_SOLVED = 0, FG_FALLBACK = 1, FG_MODEL_ERROR = 2 };
+
+/* fg_solve's status: an equilibrium (fg_answer holds it), none (fg_answer.failure says why and
+ * where; the solve ran to its end as the algorithm prescribes, nothing is left to try), or an
+ * fg_problem the solver cannot run (malformed input: a negative count, an index out of range, a
+ * missing array or kernel; fg_answer is not filled) */
+enum { FG_SOLVED = 0, FG_NO_EQUILIBRIUM = 1, FG_MODEL_ERROR = 2 };
+
+/* why no equilibrium was found (fg_answer.failure) */
+enum {
+    FG_FAIL_NONE = 0,
+    FG_FAIL_UNLOADED = 1,       /* no equilibrium of the unloaded scene */
+    FG_FAIL_STEPS = 2,          /* the continuation needed more than max_steps steps */
+    FG_FAIL_BIFURCATION = 3,    /* no stable equilibrium past a bifurcation */
+    FG_FAIL_LIMIT = 4           /* no equilibrium beyond a load factor (the path ended) */
+};
+
+/* the last error met on the way (fg_answer.last_error: equilibrium._Solver.last_error) */
+enum {
+    FG_ERR_NONE = 0,
+    FG_ERR_STAGNATION = 1,      /* Newton stagnated (at a load factor, a relative residual) */
+    FG_ERR_NOT_CONVERGED = 2,   /* Newton did not converge in last_error_iterations iterations */
+    FG_ERR_LINE_SEARCH = 3,     /* the line search failed (at a load factor, a residual) */
+    FG_ERR_JUMP = 4,            /* the path jumped by more than max_dq (at a load factor) */
+    FG_ERR_NONFINITE = 5,       /* a model returned a non-finite value */
+    FG_ERR_KERNEL_RANGE = 6,    /* a polynomial-only kernel past its range (model_error_flexure) */
+    FG_ERR_TENDON = 7           /* a tendon segment of zero length (model_error_route) */
+};
 
 /* the kind of a critical event on the load path (fg_answer.critical_kind): the path ended at a
  * limit point and the solve snapped through, or it crossed a bifurcation and took the stable side
@@ -52,13 +82,58 @@ typedef void (*fg_syev)(char *jobz, char *uplo, int *n, double *a, int *lda, dou
                         double *work, int *lwork, int *info);
 
 typedef struct {
-    fg_potrf potrf;
-    fg_potrs potrs;
+    fg_potrf potrf;       /* called with uplo 'L' */
+    fg_potrs potrs;       /* not called: the solves with its factor are built in */
     fg_getrf getrf;
     fg_getrs getrs;
-    int min_size;         /* use them from this many coordinates on */
     fg_syev syev;         /* symmetric eigen-decomposition (NULL: the built-in Jacobi method) */
-} fg_lapack;
+} fg_lapack;            /* used from fg_settings.lapack_min_size coordinates on */
+
+/* Every tuning constant of the solver. The fields mirror flexgen/settings.py (SolverSettings:
+ * the same names, order and types, with the defaults and their validation), and Python copies
+ * them by name; no default is written in C. The solver does not check them: a caller from C
+ * fills every field with a value SolverSettings would accept. */
+typedef struct {
+    double tol;                     /* relative residual of an accepted equilibrium */
+    double max_dq;                  /* largest change of a coordinate in one step along the path */
+    int max_iterations;             /* Newton iterations per load step */
+    int max_steps;                  /* continuation steps */
+    double initial_step;            /* load-factor step of the continuation: first, */
+    double max_step;                /* largest, */
+    double min_step;                /* smallest */
+    double polish_target;           /* polishing: Newton steps while the residual is above this */
+    int polish_steps;               /* polishing: at most this many steps */
+    int direct_max_iterations;      /* direct solve: Newton iterations (and max_iterations) */
+    double direct_correction;       /* direct solve: largest Newton correction at a path sample,
+                                     * as a fraction of max_dq */
+    int direct_samples;             /* direct solve: path samples at t = k / (direct_samples + 1) */
+    int stagnation_after;           /* Newton stagnates: from this iteration on, */
+    double stagnation_ratio;        /* the residual above this fraction of */
+    int stagnation_lag;             /* the residual this many iterations earlier */
+    double armijo;                  /* sufficient-decrease factor of the line searches */
+    int line_search_halvings;       /* line search: at most this many step lengths tried */
+    int expansion_doublings;        /* descent: step doublings along negative curvature */
+    double eigenvalue_floor;        /* descent: eigenvalue magnitudes floored at this fraction of
+                                     * the largest (and below it K counts as indefinite) */
+    double roundoff_tol;            /* descent: a change of the potential below this fraction of
+                                     * |Pi| + |U| is rounding */
+    double bifurcation_threshold;   /* |v . Q| <= this (|Q| + |lam S|): a bifurcation */
+    double bracket_tol;             /* regula falsi: stop at a load-factor interval of this
+                                     * fraction of max(1, lam), or an eigenvalue of this fraction
+                                     * of max(1, |K|) */
+    int bracket_iterations;         /* regula falsi: at most this many trial load factors */
+    double bracket_clamp;           /* regula falsi: trial fraction of the interval kept in
+                                     * [clamp, 1 - clamp] */
+    double descent_eps;             /* leaving a bifurcation: start at q +- eps max(1, |q|) v */
+    int descent_iteration_factor;   /* descent Newton: this many max_iterations */
+    double tie_tol;                 /* potentials (and mean y) equal to this relative tolerance */
+    int fast_iterations;            /* a step that took at most this many iterations: */
+    double fast_growth;             /* the next step is this much longer; */
+    int moderate_iterations;        /* at most this many iterations: */
+    double moderate_growth;         /* this much longer */
+    double step_shrink;             /* a failed step: the next one this fraction of it */
+    int lapack_min_size;            /* LAPACK (fg_lapack) from this many coordinates on */
+} fg_settings;
 
 typedef struct {
     int frame;            /* flexure whose tip frame carries the point, -1: base */
@@ -77,11 +152,7 @@ typedef struct {
     const int *route;            /* point indices */
     const int *outputs;          /* noutputs point indices */
     const double *stiffness;     /* ndof: diagonal of the elastic energy's Hessian */
-    double tol;                  /* relative residual of an equilibrium */
-    double max_dq;               /* largest change of a coordinate along the path */
-    int max_iterations;          /* Newton iterations per load step */
-    int max_steps;               /* continuation steps */
-    double initial_step, max_step, min_step;   /* load-factor steps of the continuation */
+    fg_settings settings;
     fg_lapack lapack;
     const double *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
 } fg_problem;
@@ -95,15 +166,38 @@ typedef struct {
     int iterations, stable;
     double *critical;     /* max_critical: the critical load factors met on the way, in order */
     int *critical_kind;   /* max_critical: FG_SNAP_THROUGH or FG_BUCKLING_* of each */
-    int max_critical;     /* their capacity (0: the first critical event hands the solve back) */
-    int ncritical;        /* how many were met */
+    int max_critical;     /* their capacity: only the first max_critical events are stored */
+    int ncritical;        /* how many were met (every one, also those beyond max_critical) */
     int *switched;        /* nflex (in fg_problem.flex order): 1 if that flexure's "auto" model
                            * used its Gauss kernel during the solve (SCMModel.switched); NULL:
-                           * any kernel switch hands the solve back (FG_FALLBACK) */
+                           * not reported */
+    /* FG_NO_EQUILIBRIUM: why (FG_FAIL_*) and at which load factor (the reason's lam) */
+    int failure;
+    double failure_load_factor;
+    /* the last error of the solve (equilibrium._Solver.last_error), what its message prints */
+    int last_error;                 /* FG_ERR_* */
+    double last_error_load_factor;  /* STAGNATION, LINE_SEARCH, JUMP */
+    double last_error_residual;     /* STAGNATION, NOT_CONVERGED, LINE_SEARCH: relative */
+    int last_error_iterations;      /* NOT_CONVERGED: the iteration limit */
+    int last_error_flexure;         /* KERNEL_RANGE: the flexure (index in fg_problem.flex) */
+    int last_error_route;           /* TENDON: index in fg_problem.route of the zero-length
+                                     * segment's first point (its second point follows it) */
+    /* the last model error (equilibrium._Solver.model_error): FG_ERR_NONE, KERNEL_RANGE or
+     * TENDON, with its flexure or route entry as above (-1: none); cleared where the Python
+     * solver cleared sol.model_error (after each accepted continuation step, after a rejected
+     * warm start) */
+    int model_error;
+    int model_error_flexure;
+    int model_error_route;
+    int evaluations;      /* chain evaluations (kinematics and kernels) in the solve */
 } fg_answer;
 
 size_t fg_work_size(const fg_problem *p);
 size_t fg_iwork_size(const fg_problem *p);
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_CHAIN_SOLVER_H */

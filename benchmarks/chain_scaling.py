@@ -1,0 +1,99 @@
+"""Time per compiled solve of a chain of n scm3 flexures under a tip force, n = 1 .. 32.
+
+    python benchmarks/chain_scaling.py [--sizes 1,2,4,8,16,32] [--rounds 21]
+
+The chain: n flexures of length 1/n (EI = 1) in a row, each on its parent's tip, a tip force
+(0, -2) (the cantilever of examples/cantilever_tip_load.toml cut into n pieces), scm3 with the
+"auto" kernel. Timed: ``plan.run()`` of ``flexgen.compiled.solver.prepare`` alone (the fastest,
+or with --stat median the median, of ``rounds`` batches of calls lasting at least BATCH_S,
+after WARMUP_S of warm-up calls), with the Newton iterations and, where the compiled solver
+reports it (``fg_answer.evaluations``), the chain evaluations per solve. The last column is the time relative to n = 1.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from flexgen.compiled import library             # noqa: E402
+from flexgen.compiled.solver import prepare      # noqa: E402
+from flexgen.models.scm import SCMModel          # noqa: E402
+from flexgen.scene import scene_from_dict        # noqa: E402
+
+BATCH_S = 5e-3
+STAT = "min"
+WARMUP_S = 0.3          # calls before timing (caches, CPU frequency)
+
+
+def chain_scene(n: int, force=(0.0, -2.0)):
+    flex = []
+    for i in range(n):
+        flex.append({"name": f"f{i}", "length": 1.0 / n, "EI": 1.0,
+                     "parent": "base" if i == 0 else f"f{i - 1}", "at": [0.0, 0.0, 0.0]})
+    return scene_from_dict({"name": f"chain{n}", "flexure": flex,
+                            "load": [{"point": f"f{n - 1}.tip", "force": list(force)}],
+                            "output": {"points": [f"f{n - 1}.tip"]}})
+
+
+def time_plan(plan, rounds: int) -> float:
+    status = plan.run()
+    if status != library.SOLVED:
+        raise SystemExit(f"not solved in C (status {status})")
+    t_end = time.perf_counter() + WARMUP_S
+    while time.perf_counter() < t_end:
+        plan.run()
+    calls = 1
+    while True:
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            plan.run()
+        if time.perf_counter() - t0 >= BATCH_S:
+            break
+        calls *= 2
+    times = []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            plan.run()
+        times.append((time.perf_counter() - t0) / calls)
+    return min(times) if STAT == "min" else statistics.median(times)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="1,2,4,8,16,32")
+    ap.add_argument("--rounds", type=int, default=21)
+    ap.add_argument("--stat", choices=("min", "median"), default="min",
+                    help="of the batches (min: robust to other processes on the machine)")
+    args = ap.parse_args(argv)
+    global STAT
+    STAT = args.stat
+    sizes = [int(s) for s in args.sizes.split(",")]
+    base = None
+    print(f"{'n':>3} {'ndof':>5} {'us/solve':>10} {'iterations':>10} {'evaluations':>11} "
+          f"{'ratio':>7}")
+    for n in sizes:
+        scene = chain_scene(n)
+        plan = prepare(scene, model_factory=lambda f: SCMModel(f.length, f.EI, 3, "auto",
+                                                               name=f.name))
+        t = time_plan(plan, args.rounds)
+        if base is None:
+            base = t
+        a = plan.answer
+        ev = getattr(a, "evaluations", None)
+        print(f"{n:>3} {plan.q.size:>5} {t * 1e6:>10.2f} {a.iterations:>10} "
+              f"{'-' if ev is None else ev:>11} {t / base:>7.1f}")
+
+
+if __name__ == "__main__":
+    main()
