@@ -4,7 +4,7 @@
 
 The chain: n flexures of length 1/n (EI = 1) in a row, each on its parent's tip, a tip force
 (0, -2) (the cantilever of examples/cantilever_tip_load.toml cut into n pieces), scm3 with the
-"auto" kernel. Timed: ``plan.run()`` of ``flexgen.compiled.solver.prepare`` alone (the fastest,
+"auto" kernel. Timed: the bare core call of a prepared ``flexgen.Solver`` (the fastest,
 or with --stat median the median, of ``rounds`` batches of calls lasting at least BATCH_S,
 after WARMUP_S of warm-up calls), with the Newton iterations and, where the compiled solver
 reports it (``fg_answer.evaluations``), the chain evaluations per solve. The last column is the time relative to n = 1.
@@ -25,10 +25,10 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from flexgen.compiled import library             # noqa: E402
-from flexgen.compiled.solver import prepare      # noqa: E402
-from flexgen.models.scm import SCMModel          # noqa: E402
+import flexgen                                   # noqa: E402
+from flexgen import core                         # noqa: E402
 from flexgen.scene import scene_from_dict        # noqa: E402
+from flexgen_tools.timing import core_call       # noqa: E402
 
 BATCH_S = 5e-3
 STAT = "min"
@@ -45,18 +45,18 @@ def chain_scene(n: int, force=(0.0, -2.0)):
                             "output": {"points": [f"f{n - 1}.tip"]}})
 
 
-def time_plan(plan, rounds: int) -> float:
-    status = plan.run()
-    if status != library.SOLVED:
-        raise SystemExit(f"not solved in C (status {status})")
+def time_plan(run, rounds: int) -> float:
+    status = run()
+    if status != core.SOLVED:
+        raise SystemExit(f"not solved (core status {status})")
     t_end = time.perf_counter() + WARMUP_S
     while time.perf_counter() < t_end:
-        plan.run()
+        run()
     calls = 1
     while True:
         t0 = time.perf_counter()
         for _ in range(calls):
-            plan.run()
+            run()
         if time.perf_counter() - t0 >= BATCH_S:
             break
         calls *= 2
@@ -64,7 +64,7 @@ def time_plan(plan, rounds: int) -> float:
     for _ in range(rounds):
         t0 = time.perf_counter()
         for _ in range(calls):
-            plan.run()
+            run()
         times.append((time.perf_counter() - t0) / calls)
     return min(times) if STAT == "min" else statistics.median(times)
 
@@ -84,14 +84,13 @@ def main(argv=None) -> None:
           f"{'ratio':>7}")
     for n in sizes:
         scene = chain_scene(n)
-        plan = prepare(scene, model_factory=lambda f: SCMModel(f.length, f.EI, 3, "auto",
-                                                               name=f.name))
-        t = time_plan(plan, args.rounds)
+        solver = flexgen.Solver(scene, modes=3)
+        t = time_plan(core_call(solver), args.rounds)
         if base is None:
             base = t
-        a = plan.answer
+        a = solver.workspace.answer
         ev = getattr(a, "evaluations", None)
-        print(f"{n:>3} {plan.q.size:>5} {t * 1e6:>10.2f} {a.iterations:>10} "
+        print(f"{n:>3} {solver.workspace.q.size:>5} {t * 1e6:>10.2f} {a.iterations:>10} "
               f"{'-' if ev is None else ev:>11} {t / base:>7.1f}")
 
 
