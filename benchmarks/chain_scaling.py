@@ -25,10 +25,10 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-import flexgen                                   # noqa: E402
-from flexgen import core                         # noqa: E402
-from flexgen.scene import scene_from_dict        # noqa: E402
-from flexgen_tools.timing import core_call       # noqa: E402
+import flexgen  # noqa: E402
+from flexgen import core  # noqa: E402
+from flexgen.scene import scene_from_dict  # noqa: E402
+from flexgen_tools.timing import core_call  # noqa: E402
 
 BATCH_S = 5e-3
 STAT = "min"

@@ -1,4 +1,5 @@
 """python -m flexgen"""
+
 import sys
 
 from flexgen.cli import main

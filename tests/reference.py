@@ -2,6 +2,7 @@
 
 Built from numpy.polynomial.legendre only (no flexgen code), so it checks the SymPy derivation.
 """
+
 import numpy as np
 from numpy.polynomial import legendre
 
@@ -46,4 +47,3 @@ def near_edge(modes: int, phi_max: float, count: int, seed: int = 0) -> np.ndarr
     q[:, 1:] *= rng.choice([1.0, 3.0, 10.0, 30.0], size=(count, 1))
     q = np.concatenate([q, np.eye(modes), -np.eye(modes)])
     return q * phi_max * rng.uniform(0.97, 1.0, size=(len(q), 1)) / max_angle(q)[:, None]
-

@@ -3,6 +3,7 @@
 No wall-clock limits are asserted: only that the C timing is positive and that the measured error
 is within the kernel's certified bounds.
 """
+
 from __future__ import annotations
 
 import math
@@ -11,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from benchmark_modules import load_benchmark
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -58,8 +58,7 @@ def test_max_abs_phi_is_exact(kb):
 
 
 def test_c_kernel_timing_and_error(kb, kernel, tmp_path):
-    cfg = kb.Config(quick=True, c_rounds=1, c_repeats=1, c_target_ms=0.2, n_random=10,
-                    n_edge=10)
+    cfg = kb.Config(quick=True, c_rounds=1, c_repeats=1, c_target_ms=0.2, n_random=10, n_edge=10)
     rows = kb.run_c(cfg, tmp_path, [kernel])
     (row,) = rows
     assert row["time"]["double"] > 0 and row["time"]["float"] > 0
@@ -75,8 +74,7 @@ def test_c_kernel_timing_and_error(kb, kernel, tmp_path):
 
 def test_numpy_module_and_quadrature(kb):
     mod = kb.load_module(ROOT / "generated" / "numpy" / f"{KERNEL}.py")
-    rates = kb.time_numpy_module(mod, (1, 8), np.random.default_rng(0), budget_s=0.01,
-                                 repeats=1)
+    rates = kb.time_numpy_module(mod, (1, 8), np.random.default_rng(0), budget_s=0.01, repeats=1)
     assert all(r > 0 for r in rates.values())
     q = kb.sample_q(3, kb.TIMING_PHI, 1, np.random.default_rng(1))[0]
     got = kb.quad_evaluate(q)

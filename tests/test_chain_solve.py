@@ -6,6 +6,7 @@ kernels. The solver (the compiled core) evaluates only the shipped kernels: its 
 N-mode model's Gauss kernel (``SCMModel(kernel="gauss")``, 8N + 1 nodes), which is likewise the
 N-mode model itself without the polynomial's interpolation error.
 """
+
 from __future__ import annotations
 
 import json
@@ -18,9 +19,9 @@ from numpy.polynomial import legendre
 
 from flexgen.chain import Chain
 from flexgen.models.base import TipKinematics
+from flexgen.models.scm import SCMModel
 from flexgen.result import ellipse
 from flexgen.scene import Flexure, Link, Load, ModelSpec, Scene, Tendon
-from flexgen.models.scm import SCMModel
 from flexgen.solver import solve_models as solve
 
 
@@ -34,7 +35,7 @@ class LegendreModel:
         self.label = f"scm{modes}-gauss"
         x, w = legendre.leggauss(nodes)
         self.sigma, self.w = 0.5 * (x + 1.0), 0.5 * w
-        self.B = self._basis(self.sigma)                     # (nodes, N)
+        self.B = self._basis(self.sigma)  # (nodes, N)
         self.weights = self.EI / self.length / (2.0 * np.arange(modes) + 1.0)
 
     def _basis(self, sigma):
@@ -42,7 +43,7 @@ class LegendreModel:
         cols = [np.asarray(sigma, dtype=float)]
         for n in range(1, self.modes):
             cp = np.zeros(n + 2)
-            cp[n + 1], cp[n - 1] = 1.0, -1.0                  # (P_{n+1} - P_{n-1}) / (2 (2n + 1))
+            cp[n + 1], cp[n - 1] = 1.0, -1.0  # (P_{n+1} - P_{n-1}) / (2 (2n + 1))
             cols.append(legendre.legval(x, cp) / (2.0 * (2 * n + 1)))
         return np.stack(cols, axis=-1)
 
@@ -74,8 +75,14 @@ class LegendreModel:
         sig = np.linspace(0.0, 1.0, num)
         fine = np.linspace(0.0, 1.0, 20 * num)
         phi = self._basis(fine) @ np.asarray(q, dtype=float)
-        seg = np.diff(fine)[:, None] * 0.5 * (np.stack([np.cos(phi), np.sin(phi)], 1)[1:]
-                                              + np.stack([np.cos(phi), np.sin(phi)], 1)[:-1])
+        seg = (
+            np.diff(fine)[:, None]
+            * 0.5
+            * (
+                np.stack([np.cos(phi), np.sin(phi)], 1)[1:]
+                + np.stack([np.cos(phi), np.sin(phi)], 1)[:-1]
+            )
+        )
         pts = self.length * np.vstack([[0.0, 0.0], np.cumsum(seg, axis=0)])
         return np.stack([np.interp(sig, fine, pts[:, 0]), np.interp(sig, fine, pts[:, 1])], 1)
 
@@ -95,23 +102,40 @@ def models_for(scene, modes=3):
 
 
 def flex(name, parent, at=(0.0, 0.0, 0.0), length=1.0, EI=1.0, modes=3):
-    return Flexure(name=name, parent=parent, at=tuple(at), length=length, EI=EI,
-                   model=ModelSpec(kind="scm", modes=modes))
+    return Flexure(
+        name=name,
+        parent=parent,
+        at=tuple(at),
+        length=length,
+        EI=EI,
+        model=ModelSpec(kind="scm", modes=modes),
+    )
 
 
 def scene_of(flexures, links=(), loads=(), tendons=(), outputs=(), base_points=None, name="t"):
-    return Scene(name=name, model=ModelSpec(), base_points=base_points or {},
-                 flexures=tuple(flexures), links=tuple(links), loads=tuple(loads),
-                 tendons=tuple(tendons), outputs=tuple(outputs))
+    return Scene(
+        name=name,
+        model=ModelSpec(),
+        base_points=base_points or {},
+        flexures=tuple(flexures),
+        links=tuple(links),
+        loads=tuple(loads),
+        tendons=tuple(tendons),
+        outputs=tuple(outputs),
+    )
 
 
 # A tree: base -> a -> link l1 -> b -> link l2; a's tip frame also carries flexure c directly.
 TREE = scene_of(
-    [flex("a", "base", (0.1, 0.2, 0.3), 1.0, 1.0),
-     flex("b", "l1", (0.5, -0.1, 0.4), 0.7, 0.6),
-     flex("c", "a", (0.05, 0.0, -0.6), 0.5, 0.3)],
-    links=[Link("l1", "a", {"p": (0.3, 0.1), "hole": (0.2, 0.08)}),
-           Link("l2", "b", {"pad": (0.2, 0.05), "anchor": (0.3, -0.04)})],
+    [
+        flex("a", "base", (0.1, 0.2, 0.3), 1.0, 1.0),
+        flex("b", "l1", (0.5, -0.1, 0.4), 0.7, 0.6),
+        flex("c", "a", (0.05, 0.0, -0.6), 0.5, 0.3),
+    ],
+    links=[
+        Link("l1", "a", {"p": (0.3, 0.1), "hole": (0.2, 0.08)}),
+        Link("l2", "b", {"pad": (0.2, 0.05), "anchor": (0.3, -0.04)}),
+    ],
     base_points={"r0": (0.0, 0.25)},
 )
 
@@ -124,11 +148,15 @@ def _homog(x, y, th):
 def _pose_reference(models, q_parts, ref):
     """Pose by explicit 3x3 homogeneous matrices, written out per point of TREE."""
     tip = {n: _homog(*models[n].tip(q_parts[n]).pose) for n in models}
-    A = _homog(0.1, 0.2, 0.3) @ tip["a"]                      # a's tip frame = l1's frame
-    Bf = A @ _homog(0.5, -0.1, 0.4) @ tip["b"]                 # b's tip frame = l2's frame
+    A = _homog(0.1, 0.2, 0.3) @ tip["a"]  # a's tip frame = l1's frame
+    Bf = A @ _homog(0.5, -0.1, 0.4) @ tip["b"]  # b's tip frame = l2's frame
     Cf = A @ _homog(0.05, 0.0, -0.6) @ tip["c"]
-    frame, xy = {"l1.p": (A, (0.3, 0.1)), "l2.pad": (Bf, (0.2, 0.05)), "c.tip": (Cf, (0.0, 0.0)),
-                 "l2.anchor": (Bf, (0.3, -0.04))}[ref]
+    frame, xy = {
+        "l1.p": (A, (0.3, 0.1)),
+        "l2.pad": (Bf, (0.2, 0.05)),
+        "c.tip": (Cf, (0.0, 0.0)),
+        "l2.anchor": (Bf, (0.3, -0.04)),
+    }[ref]
     p = frame @ np.array([xy[0], xy[1], 1.0])
     return np.array([p[0], p[1], math.atan2(frame[1, 0], frame[0, 0])])
 
@@ -146,16 +174,21 @@ def test_point_pose_jacobian_hessian_against_finite_differences():
 
         h = 1e-6
         E = np.eye(chain.ndof)
-        Jfd = np.stack([(chain.pose(ref, q + h * e) - chain.pose(ref, q - h * e)) / (2 * h)
-                        for e in E], axis=1)
+        Jfd = np.stack(
+            [(chain.pose(ref, q + h * e) - chain.pose(ref, q - h * e)) / (2 * h) for e in E], axis=1
+        )
         assert np.allclose(pk.J, Jfd, atol=1e-8), ref
         h = 1e-4
         Hfd = np.zeros_like(pk.H)
         for i in range(chain.ndof):
             for j in range(chain.ndof):
                 ei, ej = h * E[i], h * E[j]
-                Hfd[:, i, j] = (chain.pose(ref, q + ei + ej) - chain.pose(ref, q + ei - ej)
-                                - chain.pose(ref, q - ei + ej) + chain.pose(ref, q - ei - ej)) / (4 * h * h)
+                Hfd[:, i, j] = (
+                    chain.pose(ref, q + ei + ej)
+                    - chain.pose(ref, q + ei - ej)
+                    - chain.pose(ref, q - ei + ej)
+                    + chain.pose(ref, q - ei - ej)
+                ) / (4 * h * h)
         assert np.allclose(pk.H, Hfd, atol=1e-6), ref
         # a point on flexure c does not move with flexure b's coordinates
         if ref == "c.tip":
@@ -170,7 +203,9 @@ def test_tendon_potential_gradient_and_hessian_against_finite_differences():
     V, g, H = chain.tendon_potential(q)
     # the value: the sum of straight segment lengths between the route points, times T
     P = [chain.pose(r, q)[:2] for r in ("base.r0", "l1.hole", "l2.anchor", "c.tip")]
-    assert V == pytest.approx(2.5 * sum(np.linalg.norm(P[k + 1] - P[k]) for k in range(3)), rel=1e-14)
+    assert V == pytest.approx(
+        2.5 * sum(np.linalg.norm(P[k + 1] - P[k]) for k in range(3)), rel=1e-14
+    )
 
     def Vof(x):
         return chain.tendon_potential(x)[0]
@@ -180,9 +215,21 @@ def test_tendon_potential_gradient_and_hessian_against_finite_differences():
     gfd = np.array([(Vof(q + h * e) - Vof(q - h * e)) / (2 * h) for e in E])
     assert np.allclose(g, gfd, atol=1e-7)
     h = 1e-4
-    Hfd = np.array([[(Vof(q + h * (E[i] + E[j])) - Vof(q + h * (E[i] - E[j]))
-                      - Vof(q - h * (E[i] - E[j])) + Vof(q - h * (E[i] + E[j]))) / (4 * h * h)
-                     for j in range(chain.ndof)] for i in range(chain.ndof)])
+    Hfd = np.array(
+        [
+            [
+                (
+                    Vof(q + h * (E[i] + E[j]))
+                    - Vof(q + h * (E[i] - E[j]))
+                    - Vof(q - h * (E[i] - E[j]))
+                    + Vof(q - h * (E[i] + E[j]))
+                )
+                / (4 * h * h)
+                for j in range(chain.ndof)
+            ]
+            for i in range(chain.ndof)
+        ]
+    )
     assert np.allclose(H, Hfd, atol=1e-5)
     assert np.allclose(H, H.T)
 
@@ -190,8 +237,10 @@ def test_tendon_potential_gradient_and_hessian_against_finite_differences():
 def _compliance_scene(extra_force=(0.0, 0.0), extra_moment=0.0):
     return replace(
         TREE,
-        loads=(Load("l2.pad", (0.3 + extra_force[0], -0.5 + extra_force[1]), 0.1 + extra_moment),
-               Load("c.tip", (0.0, 0.2), -0.15)),
+        loads=(
+            Load("l2.pad", (0.3 + extra_force[0], -0.5 + extra_force[1]), 0.1 + extra_moment),
+            Load("c.tip", (0.0, 0.2), -0.15),
+        ),
         tendons=(Tendon(0.8, ("base.r0", "l1.hole", "l2.anchor")),),
         outputs=("l2.pad", "c.tip"),
     )
@@ -210,7 +259,9 @@ def test_compliance_matches_finite_differences_of_resolving():
         plus = solve(_compliance_scene(dF[:2], dF[2]), models_for(base, 3))
         minus = solve(_compliance_scene(-dF[:2], -dF[2]), models_for(base, 3))
         assert plus.converged and minus.converged
-        cols.append((np.array(plus.points["l2.pad"].pose) - np.array(minus.points["l2.pad"].pose)) / (2 * h))
+        cols.append(
+            (np.array(plus.points["l2.pad"].pose) - np.array(minus.points["l2.pad"].pose)) / (2 * h)
+        )
     Cfd = np.stack(cols, axis=1)
     assert np.allclose(C3, Cfd, rtol=1e-6, atol=1e-8 * np.max(np.abs(C3)))
     assert np.allclose(res.points["l2.pad"].compliance, C3[:2, :2])
@@ -234,7 +285,7 @@ def test_rectangular_elastica_buckles_onto_the_bent_branch():
     assert th == pytest.approx(math.pi / 2, abs=2e-3)
     assert res.stable
     assert len(res.critical_load_factors) == 1
-    assert res.critical_load_factors[0] == pytest.approx(math.pi ** 2 / 4 / P, rel=1e-4)
+    assert res.critical_load_factors[0] == pytest.approx(math.pi**2 / 4 / P, rel=1e-4)
     assert any("bifurcation" in w for w in res.warnings)
     assert res.residual <= 1e-12
 
@@ -257,7 +308,7 @@ def test_arc_under_pure_moment_and_its_compliance_ellipse():
     sc5, models5 = _single(M=t, modes=5)
     e5 = solve(sc5, models5).points["f.tip"].ellipse
     assert e5["major"] == pytest.approx(0.2876591, rel=2e-7)
-    assert e5["minor"] == pytest.approx(0.0068858, rel=1e-5)    # reference given to 5 digits
+    assert e5["minor"] == pytest.approx(0.0068858, rel=1e-5)  # reference given to 5 digits
 
 
 def test_small_load_cantilever_compliance_in_physical_units():
@@ -266,14 +317,19 @@ def test_small_load_cantilever_compliance_in_physical_units():
     res = solve(sc, models)
     assert res.converged and res.stable
     C3 = np.array(res.points["f.tip"].compliance3)
-    expect = np.array([[L ** 3 / 3, L ** 2 / 2], [L ** 2 / 2, L]]) / EI
+    expect = np.array([[L**3 / 3, L**2 / 2], [L**2 / 2, L]]) / EI
     assert np.allclose(C3[1:, 1:], expect, rtol=1e-6)
 
 
 def _finger(prefix, at):
-    fl = [flex(f"{prefix}1", "base", at, 0.02, 2.5e-5), flex(f"{prefix}2", f"{prefix}m", (0.03, 0.0, 0.1), 0.015, 2.0e-5)]
-    links = [Link(f"{prefix}m", f"{prefix}1", {"hole": (0.004, 0.003), "joint": (0.03, 0.0)}),
-             Link(f"{prefix}t", f"{prefix}2", {"pad": (0.015, 0.004), "anchor": (0.02, 0.003)})]
+    fl = [
+        flex(f"{prefix}1", "base", at, 0.02, 2.5e-5),
+        flex(f"{prefix}2", f"{prefix}m", (0.03, 0.0, 0.1), 0.015, 2.0e-5),
+    ]
+    links = [
+        Link(f"{prefix}m", f"{prefix}1", {"hole": (0.004, 0.003), "joint": (0.03, 0.0)}),
+        Link(f"{prefix}t", f"{prefix}2", {"pad": (0.015, 0.004), "anchor": (0.02, 0.003)}),
+    ]
     loads = [Load(f"{prefix}t.pad", (0.02, -0.05), 2e-4)]
     tendons = [Tendon(0.05, (f"base.{prefix}r", f"{prefix}m.hole", f"{prefix}t.anchor"))]
     base_pts = {f"{prefix}r": (at[0] + 0.0, at[1] + 0.004)}
@@ -283,8 +339,9 @@ def _finger(prefix, at):
 def test_two_identical_fingers_solve_like_one():
     fa = _finger("a", (0.0, 0.01, 0.0))
     fb = _finger("b", (0.0, -0.01, 0.0))
-    both = scene_of(fa[0] + fb[0], fa[1] + fb[1], fa[2] + fb[2], fa[3] + fb[3],
-                    base_points={**fa[4], **fb[4]})
+    both = scene_of(
+        fa[0] + fb[0], fa[1] + fb[1], fa[2] + fb[2], fa[3] + fb[3], base_points={**fa[4], **fb[4]}
+    )
     alone = scene_of(*fa[:4], base_points=fa[4])
     r2 = solve(both, models_for(both))
     r1 = solve(alone, models_for(alone))
@@ -302,10 +359,14 @@ def test_two_identical_fingers_solve_like_one():
 def _scaled_scene(k):
     """The same finger in metres (k = 1) or centimetres (k = 100): lengths x k, EI x k^2,
     forces unchanged, moments x k."""
-    fl = [flex("p", "base", (0.0, 0.0, 0.0), 0.02 * k, 2.5e-5 * k * k),
-          flex("d", "m", (0.03 * k, 0.0, 0.1), 0.015 * k, 2.0e-5 * k * k)]
-    links = [Link("m", "p", {"hole": (0.004 * k, 0.003 * k)}),
-             Link("t", "d", {"pad": (0.015 * k, 0.004 * k), "anchor": (0.02 * k, 0.003 * k)})]
+    fl = [
+        flex("p", "base", (0.0, 0.0, 0.0), 0.02 * k, 2.5e-5 * k * k),
+        flex("d", "m", (0.03 * k, 0.0, 0.1), 0.015 * k, 2.0e-5 * k * k),
+    ]
+    links = [
+        Link("m", "p", {"hole": (0.004 * k, 0.003 * k)}),
+        Link("t", "d", {"pad": (0.015 * k, 0.004 * k), "anchor": (0.02 * k, 0.003 * k)}),
+    ]
     loads = [Load("t.pad", (0.01, -0.03), 1e-4 * k)]
     tendons = [Tendon(0.05, ("base.r", "m.hole", "t.anchor"))]
     return scene_of(fl, links, loads, tendons, base_points={"r": (0.0, 0.004 * k)})
@@ -342,12 +403,21 @@ def test_no_equilibrium_within_limits_is_reported_not_raised():
 def test_json_contract_fields_and_ellipse_convention():
     sc, models = _single(M=0.5, modes=3)
     out = json.loads(solve(sc, models).to_json())
-    assert set(out) == {"scene", "converged", "stable", "iterations", "model", "q", "points", "warnings"}
+    assert set(out) == {
+        "scene",
+        "converged",
+        "stable",
+        "iterations",
+        "model",
+        "q",
+        "points",
+        "warnings",
+    }
     assert out["model"] == {"f": {"kind": "scm", "modes": 3}}
     assert set(out["points"]["f.tip"]) == {"pose", "compliance", "ellipse"}
-    e = ellipse(np.array([[1.0, 0.0], [0.0, 3.0]]))     # major axis along y -> angle pi/2
+    e = ellipse(np.array([[1.0, 0.0], [0.0, 3.0]]))  # major axis along y -> angle pi/2
     assert e["major"] == 3.0 and e["minor"] == 1.0 and e["angle"] == pytest.approx(math.pi / 2)
-    e = ellipse(np.array([[2.0, -1.0], [-1.0, 2.0]]))   # major axis along (1, -1)
+    e = ellipse(np.array([[2.0, -1.0], [-1.0, 2.0]]))  # major axis along (1, -1)
     assert e["major"] == pytest.approx(3.0) and e["angle"] == pytest.approx(-math.pi / 4)
 
 
@@ -384,13 +454,23 @@ def test_potential_residual_and_stiffness_are_consistent():
     r = _reference_gradient(chain, sc, q)
     assert np.linalg.norm(r) <= 1e-10 * np.linalg.norm(chain.energy_gradient(q))
     E, h = np.eye(chain.ndof), 1e-6
-    Kfd = np.stack([(_reference_gradient(chain, sc, q + h * e)
-                     - _reference_gradient(chain, sc, q - h * e)) / (2 * h) for e in E], 1)
+    Kfd = np.stack(
+        [
+            (_reference_gradient(chain, sc, q + h * e) - _reference_gradient(chain, sc, q - h * e))
+            / (2 * h)
+            for e in E
+        ],
+        1,
+    )
     assert np.allclose(res.stiffness, Kfd, atol=1e-7)
 
     def Pi(x):
-        work = sum(ld.force[0] * chain.pose(ld.point, x)[0] + ld.force[1] * chain.pose(ld.point, x)[1]
-                   + ld.moment * chain.pose(ld.point, x)[2] for ld in sc.loads)
+        work = sum(
+            ld.force[0] * chain.pose(ld.point, x)[0]
+            + ld.force[1] * chain.pose(ld.point, x)[1]
+            + ld.moment * chain.pose(ld.point, x)[2]
+            for ld in sc.loads
+        )
         return chain.energy(x) + chain.tendon_potential(x)[0] - work
 
     x = q + 0.3 * np.random.default_rng(11).standard_normal(chain.ndof)
@@ -404,19 +484,23 @@ def test_rotated_elastica_buckles_like_the_unrotated_one(angle):
     imperfection is round-off, which must neither stall the solve nor hide the bifurcation."""
     P = 3.4375929
     c, s = math.cos(angle), math.sin(angle)
-    sc = scene_of([flex("f", "base", (0.0, 0.0, angle), 1.0, 1.0, 5)], loads=[Load("f.tip", (-P * c, -P * s))])
+    sc = scene_of(
+        [flex("f", "base", (0.0, 0.0, angle), 1.0, 1.0, 5)], loads=[Load("f.tip", (-P * c, -P * s))]
+    )
     res = solve(sc, {"f": gauss(1.0, 1.0, 5, "f")})
     assert res.converged and res.stable, res.reason
     x, y, _ = res.points["f.tip"].pose
     assert c * x + s * y == pytest.approx(0.456947, abs=1e-4)
     assert abs(-s * x + c * y) == pytest.approx(0.762760, abs=1e-4)
-    assert res.critical_load_factors == [pytest.approx(math.pi ** 2 / 4 / P, rel=1e-4)]
+    assert res.critical_load_factors == [pytest.approx(math.pi**2 / 4 / P, rel=1e-4)]
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
 def test_imperfect_elastica_follows_its_imperfection_without_a_bifurcation(sign):
     P = 3.4375929
-    sc = scene_of([flex("f", "base", (0, 0, 0), 1.0, 1.0, 5)], loads=[Load("f.tip", (-P, sign * 1e-3))])
+    sc = scene_of(
+        [flex("f", "base", (0, 0, 0), 1.0, 1.0, 5)], loads=[Load("f.tip", (-P, sign * 1e-3))]
+    )
     res = solve(sc, {"f": gauss(1.0, 1.0, 5, "f")})
     assert res.converged and res.stable
     x, y, _ = res.points["f.tip"].pose
@@ -424,9 +508,14 @@ def test_imperfect_elastica_follows_its_imperfection_without_a_bifurcation(sign)
     assert res.critical_load_factors == [] and res.warnings == []
 
 
-@pytest.mark.parametrize("P, x, y, angle_deg", [(2.55406, 0.93243, 0.32390, 30.0),
-                                                (2.84175, 0.74102, 0.59321, 60.0),
-                                                (4.65056, 0.12316, 0.80317, 120.0)])
+@pytest.mark.parametrize(
+    "P, x, y, angle_deg",
+    [
+        (2.55406, 0.93243, 0.32390, 30.0),
+        (2.84175, 0.74102, 0.59321, 60.0),
+        (4.65056, 0.12316, 0.80317, 120.0),
+    ],
+)
 def test_post_buckled_cantilever_against_the_elastica_table(P, x, y, angle_deg):
     # six modes (the largest with a shipped Gauss kernel): post-buckled tip within 5e-6
     sc = scene_of([flex("f", "base", (0, 0, 0), 1.0, 1.0, 6)], loads=[Load("f.tip", (-P, 0.0))])

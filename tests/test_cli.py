@@ -1,4 +1,5 @@
 """The command line as a whole: help for every subcommand, quiet exit on a closed pipe."""
+
 import subprocess
 import sys
 from pathlib import Path
@@ -8,19 +9,20 @@ import pytest
 from flexgen.cli import COMMANDS
 
 
-
 @pytest.mark.parametrize("command", COMMANDS)
 def test_every_subcommand_has_help(command):
-    result = subprocess.run([sys.executable, "-m", "flexgen", command, "--help"],
-                            capture_output=True, text=True)
+    result = subprocess.run(
+        [sys.executable, "-m", "flexgen", command, "--help"], capture_output=True, text=True
+    )
     assert result.returncode == 0
     assert f"usage: flexgen {command}" in result.stdout
     assert len(result.stdout.splitlines()) > 4
 
 
 def test_unknown_subcommand_is_one_line_exit_2():
-    result = subprocess.run([sys.executable, "-m", "flexgen", "frobnicate"],
-                            capture_output=True, text=True)
+    result = subprocess.run(
+        [sys.executable, "-m", "flexgen", "frobnicate"], capture_output=True, text=True
+    )
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
 
@@ -29,19 +31,29 @@ def test_closed_pipe_is_quiet():
     """`| true` closes the pipe before flexgen writes: no traceback, exit 141 like other tools."""
     result = subprocess.run(
         f"{sys.executable} -m flexgen solve examples/two_link_finger.toml | true; "
-        "echo ${PIPESTATUS[0]}", shell=True, executable="/bin/bash", capture_output=True,
-        text=True, cwd=Path(__file__).parents[1])
+        "echo ${PIPESTATUS[0]}",
+        shell=True,
+        executable="/bin/bash",
+        capture_output=True,
+        text=True,
+        cwd=Path(__file__).parents[1],
+    )
     assert result.stdout.strip() == "141"
     assert "Traceback" not in result.stderr and "BrokenPipe" not in result.stderr
 
 
 def _flexgen(*args):
-    return subprocess.run([sys.executable, "-m", "flexgen", *args], capture_output=True,
-                          text=True, cwd=Path(__file__).parents[1])
+    return subprocess.run(
+        [sys.executable, "-m", "flexgen", *args],
+        capture_output=True,
+        text=True,
+        cwd=Path(__file__).parents[1],
+    )
 
 
 def test_solve_tol_reports_the_choice_and_plot_draws_it(tmp_path):
     import json
+
     result = _flexgen("solve", "examples/two_link_finger.toml", "--tol", "1e-6", "--json")
     assert result.returncode == 0
     out = json.loads(result.stdout)
@@ -50,12 +62,18 @@ def test_solve_tol_reports_the_choice_and_plot_draws_it(tmp_path):
         assert out["model"][name]["error_estimate"] <= 1e-6
         assert len(out["q"][name]) == out["model"][name]["modes"] > 3
     png = tmp_path / "finger.png"
-    assert _flexgen("plot", "examples/two_link_finger.toml", "--tol", "1e-6",
-                    "-o", str(png)).returncode == 0
+    assert (
+        _flexgen(
+            "plot", "examples/two_link_finger.toml", "--tol", "1e-6", "-o", str(png)
+        ).returncode
+        == 0
+    )
     assert png.stat().st_size > 10000
 
 
-@pytest.mark.parametrize("args", [["--tol", "0"], ["--tol", "abc"], ["--tol", "1e-4", "--modes", "3"]])
+@pytest.mark.parametrize(
+    "args", [["--tol", "0"], ["--tol", "abc"], ["--tol", "1e-4", "--modes", "3"]]
+)
 def test_solve_tol_bad_input(args):
     result = _flexgen("solve", "examples/arc_moment.toml", *args)
     assert result.returncode == 2 and result.stdout == ""

@@ -2,11 +2,11 @@
 overrides, plots, every class of bad input (exit 2, one line naming the key), no equilibrium
 (exit 1), the scm kernel switch (auto: a warning; poly: no equilibrium); the --backend option
 of the deleted Python solver is gone (a usage error)."""
+
 from __future__ import annotations
 
 import json
 import math
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -23,8 +23,13 @@ CONTRACT = {"scene", "converged", "stable", "iterations", "model", "q", "points"
 
 def cli(*argv):
     """Run `python -m flexgen` in a subprocess: (exit code, stdout, stderr)."""
-    p = subprocess.run([sys.executable, "-m", "flexgen", *map(str, argv)], capture_output=True,
-                       text=True, cwd=ROOT, timeout=120)
+    p = subprocess.run(
+        [sys.executable, "-m", "flexgen", *map(str, argv)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
     return p.returncode, p.stdout, p.stderr
 
 
@@ -51,8 +56,10 @@ def test_json_has_exactly_the_contract_fields_and_types(finger_json):
     assert set(d) == CONTRACT
     assert d["scene"] == "two-link finger" and d["converged"] is True and d["stable"] is True
     assert isinstance(d["iterations"], int) and d["iterations"] > 0
-    assert d["model"] == {"proximal": {"kind": "scm", "modes": 3},
-                          "distal": {"kind": "scm", "modes": 3}}
+    assert d["model"] == {
+        "proximal": {"kind": "scm", "modes": 3},
+        "distal": {"kind": "scm", "modes": 3},
+    }
     assert set(d["q"]) == {"proximal", "distal"}
     assert all(len(v) == 3 and all(map(is_number, v)) for v in d["q"].values())
     assert set(d["points"]) == {"middle.pad", "fingertip.pad"}
@@ -80,16 +87,19 @@ def test_table_output(capsys):
     code, out, err = run(capsys, "solve", EX / "arc_moment.toml")
     assert code == 0 and err == ""
     assert "converged" in out and "beam.tip" in out and "major" in out
-    assert " 0.2876 " in out and " 0.006883 " in out   # the 3-mode compliance eigenvalues
+    assert " 0.2876 " in out and " 0.006883 " in out  # the 3-mode compliance eigenvalues
 
 
-@pytest.mark.parametrize("argv, model, qlen", [
-    (["--model", "fem", "--elements", "8"], {"kind": "fem", "elements": 8}, 8),
-    (["--modes", "5"], {"kind": "scm", "modes": 5}, 5),
-    (["--model", "cc"], {"kind": "scm", "modes": 1}, 1),
-    (["--model", "prb"], {"kind": "prb"}, 1),
-    (["--model", "exact"], {"kind": "exact"}, 3),        # q: root loads Fx, Fy, M0
-])
+@pytest.mark.parametrize(
+    "argv, model, qlen",
+    [
+        (["--model", "fem", "--elements", "8"], {"kind": "fem", "elements": 8}, 8),
+        (["--modes", "5"], {"kind": "scm", "modes": 5}, 5),
+        (["--model", "cc"], {"kind": "scm", "modes": 1}, 1),
+        (["--model", "prb"], {"kind": "prb"}, 1),
+        (["--model", "exact"], {"kind": "exact"}, 3),  # q: root loads Fx, Fy, M0
+    ],
+)
 def test_model_overrides_beat_the_scene(capsys, argv, model, qlen):
     code, out, err = run(capsys, "solve", EX / "cantilever_tip_load.toml", "--json", *argv)
     assert code == 0, err
@@ -100,8 +110,10 @@ def test_model_overrides_beat_the_scene(capsys, argv, model, qlen):
 
 def test_command_line_overrides_beat_per_flexure_keys(tmp_path, capsys):
     scene = tmp_path / "s.toml"
-    scene.write_text('[model]\nkind = "prb"\n[[flexure]]\nname = "a"\nlength = 1.0\nEI = 1.0\n'
-                     'kind = "fem"\nelements = 4\n[[load]]\npoint = "a.tip"\nforce = [0.0, -1.0]\n')
+    scene.write_text(
+        '[model]\nkind = "prb"\n[[flexure]]\nname = "a"\nlength = 1.0\nEI = 1.0\n'
+        'kind = "fem"\nelements = 4\n[[load]]\npoint = "a.tip"\nforce = [0.0, -1.0]\n'
+    )
     code, out, _ = run(capsys, "solve", scene, "--json", "--model", "scm", "--modes", "4")
     assert code == 0 and json.loads(out)["model"] == {"a": {"kind": "scm", "modes": 4}}
 
@@ -148,7 +160,7 @@ tension = 1.0
 route = ["base.r0", "beam.tip"]
 """
 
-BAD = {   # name: (replace this, with that, key the message must name)
+BAD = {  # name: (replace this, with that, key the message must name)
     "negative length": ("length = 1.0", "length = -0.02", "flexure[0].length"),
     "zero length": ("length = 1.0", "length = 0.0", "flexure[0].length"),
     "zero EI": ("EI = 1.0", "EI = 0", "flexure[0].EI"),
@@ -162,11 +174,22 @@ BAD = {   # name: (replace this, with that, key the message must name)
     "NaN force": ("force = [0.0, -1.0]", "force = [nan, -1.0]", "load[0].force"),
     "unknown parent": ('name = "beam"', 'name = "beam"\nparent = "palm"', "flexure[0].parent"),
     "unknown point": ('point = "beam.tip"', 'point = "beam.pad"', "load[0].point"),
-    "duplicate names": ("[[load]]", '[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n[[load]]',
-                        "flexure[1].name"),
-    "cycle": ('name = "beam"', 'name = "beam"\nparent = "other"',
-              "flexure[0].parent", '[[flexure]]\nname = "other"\nparent = "beam"\nlength = 1.0\nEI = 1.0\n'),
-    "tendon with one point": ('route = ["base.r0", "beam.tip"]', 'route = ["base.r0"]', "tendon[0].route"),
+    "duplicate names": (
+        "[[load]]",
+        '[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n[[load]]',
+        "flexure[1].name",
+    ),
+    "cycle": (
+        'name = "beam"',
+        'name = "beam"\nparent = "other"',
+        "flexure[0].parent",
+        '[[flexure]]\nname = "other"\nparent = "beam"\nlength = 1.0\nEI = 1.0\n',
+    ),
+    "tendon with one point": (
+        'route = ["base.r0", "beam.tip"]',
+        'route = ["base.r0"]',
+        "tendon[0].route",
+    ),
     "negative tension": ("tension = 1.0", "tension = -10.0", "tendon[0].tension"),
     "modes < 1": ('name = "bad"', 'name = "bad"\n[model]\nmodes = 0', "model.modes"),
     "unknown kind": ('name = "bad"', 'name = "bad"\n[model]\nkind = "magic"', "model.kind"),
@@ -200,11 +223,14 @@ def test_bad_scene_exits_2_with_one_line_naming_the_key(tmp_path, capsys, name):
         _one_line_error(code, out, err, BAD[name][2])
 
 
-@pytest.mark.parametrize("text, key", [
-    ("", "flexure"),                                  # empty scene
-    ("name = \n[[flexure]]\n", "invalid TOML"),       # broken TOML
-    ("[[flexure]\nname = 'a'\n", "invalid TOML"),
-])
+@pytest.mark.parametrize(
+    "text, key",
+    [
+        ("", "flexure"),  # empty scene
+        ("name = \n[[flexure]]\n", "invalid TOML"),  # broken TOML
+        ("[[flexure]\nname = 'a'\n", "invalid TOML"),
+    ],
+)
 def test_empty_and_broken_toml(tmp_path, capsys, text, key):
     path = tmp_path / "s.toml"
     path.write_text(text)
@@ -212,13 +238,16 @@ def test_empty_and_broken_toml(tmp_path, capsys, text, key):
     _one_line_error(code, out, err, key)
 
 
-@pytest.mark.parametrize("argv, key", [
-    (["--modes", "0"], "--modes"),
-    (["--modes", "three"], "--modes"),
-    (["--elements", "-1"], "--elements"),
-    (["--model", "magic"], "--model"),
-    (["--modes", "40"], "scm40"),                     # no kernel with that many modes
-])
+@pytest.mark.parametrize(
+    "argv, key",
+    [
+        (["--modes", "0"], "--modes"),
+        (["--modes", "three"], "--modes"),
+        (["--elements", "-1"], "--elements"),
+        (["--model", "magic"], "--model"),
+        (["--modes", "40"], "scm40"),  # no kernel with that many modes
+    ],
+)
 def test_bad_command_line_overrides(capsys, argv, key):
     code, out, err = run(capsys, "solve", EX / "arc_moment.toml", "--json", *argv)
     _one_line_error(code, out, err, key)
@@ -241,19 +270,26 @@ def test_bad_input_in_a_subprocess_has_no_traceback(tmp_path):
 
 # ---- no equilibrium, and the scm kernel switch -----------------------------------------------
 
+
 def _bent(kernel: str) -> dict:
     """A flexure under a tip moment of 2.5 EI/L: a 143-degree arc, past the polynomial range."""
-    return {"name": "bent", "model": {"kind": "scm", "modes": 3, "kernel": kernel},
-            "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
-            "load": [{"point": "beam.tip", "force": [0.0, 0.0], "moment": 2.5}]}
+    return {
+        "name": "bent",
+        "model": {"kind": "scm", "modes": 3, "kernel": kernel},
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "beam.tip", "force": [0.0, 0.0], "moment": 2.5}],
+    }
 
 
 def test_auto_kernel_switches_to_gauss_past_the_range_with_a_warning():
     res = flexgen.solve(_bent("auto"))
     assert res.converged and res.stable
-    x, y, th = res.points["beam.tip"].pose            # a circular arc: closed form
-    assert (x, y, th) == (pytest.approx(math.sin(2.5) / 2.5, abs=1e-9),
-                          pytest.approx((1 - math.cos(2.5)) / 2.5, abs=1e-9), pytest.approx(2.5))
+    x, y, th = res.points["beam.tip"].pose  # a circular arc: closed form
+    assert (x, y, th) == (
+        pytest.approx(math.sin(2.5) / 2.5, abs=1e-9),
+        pytest.approx((1 - math.cos(2.5)) / 2.5, abs=1e-9),
+        pytest.approx(2.5),
+    )
     switch = [w for w in res.warnings if "Gauss kernel" in w]
     assert len(switch) == 1 and "'beam'" in switch[0] and "90 deg" in switch[0]
     # in range: no warning
@@ -270,9 +306,11 @@ def test_poly_kernel_out_of_range_is_no_equilibrium_naming_flexure_and_range():
 
 def test_no_equilibrium_exits_1_with_the_reason_in_json(tmp_path):
     path = tmp_path / "bent.toml"
-    path.write_text('name = "bent"\n[model]\nkind = "scm"\nkernel = "poly"\n'
-                    '[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'
-                    '[[load]]\npoint = "beam.tip"\nforce = [0.0, 0.0]\nmoment = 2.5\n')
+    path.write_text(
+        'name = "bent"\n[model]\nkind = "scm"\nkernel = "poly"\n'
+        '[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'
+        '[[load]]\npoint = "beam.tip"\nforce = [0.0, 0.0]\nmoment = 2.5\n'
+    )
     code, out, err = cli("solve", path, "--json")
     assert code == 1
     d = json.loads(out)
@@ -280,18 +318,18 @@ def test_no_equilibrium_exits_1_with_the_reason_in_json(tmp_path):
     assert d["converged"] is False and "'beam'" in d["reason"] and "90 deg" in d["reason"]
     lines = err.splitlines()
     assert len(lines) == 1 and "no equilibrium" in lines[0] and "Traceback" not in err
-    code, out, err = cli("solve", path)                # table: stdout says so, stderr one line
+    code, out, err = cli("solve", path)  # table: stdout says so, stderr one line
     assert code == 1 and "NOT converged" in out and len(err.splitlines()) == 1
 
 
 # ---- --backend: gone with the Python solver ----------------------------------------------------
 
+
 @pytest.mark.parametrize("value", ["c", "python", "fortran"])
 def test_backend_option_is_gone(capsys, value):
     """One solver: --backend is an unknown option (exit 2, one line naming it), not silently
     ignored."""
-    code, out, err = run(capsys, "solve", EX / "two_link_finger.toml", "--json",
-                         "--backend", value)
+    code, out, err = run(capsys, "solve", EX / "two_link_finger.toml", "--json", "--backend", value)
     _one_line_error(code, out, err, "--backend")
 
 

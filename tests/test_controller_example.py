@@ -1,14 +1,15 @@
 """The C controller example compiles with the strict flags, embeds scm3, and agrees with the
 Python runtime and with the exact elastica (Bisshopp-Drucker alpha = 2, the 90-degree arc)."""
+
 import json
 import subprocess
 
 import numpy as np
 import pytest
 
+from flexgen.api import solve
 from flexgen.kernels import C_FLAGS, GENERATED
 from flexgen.scene import scene_from_dict
-from flexgen.api import solve
 
 EXAMPLE = GENERATED.parent / "examples" / "controller" / "flexure_controller.c"
 
@@ -16,8 +17,19 @@ EXAMPLE = GENERATED.parent / "examples" / "controller" / "flexure_controller.c"
 @pytest.fixture(scope="module")
 def controller(tmp_path_factory):
     exe = tmp_path_factory.mktemp("controller") / "flexure_controller"
-    subprocess.run(["gcc", *C_FLAGS, f"-I{GENERATED / 'c'}", str(EXAMPLE),
-                    str(GENERATED / "c" / "scm3.c"), "-lm", "-o", str(exe)], check=True)
+    subprocess.run(
+        [
+            "gcc",
+            *C_FLAGS,
+            f"-I{GENERATED / 'c'}",
+            str(EXAMPLE),
+            str(GENERATED / "c" / "scm3.c"),
+            "-lm",
+            "-o",
+            str(exe),
+        ],
+        check=True,
+    )
     return exe
 
 
@@ -27,17 +39,19 @@ def run(exe, *args):
 
 
 def python_solve(force, moment):
-    scene = scene_from_dict({
-        "model": {"kind": "scm", "modes": 3, "kernel": "poly"},
-        "flexure": [{"name": "f", "length": 2.0, "EI": 3.0}],
-        "load": [{"point": "f.tip", "force": list(force), "moment": moment}],
-    })
+    scene = scene_from_dict(
+        {
+            "model": {"kind": "scm", "modes": 3, "kernel": "poly"},
+            "flexure": [{"name": "f", "length": 2.0, "EI": 3.0}],
+            "load": [{"point": "f.tip", "force": list(force), "moment": moment}],
+        }
+    )
     return solve(scene).points["f.tip"]
 
 
 def test_tip_load_matches_bisshopp_drucker_and_the_runtime(controller):
     L, EI = 2.0, 3.0
-    P = 2.0 * EI / L**2                                   # alpha = 2
+    P = 2.0 * EI / L**2  # alpha = 2
     code, out = run(controller, L, EI, 0.0, -P, 0.0)
     assert code == 0 and out["converged"] and out["in_range"]
     x, y, theta = out["pose"]

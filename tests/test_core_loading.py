@@ -7,6 +7,7 @@ read-only or non-folder cache path, no home folder) and check that none of them 
 more: the solve works, prints the normal answer, writes nothing, and the only flexgen library
 mapped into the process is the package's ``flexgen/_core``.
 """
+
 from __future__ import annotations
 
 import json
@@ -36,8 +37,9 @@ print(json.dumps({'converged': r.converged, 'x': r.points['fingertip.pad'].pose[
 
 
 def probe(env: dict[str, str], cwd: Path) -> dict:
-    out = subprocess.run([sys.executable, "-c", PROBE, str(FINGER)], capture_output=True,
-                         text=True, env=env, cwd=cwd)
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE, str(FINGER)], capture_output=True, text=True, env=env, cwd=cwd
+    )
     assert out.returncode == 0, out.stderr
     assert "Traceback" not in out.stderr
     return json.loads(out.stdout)
@@ -55,9 +57,18 @@ def reference() -> float:
     return flexgen.solve(FINGER).points["fingertip.pad"].pose[0]
 
 
-@pytest.mark.parametrize("fault", ["no-home", "read-only-home", "cache-is-a-file",
-                                   "read-only-cache", "planted-in-temp", "truncated-library",
-                                   "empty-library"])
+@pytest.mark.parametrize(
+    "fault",
+    [
+        "no-home",
+        "read-only-home",
+        "cache-is-a-file",
+        "read-only-cache",
+        "planted-in-temp",
+        "truncated-library",
+        "empty-library",
+    ],
+)
 def test_no_library_is_loaded_from_a_cache_whatever_it_holds(fault, tmp_path, reference):
     env = {k: v for k, v in os.environ.items() if not k.startswith("FLEXGEN")}
     home = tmp_path / "home"
@@ -77,7 +88,7 @@ def test_no_library_is_loaded_from_a_cache_whatever_it_holds(fault, tmp_path, re
         cache.mkdir()
         cache.chmod(stat.S_IRUSR | stat.S_IXUSR)
         env["FLEXGEN_CACHE"] = str(cache)
-    elif fault == "planted-in-temp":        # the old fallback folder, filled by someone else
+    elif fault == "planted-in-temp":  # the old fallback folder, filled by someone else
         planted_library(tmp_path / "tmp" / f"flexgen-cache-{os.getuid()}", b"\x7fELF" + b"x" * 64)
     elif fault == "truncated-library":
         planted_library(home / ".cache" / "flexgen", b"\x7fELF\x02\x01\x01")
@@ -93,15 +104,18 @@ def test_no_library_is_loaded_from_a_cache_whatever_it_holds(fault, tmp_path, re
     assert len(flexgen_libs) == 1, flexgen_libs
     assert flexgen_libs[0].name.startswith("_core.")
     assert flexgen_libs[0].parent == Path(core.__file__).parent
-    assert sorted(p for p in tmp_path.rglob("*")) == before      # nothing written
+    assert sorted(p for p in tmp_path.rglob("*")) == before  # nothing written
 
 
 def test_the_runtime_never_compiles_or_loads_a_library_by_path():
     """No module of the runtime package runs a compiler or dlopens a file: the core is the
     extension module, imported like any other (kernels.compile_c, for tests and benchmarks,
     compiles into a folder its caller owns and is not used by the solver)."""
-    runtime = [p for p in (ROOT / "flexgen").rglob("*.py")
-               if p.name not in ("_build_core.py", "kernels.py")]
+    runtime = [
+        p
+        for p in (ROOT / "flexgen").rglob("*.py")
+        if p.name not in ("_build_core.py", "kernels.py")
+    ]
     for path in runtime:
         text = path.read_text()
         for needle in ("CDLL(", "gcc_shared", "compile_c(", "subprocess"):

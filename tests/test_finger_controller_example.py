@@ -144,6 +144,7 @@ def test_no_equilibrium_exits_3_with_the_reason(controller):
 def test_settings_are_the_python_defaults():
     """default_settings fills every field of fg_settings with flexgen.settings' default."""
     from dataclasses import fields
+
     from flexgen.settings import DEFAULT
     source = EXAMPLE.read_text()
     found = dict(re.findall(r"s->(\w+) = ([^;]+);", source))

@@ -1,13 +1,14 @@
 """The generated kernels against independent references, closed forms, the C twins, the goldens."""
+
 import ctypes
 import subprocess
 import sys
 
 import numpy as np
 import pytest
+import reference
 import sympy as sp
 
-import reference
 from flexgen import kernels
 from flexgen.codegen.generate import CHECKED_IN, generate_files
 from flexgen.codegen.render import write_files
@@ -61,10 +62,14 @@ def test_derivatives_against_finite_differences(name):
 
 def test_pose_against_scipy_quad():
     from scipy.integrate import quad
+
     m = kernels.load_numpy("scm3")
     q = np.array([0.9, -0.7, 0.4])
     pose, _, _ = m.evaluate(q)
-    phi = lambda s: (q @ reference.angle_basis(3, np.array([s])).T)[0]
+
+    def phi(s):
+        return (q @ reference.angle_basis(3, np.array([s])).T)[0]
+
     x = quad(lambda s: np.cos(phi(s)), 0, 1, epsabs=1e-14, epsrel=1e-14)[0]
     y = quad(lambda s: np.sin(phi(s)), 0, 1, epsabs=1e-14, epsrel=1e-14)[0]
     assert abs(pose[0] - x) <= m.ERROR_BOUND and abs(pose[1] - y) <= m.ERROR_BOUND
@@ -118,6 +123,7 @@ def test_polynomial_kernel_is_the_expanded_polynomial():
     """The nodal form equals the fully expanded closed-form polynomial in q (N=2, degree 6)."""
     from flexgen.symbolic import trig
     from flexgen.symbolic.basis import angle_basis, sigma
+
     spec = KernelSpec(2, degree=6)
     files = generate_files(spec, ("numpy",))
     ns = {}
@@ -159,8 +165,12 @@ def test_c_kernels_match_numpy(c_libraries, name):
         for got, want in zip(_call(lib, name, q, "_f", ctypes.c_float, np.float32), expected):
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)
     q = rng.normal(size=(200, m.N)) * 2
-    flags = [lib[f"{name}_in_range"](np.ascontiguousarray(x).ctypes.data_as(
-        ctypes.POINTER(ctypes.c_double))) for x in q]
+    flags = [
+        lib[f"{name}_in_range"](
+            np.ascontiguousarray(x).ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        )
+        for x in q
+    ]
     assert flags == [int(v) for v in m.in_range(q)]
 
 
@@ -168,8 +178,11 @@ def test_emitted_c_uses_no_heap_and_no_globals():
     for path in (kernels.GENERATED / "c").glob("*.c"):
         text = path.read_text()
         assert "malloc" not in text and "static" not in text
-        top = [line for line in text.splitlines()
-               if line and not line[0].isspace() and line[0] not in "/*#{}"]
+        top = [
+            line
+            for line in text.splitlines()
+            if line and not line[0].isspace() and line[0] not in "/*#{}"
+        ]
         assert all("(" in line for line in top), f"{path.name}: non-function top-level {top}"
 
 
@@ -179,8 +192,11 @@ def test_generated_is_byte_identical_to_a_fresh_regeneration(tmp_path):
         files |= generate_files(spec)
     write_files(files, tmp_path)
     fresh = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())
-    checked = sorted(p.relative_to(kernels.GENERATED)
-                     for p in kernels.GENERATED.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    checked = sorted(
+        p.relative_to(kernels.GENERATED)
+        for p in kernels.GENERATED.rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts
+    )
     assert fresh == checked
     for rel in fresh:
         assert (tmp_path / rel).read_bytes() == (kernels.GENERATED / rel).read_bytes(), rel
@@ -192,12 +208,20 @@ def _cli(*args):
     return subprocess.run([sys.executable, "-m", "flexgen", *args], capture_output=True, text=True)
 
 
-@pytest.mark.parametrize("args", [
-    ["--modes", "0"], ["--modes", "9"], ["--modes", "3", "--range", "-10"],
-    ["--modes", "3", "--range", "180"], ["--modes", "3", "--lang", "rust"],
-    ["--modes", "three"], ["--modes", "3", "--kernel", "spline"],
-    ["--modes", "3", "--tol", "0"], ["--modes", "3", "--kernel", "gauss", "--degree", "4"],
-])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["--modes", "0"],
+        ["--modes", "9"],
+        ["--modes", "3", "--range", "-10"],
+        ["--modes", "3", "--range", "180"],
+        ["--modes", "3", "--lang", "rust"],
+        ["--modes", "three"],
+        ["--modes", "3", "--kernel", "spline"],
+        ["--modes", "3", "--tol", "0"],
+        ["--modes", "3", "--kernel", "gauss", "--degree", "4"],
+    ],
+)
 def test_generate_rejects_bad_arguments(args, tmp_path):
     result = _cli("generate", *args, "--out", str(tmp_path))
     assert result.returncode == 2
@@ -216,8 +240,19 @@ def test_generate_check_names_stale_files(tmp_path):
 
 
 def test_generate_gauss_on_request(tmp_path):
-    result = _cli("generate", "--modes", "2", "--kernel", "gauss", "--nodes", "12",
-                  "--lang", "numpy", "--out", str(tmp_path))
+    result = _cli(
+        "generate",
+        "--modes",
+        "2",
+        "--kernel",
+        "gauss",
+        "--nodes",
+        "12",
+        "--lang",
+        "numpy",
+        "--out",
+        str(tmp_path),
+    )
     assert result.returncode == 0
     m = kernels.load_numpy("scm2_gauss12", tmp_path)
     q = np.array([2.5, 1.0])

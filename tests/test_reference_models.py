@@ -4,6 +4,7 @@ Every expected value here comes from an independent source: the tables and close
 ../shared/model-notes.md, elliptic-integral closed forms, linear beam theory, or finite
 differences; never from the code under test itself.
 """
+
 from __future__ import annotations
 
 import math
@@ -12,8 +13,7 @@ import numpy as np
 import pytest
 from scipy.special import ellipe, ellipk
 
-from flexgen.models.exact import (cantilever, euler_load, post_buckled, solve_exact,
-                                  tip_compliance)
+from flexgen.models.exact import cantilever, euler_load, post_buckled, solve_exact, tip_compliance
 from flexgen.models.fem import FEMModel, solve_cantilever
 from flexgen.models.prb import PRBModel
 from flexgen.scene import Flexure, Link, Load, ModelSpec, Scene, Tendon
@@ -22,9 +22,16 @@ MS = ModelSpec(kind="exact")
 
 
 def make_scene(flexures, links=(), loads=(), tendons=(), outputs=(), base=None):
-    return Scene(name="test", model=MS, base_points=base or {}, flexures=tuple(flexures),
-                 links=tuple(links), loads=tuple(loads), tendons=tuple(tendons),
-                 outputs=tuple(outputs))
+    return Scene(
+        name="test",
+        model=MS,
+        base_points=base or {},
+        flexures=tuple(flexures),
+        links=tuple(links),
+        loads=tuple(loads),
+        tendons=tuple(tendons),
+        outputs=tuple(outputs),
+    )
 
 
 def rot(a):
@@ -36,6 +43,7 @@ def rot(a):
 # exact solver: single cantilever
 # ------------------------------------------------------------------------------------------
 
+
 def test_rectangular_elastica_table():
     sol = cantilever(1.0, 1.0, force=(-3.4375929, 0.0))
     assert sol.converged and sol.stable and sol.branch == "post-buckled"
@@ -45,7 +53,7 @@ def test_rectangular_elastica_table():
 
 
 def test_rectangular_elastica_closed_form():
-    m = 0.5                                  # k = 1/sqrt(2)
+    m = 0.5  # k = 1/sqrt(2)
     K, E = float(ellipk(m)), float(ellipe(m))
     sol = cantilever(1.0, 1.0, force=(-K * K, 0.0))
     assert abs(sol.pose[0] - (2 * E / K - 1)) < 1e-9
@@ -80,9 +88,9 @@ BISSHOPP_DRUCKER = [
 @pytest.mark.parametrize("alpha,x,d,th", BISSHOPP_DRUCKER)
 def test_bisshopp_drucker(alpha, x, d, th):
     EI, L = 1.0, 1.0
-    sol = cantilever(EI, L, force=(0.0, -alpha))          # downward: deflection -y
+    sol = cantilever(EI, L, force=(0.0, -alpha))  # downward: deflection -y
     assert sol.converged and sol.stable
-    tol = 5e-6 + 1e-12                                   # the table's 5 digits
+    tol = 5e-6 + 1e-12  # the table's 5 digits
     assert abs(sol.pose[0] - x) < tol
     assert abs(-sol.pose[1] - d) < tol
     assert abs(-sol.pose[2] - th) < tol
@@ -90,14 +98,17 @@ def test_bisshopp_drucker(alpha, x, d, th):
 
 def test_bisshopp_drucker_dimensional_scaling():
     EI, L, alpha = 2.5, 0.4, 3.0
-    sol = cantilever(EI, L, force=(0.0, alpha * EI / L ** 2))
+    sol = cantilever(EI, L, force=(0.0, alpha * EI / L**2))
     assert abs(sol.pose[0] / L - 0.74558) < 5e-6
     assert abs(sol.pose[1] / L - 0.60325) < 5e-6
     assert abs(sol.pose[2] - 0.98602) < 5e-6
 
 
-POST_BUCKLED = [(30, 2.55406, 0.93243, 0.32390), (60, 2.84175, 0.74102, 0.59321),
-                (120, 4.65056, 0.12316, 0.80317)]
+POST_BUCKLED = [
+    (30, 2.55406, 0.93243, 0.32390),
+    (60, 2.84175, 0.74102, 0.59321),
+    (120, 4.65056, 0.12316, 0.80317),
+]
 
 
 @pytest.mark.parametrize("deg,P,x,y", POST_BUCKLED)
@@ -106,7 +117,7 @@ def test_post_buckled_table(deg, P, x, y):
     # the table's load (5 digits) gives the table's pose; rounding of P moves the tip a little
     sol = cantilever(1.0, 1.0, force=(-P, 0.0))
     assert sol.converged and sol.stable and sol.branch == "post-buckled"
-    assert sol.pose[1] > 0                               # consistent direction: +y
+    assert sol.pose[1] > 0  # consistent direction: +y
     assert abs(sol.pose[2] - a) < 1e-4
     assert abs(sol.pose[0] - x) < 2e-5
     assert abs(sol.pose[1] - y) < 2e-5
@@ -120,7 +131,7 @@ def test_post_buckled_table(deg, P, x, y):
 
 def test_first_buckling_load_detection():
     for EI, L in [(1.0, 1.0), (2.0, 3.0)]:
-        P1 = math.pi ** 2 / 4 * EI / L ** 2
+        P1 = math.pi**2 / 4 * EI / L**2
         assert abs(euler_load(EI, L) - P1) < 1e-15
         below = cantilever(EI, L, force=(-0.99 * P1, 0.0))
         assert below.critical_load is None and below.branch == "primary" and below.stable
@@ -143,11 +154,11 @@ def test_imperfect_column_follows_its_imperfection():
 def test_small_load_compliance():
     EI, L = 2.0, 3.0
     C = tip_compliance(EI, L)
-    lin = np.array([[L ** 3 / 3, L ** 2 / 2], [L ** 2 / 2, L]]) / EI
+    lin = np.array([[L**3 / 3, L**2 / 2], [L**2 / 2, L]]) / EI
     assert np.allclose(C[1:, 1:], lin, rtol=1e-10, atol=0)
     assert np.allclose(C[0], 0, atol=1e-12) and np.allclose(C[:, 0], 0, atol=1e-12)
     # a small transverse load: the compliance moves off the linear one at O(load^2)
-    C = tip_compliance(EI, L, force=(0.0, 1e-4 * EI / L ** 2))
+    C = tip_compliance(EI, L, force=(0.0, 1e-4 * EI / L**2))
     assert np.allclose(C[1:, 1:], lin, rtol=1e-7, atol=0)
 
 
@@ -161,11 +172,11 @@ def test_arc_compliance_eigenvalues():
 
 def test_tip_compliance_matches_finite_differences():
     EI, L = 1.3, 0.7
-    F = np.array([0.8, 2.1]) * EI / L ** 2
+    F = np.array([0.8, 2.1]) * EI / L**2
     M = 0.6 * EI / L
     C = tip_compliance(EI, L, force=F, moment=M)
     h = 1e-4
-    scales = [EI / L ** 2, EI / L ** 2, EI / L]
+    scales = [EI / L**2, EI / L**2, EI / L]
     Cfd = np.empty((3, 3))
     for j in range(3):
         w = np.array([F[0], F[1], M])
@@ -186,29 +197,33 @@ F0, M0 = (0.3, 1.7), 0.4
 
 
 def test_scene_single_flexure_equals_cantilever():
-    sc = make_scene([Flexure("a", "base", (0.0, 0.0, 0.0), 1.0, 1.0, MS)],
-                    loads=[Load("a.tip", F0, M0)])
+    sc = make_scene(
+        [Flexure("a", "base", (0.0, 0.0, 0.0), 1.0, 1.0, MS)], loads=[Load("a.tip", F0, M0)]
+    )
     res = solve_exact(sc)
     ref = cantilever(1.0, 1.0, F0, M0)
     assert res.converged and res.stable and not res.warnings
     assert np.allclose(res.poses["a.tip"], ref.pose, atol=1e-10)
-    assert np.allclose(res.compliance["a.tip"], tip_compliance(1.0, 1.0, F0, M0)[:2, :2],
-                       atol=1e-8)
+    assert np.allclose(res.compliance["a.tip"], tip_compliance(1.0, 1.0, F0, M0)[:2, :2], atol=1e-8)
     assert np.allclose(res.shapes["a"][-1], ref.pose[:2], atol=1e-10)
 
 
 def test_scene_two_half_flexures_equal_one():
     L, EI = 1.0, 1.0
-    sc = make_scene([Flexure("a", "base", (0.0, 0.0, 0.0), L / 2, EI, MS),
-                     Flexure("b", "mid", (0.0, 0.0, 0.0), L / 2, EI, MS)],
-                    links=[Link("mid", "a", {"p": (0.0, 0.0)})],
-                    loads=[Load("b.tip", F0, M0)], outputs=("b.tip", "mid.p"))
+    sc = make_scene(
+        [
+            Flexure("a", "base", (0.0, 0.0, 0.0), L / 2, EI, MS),
+            Flexure("b", "mid", (0.0, 0.0, 0.0), L / 2, EI, MS),
+        ],
+        links=[Link("mid", "a", {"p": (0.0, 0.0)})],
+        loads=[Load("b.tip", F0, M0)],
+        outputs=("b.tip", "mid.p"),
+    )
     res = solve_exact(sc, num=51)
     ref = cantilever(EI, L, F0, M0, num=101)
     assert res.converged and res.stable
     assert np.allclose(res.poses["b.tip"], ref.pose, atol=1e-10)
-    assert np.allclose(res.compliance["b.tip"], tip_compliance(EI, L, F0, M0)[:2, :2],
-                       atol=1e-8)
+    assert np.allclose(res.compliance["b.tip"], tip_compliance(EI, L, F0, M0)[:2, :2], atol=1e-8)
     assert np.allclose(res.poses["mid.p"][:2], ref.shape[50], atol=1e-10)
     assert abs(res.poses["mid.p"][2] - ref.phi[50]) < 1e-10
     assert np.allclose(res.shapes["a"], ref.shape[:51], atol=1e-9)
@@ -222,9 +237,11 @@ def test_scene_rotated_root_and_link_offset():
     a = 0.7
     at = (0.4, -0.2, a)
     Fw = rot(a) @ np.array(F0)
-    sc = make_scene([Flexure("a", "base", at, 1.0, 1.0, MS)],
-                    links=[Link("l", "a", {"p": (0.0, 0.0)})],
-                    loads=[Load("l.p", tuple(Fw), M0)])
+    sc = make_scene(
+        [Flexure("a", "base", at, 1.0, 1.0, MS)],
+        links=[Link("l", "a", {"p": (0.0, 0.0)})],
+        loads=[Load("l.p", tuple(Fw), M0)],
+    )
     res = solve_exact(sc)
     ref = cantilever(1.0, 1.0, F0, M0)
     exp = np.array(at[:2]) + rot(a) @ ref.pose[:2]
@@ -238,14 +255,18 @@ def test_scene_symmetric_fork():
     # trunk along +x, a link carrying two branches at +-b, loaded mirror-symmetrically: the
     # trunk carries a pure axial tension and stays straight; each branch is a cantilever
     b, Lt, Lb = 0.5, 0.6, 0.8
-    Fb = np.array([0.2, 1.1])                     # in the upper branch's root frame
+    Fb = np.array([0.2, 1.1])  # in the upper branch's root frame
     Fu = rot(b) @ Fb
     Fl = Fu * [1, -1]
-    sc = make_scene([Flexure("trunk", "base", (0.0, 0.0, 0.0), Lt, 1.0, MS),
-                     Flexure("up", "hub", (0.1, 0.0, b), Lb, 1.0, MS),
-                     Flexure("lo", "hub", (0.1, 0.0, -b), Lb, 1.0, MS)],
-                    links=[Link("hub", "trunk", {"c": (0.0, 0.0)})],
-                    loads=[Load("up.tip", tuple(Fu), 0.0), Load("lo.tip", tuple(Fl), 0.0)])
+    sc = make_scene(
+        [
+            Flexure("trunk", "base", (0.0, 0.0, 0.0), Lt, 1.0, MS),
+            Flexure("up", "hub", (0.1, 0.0, b), Lb, 1.0, MS),
+            Flexure("lo", "hub", (0.1, 0.0, -b), Lb, 1.0, MS),
+        ],
+        links=[Link("hub", "trunk", {"c": (0.0, 0.0)})],
+        loads=[Load("up.tip", tuple(Fu), 0.0), Load("lo.tip", tuple(Fl), 0.0)],
+    )
     res = solve_exact(sc)
     assert res.converged and res.stable
     assert np.allclose(res.tip_frames["trunk"], [Lt, 0.0, 0.0], atol=1e-10)
@@ -260,11 +281,14 @@ def test_scene_tendon_consistent_with_dead_load():
     # the tendon pulls the link point towards a base point; at equilibrium the same force held
     # dead (with the moment of its offset) must reproduce the pose
     T = 2.0
-    sc = make_scene([Flexure("a", "base", (0.0, 0.0, 0.0), 1.0, 1.0, MS)],
-                    links=[Link("l", "a", {"h": (0.0, 0.1)})],
-                    loads=[Load("a.tip", (0.0, -0.5), 0.0)],
-                    tendons=[Tendon(T, ("base.r0", "l.h"))], base={"r0": (0.2, 0.3)},
-                    outputs=("l.h", "a.tip"))
+    sc = make_scene(
+        [Flexure("a", "base", (0.0, 0.0, 0.0), 1.0, 1.0, MS)],
+        links=[Link("l", "a", {"h": (0.0, 0.1)})],
+        loads=[Load("a.tip", (0.0, -0.5), 0.0)],
+        tendons=[Tendon(T, ("base.r0", "l.h"))],
+        base={"r0": (0.2, 0.3)},
+        outputs=("l.h", "a.tip"),
+    )
     res = solve_exact(sc)
     assert res.converged and res.stable
     h, tip = res.poses["l.h"], res.poses["a.tip"]
@@ -280,29 +304,40 @@ def test_scene_tendon_consistent_with_dead_load():
     for e in np.eye(2):
         poses = []
         for sgn in (1, -1):
-            sc2 = make_scene(sc.flexures, sc.links, sc.loads + (Load("l.h", tuple(sgn * d * e)),),
-                             sc.tendons, ("l.h",), dict(sc.base_points))
+            sc2 = make_scene(
+                sc.flexures,
+                sc.links,
+                sc.loads + (Load("l.h", tuple(sgn * d * e)),),
+                sc.tendons,
+                ("l.h",),
+                dict(sc.base_points),
+            )
             poses.append(solve_exact(sc2).poses["l.h"][:2])
         cols.append((poses[0] - poses[1]) / (2 * d))
     Cfd = np.array(cols).T
     C = res.compliance["l.h"]
     assert np.allclose(C, Cfd, rtol=1e-6, atol=1e-8)
-    assert np.allclose(C, C.T, atol=1e-8)        # constant-tension tendon is conservative
+    assert np.allclose(C, C.T, atol=1e-8)  # constant-tension tendon is conservative
 
 
 def test_scene_axial_buckling_follows_stable_branch():
     m = 0.5
-    P = float(ellipk(m)) ** 2                     # rectangular elastica
-    sc = make_scene([Flexure("a", "base", (0.0, 0.0, 0.0), 0.5, 1.0, MS),
-                     Flexure("b", "mid", (0.0, 0.0, 0.0), 0.5, 1.0, MS)],
-                    links=[Link("mid", "a", {"p": (0.0, 0.0)})],
-                    loads=[Load("b.tip", (-P, 0.0), 0.0)])
+    P = float(ellipk(m)) ** 2  # rectangular elastica
+    sc = make_scene(
+        [
+            Flexure("a", "base", (0.0, 0.0, 0.0), 0.5, 1.0, MS),
+            Flexure("b", "mid", (0.0, 0.0, 0.0), 0.5, 1.0, MS),
+        ],
+        links=[Link("mid", "a", {"p": (0.0, 0.0)})],
+        loads=[Load("b.tip", (-P, 0.0), 0.0)],
+    )
     res = solve_exact(sc)
     assert res.converged and res.stable
     K, E = float(ellipk(m)), float(ellipe(m))
-    assert np.allclose(res.poses["b.tip"], [2 * E / K - 1, math.sqrt(2) / K, math.pi / 2],
-                       atol=1e-9)
-    assert abs(res.critical_load_factor * P - math.pi ** 2 / 4) < 1e-7
+    assert np.allclose(
+        res.poses["b.tip"], [2 * E / K - 1, math.sqrt(2) / K, math.pi / 2], atol=1e-9
+    )
+    assert abs(res.critical_load_factor * P - math.pi**2 / 4) < 1e-7
     assert any("bifurcation" in w for w in res.warnings)
 
 
@@ -310,8 +345,9 @@ def test_scene_axial_buckling_follows_stable_branch():
 # FEM (rigid segments + torsion springs)
 # ------------------------------------------------------------------------------------------
 
+
 def test_fem_second_order_convergence():
-    ref = cantilever(1.0, 1.0, force=(0.0, 1.0)).pose          # Bisshopp-Drucker alpha = 1
+    ref = cantilever(1.0, 1.0, force=(0.0, 1.0)).pose  # Bisshopp-Drucker alpha = 1
     errs = []
     for n in (8, 16, 32, 64):
         q, tk = solve_cantilever(FEMModel(1.0, 1.0, n), force=(0.0, 1.0), steps=5)
@@ -325,7 +361,7 @@ def test_fem16_arc_compliance_matches_paper():
     m = FEMModel(1.0, 1.0, 16)
     assert m.label == "fem16" and m.n_dof == 16
     q, tk = solve_cantilever(m, moment=math.pi / 2)
-    assert abs(tk.pose[2] - math.pi / 2) < 1e-12          # tip angle is exact for a moment
+    assert abs(tk.pose[2] - math.pi / 2) < 1e-12  # tip angle is exact for a moment
     w = np.array([0.0, 0.0, math.pi / 2])
     K = m.energy_hessian(q) - np.einsum("k,kij->ij", w, tk.H)
     C = tk.J @ np.linalg.solve(K, tk.J.T)
@@ -351,14 +387,21 @@ def _fd_check(model, q, h=1e-6):
     for i, j in [(0, 0), (0, n - 1), (n - 1, n // 2)]:
         ei, ej = np.zeros(n), np.zeros(n)
         ei[i], ej[j] = 1e-4, 1e-4
-        d2 = (model.tip(q + ei + ej).pose - model.tip(q + ei - ej).pose
-              - model.tip(q - ei + ej).pose + model.tip(q - ei - ej).pose) / (4e-8)
+        d2 = (
+            model.tip(q + ei + ej).pose
+            - model.tip(q + ei - ej).pose
+            - model.tip(q - ei + ej).pose
+            + model.tip(q - ei - ej).pose
+        ) / (4e-8)
         assert np.allclose(tk.H[:, i, j], d2, atol=1e-6)
-    g = np.array([(model.energy(q + e) - model.energy(q - e)) / (2 * h)
-                  for e in np.eye(n) * h])
+    g = np.array([(model.energy(q + e) - model.energy(q - e)) / (2 * h) for e in np.eye(n) * h])
     assert np.allclose(model.energy_gradient(q), g, rtol=1e-6, atol=1e-9)
-    Hh = np.array([(model.energy_gradient(q + e) - model.energy_gradient(q - e)) / (2 * h)
-                   for e in np.eye(n) * h]).T
+    Hh = np.array(
+        [
+            (model.energy_gradient(q + e) - model.energy_gradient(q - e)) / (2 * h)
+            for e in np.eye(n) * h
+        ]
+    ).T
     assert np.allclose(model.energy_hessian(q), Hh, rtol=1e-6, atol=1e-9)
 
 
@@ -381,6 +424,7 @@ def test_fem_geometry():
 # ------------------------------------------------------------------------------------------
 # PRB 1R
 # ------------------------------------------------------------------------------------------
+
 
 def test_prb_derivatives_finite_differences():
     m = PRBModel(0.9, 1.4)
@@ -420,7 +464,7 @@ def test_prb_tip_path_force():
     # Howell's claim for a transverse end force: with gamma = 0.85 the exact tip lies within
     # 0.5 % of the deflection of the PRB tip path (pseudo-rigid angle up to about 64 degrees)
     m = PRBModel(1.0, 1.0)
-    for alpha, x, d, th in BISSHOPP_DRUCKER[:5]:
+    for _alpha, x, d, _th in BISSHOPP_DRUCKER[:5]:
         ex = np.array([x, d])
         defl = np.hypot(1 - x, d)
         on_path = m.tip([math.atan2(d, x - 0.15)]).pose[:2]
@@ -437,13 +481,17 @@ def test_scene_chain_multipoint_tendon_against_cantilevers():
     # equilibrium, each flexure must be the cantilever under the resultant beyond its tip.
     T = 2.0
     r0, r1 = np.array([0.2, 0.3]), np.array([1.3, -0.4])
-    sc = make_scene([Flexure("a", "base", (0.0, 0.0, 0.0), 0.6, 1.0, MS),
-                     Flexure("b", "a", (0.0, 0.0, 0.0), 0.4, 0.7, MS)],
-                    links=[Link("l", "b", {"h": (0.05, 0.1), "g": (-0.05, 0.1)})],
-                    loads=[Load("a.tip", (0.0, -0.5), 0.1)],
-                    tendons=[Tendon(T, ("base.r0", "l.g", "l.h", "base.r1"))],
-                    base={"r0": tuple(r0), "r1": tuple(r1)},
-                    outputs=("l.h", "l.g", "a.tip", "b.tip"))
+    sc = make_scene(
+        [
+            Flexure("a", "base", (0.0, 0.0, 0.0), 0.6, 1.0, MS),
+            Flexure("b", "a", (0.0, 0.0, 0.0), 0.4, 0.7, MS),
+        ],
+        links=[Link("l", "b", {"h": (0.05, 0.1), "g": (-0.05, 0.1)})],
+        loads=[Load("a.tip", (0.0, -0.5), 0.1)],
+        tendons=[Tendon(T, ("base.r0", "l.g", "l.h", "base.r1"))],
+        base={"r0": tuple(r0), "r1": tuple(r1)},
+        outputs=("l.h", "l.g", "a.tip", "b.tip"),
+    )
     res = solve_exact(sc)
     assert res.converged and res.stable
     g, h = res.poses["l.g"][:2], res.poses["l.h"][:2]
@@ -470,9 +518,13 @@ def test_limit_point_is_reported_not_hidden():
     F, M = (-1.74574099, -4.67920763), 3.478735754260268
     c = cantilever(1.0, 1.0, F, M)
     assert not c.converged and any("limit point" in w for w in c.warnings)
-    sc = make_scene([Flexure("a", "base", (0.0, 0.0, 0.0), 0.5, 1.0, MS),
-                     Flexure("b", "a", (0.0, 0.0, 0.0), 0.5, 1.0, MS)],
-                    loads=[Load("b.tip", F, M)])
+    sc = make_scene(
+        [
+            Flexure("a", "base", (0.0, 0.0, 0.0), 0.5, 1.0, MS),
+            Flexure("b", "a", (0.0, 0.0, 0.0), 0.5, 1.0, MS),
+        ],
+        loads=[Load("b.tip", F, M)],
+    )
     r = solve_exact(sc)
     assert not r.converged and any("limit point" in w for w in r.warnings)
     assert abs(r.load_factor - c.critical_load_factor) < 1e-5

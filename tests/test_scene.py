@@ -1,4 +1,5 @@
 """Tests for flexgen.scene: loading, defaults, frames/topology helpers and one-line validation."""
+
 from __future__ import annotations
 
 import ast
@@ -9,8 +10,7 @@ from pathlib import Path
 import pytest
 
 import flexgen.scene as scene_mod
-from flexgen.scene import (KERNELS, MODEL_KINDS, ModelSpec, SceneError, load_scene,
-                           scene_from_dict)
+from flexgen.scene import KERNELS, MODEL_KINDS, ModelSpec, SceneError, load_scene, scene_from_dict
 
 CONTRACT_TOML = """\
 name = "two-link finger"
@@ -66,16 +66,32 @@ VALID = {
     "model": {"kind": "scm", "modes": 3, "elements": 16},
     "base": {"points": {"r0": [0.0, 0.004]}},
     "flexure": [
-        {"name": "proximal", "length": 0.020, "EI": 2.5e-5, "parent": "base",
-         "at": [0.0, 0.0, 0.0]},
-        {"name": "distal", "parent": "middle", "at": [0.045, 0.0, 0.0], "length": 0.015,
-         "EI": 2.5e-5},
+        {
+            "name": "proximal",
+            "length": 0.020,
+            "EI": 2.5e-5,
+            "parent": "base",
+            "at": [0.0, 0.0, 0.0],
+        },
+        {
+            "name": "distal",
+            "parent": "middle",
+            "at": [0.045, 0.0, 0.0],
+            "length": 0.015,
+            "EI": 2.5e-5,
+        },
     ],
     "link": [
-        {"name": "middle", "parent": "proximal",
-         "points": {"pad": [0.020, 0.004], "hole": [0.002, 0.003], "joint": [0.045, 0.0]}},
-        {"name": "fingertip", "parent": "distal",
-         "points": {"pad": [0.015, 0.004], "anchor": [0.025, 0.003]}},
+        {
+            "name": "middle",
+            "parent": "proximal",
+            "points": {"pad": [0.020, 0.004], "hole": [0.002, 0.003], "joint": [0.045, 0.0]},
+        },
+        {
+            "name": "fingertip",
+            "parent": "distal",
+            "points": {"pad": [0.015, 0.004], "anchor": [0.025, 0.003]},
+        },
     ],
     "load": [{"point": "fingertip.pad", "force": [0.0, -1.0], "moment": 0.0}],
     "tendon": [{"tension": 10.0, "route": ["base.r0", "middle.hole", "fingertip.anchor"]}],
@@ -89,6 +105,7 @@ def valid() -> dict:
 
 # -- valid scenes ----------------------------------------------------------------------------
 
+
 def test_contract_scene_loads_from_file(tmp_path: Path):
     p = tmp_path / "finger.toml"
     p.write_text(CONTRACT_TOML)
@@ -98,12 +115,23 @@ def test_contract_scene_loads_from_file(tmp_path: Path):
     assert dict(s.base_points) == {"r0": (0.0, 0.004)}
     prox, dist = s.flexures
     assert (prox.name, prox.parent, prox.at, prox.length, prox.EI) == (
-        "proximal", "base", (0.0, 0.0, 0.0), 0.020, 2.5e-5)
+        "proximal",
+        "base",
+        (0.0, 0.0, 0.0),
+        0.020,
+        2.5e-5,
+    )
     assert (dist.name, dist.parent, dist.at, dist.length) == (
-        "distal", "middle", (0.045, 0.0, 0.0), 0.015)
+        "distal",
+        "middle",
+        (0.045, 0.0, 0.0),
+        0.015,
+    )
     assert dist.model == s.model
-    assert [(lk.name, lk.parent) for lk in s.links] == [("middle", "proximal"),
-                                                          ("fingertip", "distal")]
+    assert [(lk.name, lk.parent) for lk in s.links] == [
+        ("middle", "proximal"),
+        ("fingertip", "distal"),
+    ]
     assert s.links[0].points["hole"] == (0.002, 0.003)
     assert s.loads[0].point == "fingertip.pad"
     assert s.loads[0].force == (0.0, -1.0)
@@ -153,22 +181,26 @@ force = [0.0, 2.0]
 moment = 0.5
 """)
     s = load_scene(p)
-    assert s.name == "defaults"                       # file stem when no name is given
+    assert s.name == "defaults"  # file stem when no name is given
     assert s.model == ModelSpec()
     assert [(f.name, f.parent) for f in s.flexures] == [("a", "base"), ("b", "L"), ("c", "b")]
     assert [(lk.name, lk.parent) for lk in s.links] == [("L", "a"), ("M", "c")]
     assert s.flexures[1].at == (0.0, 0.0, 0.0)
     assert dict(s.links[1].points) == {}
     assert s.loads[0].moment == 0.0 and s.loads[2].moment == 0.5
-    assert s.outputs == ("c.tip", "L.p")            # loaded points, load order, deduplicated
+    assert s.outputs == ("c.tip", "L.p")  # loaded points, load order, deduplicated
     assert dict(s.base_points) == {}
     assert s.tendons == ()
 
 
 def test_scene_from_dict_order_argument():
-    d = {"flexure": [{"name": "a", "length": 1.0, "EI": 1.0},
-                     {"name": "b", "length": 1.0, "EI": 1.0}],
-         "link": [{"name": "L"}]}
+    d = {
+        "flexure": [
+            {"name": "a", "length": 1.0, "EI": 1.0},
+            {"name": "b", "length": 1.0, "EI": 1.0},
+        ],
+        "link": [{"name": "L"}],
+    }
     s = scene_from_dict(d, order=["flexure", "link", "flexure"])
     assert [f.parent for f in s.flexures] == ["base", "L"]
     assert s.links[0].parent == "a"
@@ -176,7 +208,7 @@ def test_scene_from_dict_order_argument():
     assert [f.parent for f in s2.flexures] == ["base", "a"]
     assert s2.links[0].parent == "b"
     with pytest.raises(SceneError, match=r"flexure\[1\]\.parent"):
-        scene_from_dict(d)                            # interleaving unknown
+        scene_from_dict(d)  # interleaving unknown
     with pytest.raises(SceneError, match=r"^order:"):
         scene_from_dict(d, order=["flexure", "link"])
 
@@ -201,7 +233,7 @@ def test_E_width_thickness_gives_EI():
     del f["EI"]
     f.update(E=2.0e9, width=0.01, thickness=0.0005)
     s = scene_from_dict(d)
-    assert s.flexures[0].EI == pytest.approx(2.0e9 * 0.01 * 0.0005 ** 3 / 12)
+    assert s.flexures[0].EI == pytest.approx(2.0e9 * 0.01 * 0.0005**3 / 12)
     assert s.flexures[0].EI == pytest.approx(2.0833333e-4, rel=1e-6)
 
 
@@ -220,10 +252,12 @@ def test_per_flexure_overrides_direct_and_subtable():
     d["flexure"][1]["model"] = {"modes": 6, "tolerance": 1e-6}
     s = scene_from_dict(d)
     assert s.model == ModelSpec(kind="scm", modes=4, elements=16, kernel="poly", tolerance=1e-3)
-    assert s.flexures[0].model == ModelSpec(kind="fem", modes=4, elements=8, kernel="gauss",
-                                            tolerance=1e-3)
-    assert s.flexures[1].model == ModelSpec(kind="scm", modes=6, elements=16, kernel="poly",
-                                            tolerance=1e-6)
+    assert s.flexures[0].model == ModelSpec(
+        kind="fem", modes=4, elements=8, kernel="gauss", tolerance=1e-3
+    )
+    assert s.flexures[1].model == ModelSpec(
+        kind="scm", modes=6, elements=16, kernel="poly", tolerance=1e-6
+    )
 
 
 @pytest.mark.parametrize("kind", MODEL_KINDS)
@@ -264,19 +298,24 @@ def test_output_defaults_to_loaded_points_and_dedups_explicit():
 
 # -- Scene helpers ---------------------------------------------------------------------------
 
+
 def hand():
     """Two fingers on the base; a flexure declared before its parent."""
-    return scene_from_dict({
-        "base": {"points": {"o": [0.0, 0.0]}},
-        "flexure": [
-            {"name": "f2b", "parent": "L2", "length": 1.0, "EI": 1.0, "at": [0.5, 0.0, 0.0]},
-            {"name": "f1", "parent": "base", "length": 1.0, "EI": 1.0, "at": [0.0, 1.0, 0.0]},
-            {"name": "f2", "parent": "base", "length": 1.0, "EI": 1.0, "at": [0.0, -1.0, 0.0]},
-            {"name": "f1b", "parent": "f1", "length": 1.0, "EI": 1.0},
-        ],
-        "link": [{"name": "L2", "parent": "f2", "points": {"p": [0.1, 0.2]}},
-                 {"name": "L1", "parent": "f1"}],
-    })
+    return scene_from_dict(
+        {
+            "base": {"points": {"o": [0.0, 0.0]}},
+            "flexure": [
+                {"name": "f2b", "parent": "L2", "length": 1.0, "EI": 1.0, "at": [0.5, 0.0, 0.0]},
+                {"name": "f1", "parent": "base", "length": 1.0, "EI": 1.0, "at": [0.0, 1.0, 0.0]},
+                {"name": "f2", "parent": "base", "length": 1.0, "EI": 1.0, "at": [0.0, -1.0, 0.0]},
+                {"name": "f1b", "parent": "f1", "length": 1.0, "EI": 1.0},
+            ],
+            "link": [
+                {"name": "L2", "parent": "f2", "points": {"p": [0.1, 0.2]}},
+                {"name": "L1", "parent": "f1"},
+            ],
+        }
+    )
 
 
 def test_flexure_order_parents_first():
@@ -295,7 +334,7 @@ def test_parent_children_and_paths():
     assert s.body_parent("f2b") == "L2"
     assert s.body_parent("L2") == "f2"
     assert s.children("base") == ("f1", "f2")
-    assert s.children("f1") == ("f1b", "L1")          # declaration order: flexures, then links
+    assert s.children("f1") == ("f1b", "L1")  # declaration order: flexures, then links
     assert s.children("L2") == ("f2b",)
     assert s.children("f1b") == ()
     assert s.flexure_path("f2b") == ("f2", "f2b")
@@ -312,9 +351,16 @@ def test_parent_children_and_paths():
 
 
 def test_children_in_file_declaration_order(tmp_path: Path):
-    s = load_scene(_write(tmp_path, CONTRACT_TOML.replace(
-        '[[tendon]]', '[[flexure]]\nname = "side"\nparent = "proximal"\nlength = 0.01\n'
-        'EI = 1e-5\n\n[[tendon]]')))
+    s = load_scene(
+        _write(
+            tmp_path,
+            CONTRACT_TOML.replace(
+                "[[tendon]]",
+                '[[flexure]]\nname = "side"\nparent = "proximal"\nlength = 0.01\n'
+                "EI = 1e-5\n\n[[tendon]]",
+            ),
+        )
+    )
     assert s.children("proximal") == ("middle", "side")
     assert [f.name for f in s.flexure_order()] == ["proximal", "distal", "side"]
 
@@ -344,6 +390,7 @@ def test_scene_module_does_not_import_sympy():
 
 # -- files -----------------------------------------------------------------------------------
 
+
 def _write(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
     p = tmp_path / name
     p.write_text(text)
@@ -351,7 +398,7 @@ def _write(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
 
 
 def test_broken_toml(tmp_path: Path):
-    p = _write(tmp_path, "name = \"x\"\n[[flexure]\nlength = 1\n", "broken.toml")
+    p = _write(tmp_path, 'name = "x"\n[[flexure]\nlength = 1\n', "broken.toml")
     with pytest.raises(SceneError) as e:
         load_scene(p)
     msg = str(e.value)
@@ -379,13 +426,16 @@ def test_nan_from_toml(tmp_path: Path):
 
 # -- invalid scenes: one case per rule -------------------------------------------------------
 
+
 def _set(path, value):
     """Mutator setting d[path...] = value (list indices allowed)."""
+
     def f(d):
         obj = d
         for k in path[:-1]:
             obj = obj[k]
         obj[path[-1]] = value
+
     return f
 
 
@@ -395,6 +445,7 @@ def _del(path):
         for k in path[:-1]:
             obj = obj[k]
         del obj[path[-1]]
+
     return f
 
 
@@ -402,6 +453,7 @@ def _all(*fs):
     def f(d):
         for g in fs:
             g(d)
+
     return f
 
 
@@ -414,29 +466,61 @@ BAD = [
     ("length-zero", _set((*F0, "length"), 0.0), ["flexure[0].length:", "got 0.0"]),
     ("EI-negative", _set((*F0, "EI"), -1e-5), ["flexure[0].EI:", "-1e-05"]),
     ("EI-zero", _set((*F1, "EI"), 0), ["flexure[1].EI:", "got 0"]),
-    ("E-negative", _all(_del((*F0, "EI")), _set((*F0, "E"), -2e9), _set((*F0, "I"), 1e-14)),
-     ["flexure[0].E:", "-2000000000.0"]),
-    ("I-zero", _all(_del((*F0, "EI")), _set((*F0, "E"), 2e9), _set((*F0, "I"), 0.0)),
-     ["flexure[0].I:", "got 0.0"]),
-    ("width-negative", _all(_del((*F0, "EI")), _set((*F0, "E"), 2e9),
-                            _set((*F0, "width"), -0.01), _set((*F0, "thickness"), 1e-3)),
-     ["flexure[0].width:", "-0.01"]),
-    ("thickness-zero", _all(_del((*F0, "EI")), _set((*F0, "E"), 2e9),
-                            _set((*F0, "width"), 0.01), _set((*F0, "thickness"), 0)),
-     ["flexure[0].thickness:", "got 0"]),
-    ("EI-overflow", _all(_del((*F0, "EI")), _set((*F0, "E"), 1e300), _set((*F0, "I"), 1e300)),
-     ["flexure[0].EI:", "inf"]),
+    (
+        "E-negative",
+        _all(_del((*F0, "EI")), _set((*F0, "E"), -2e9), _set((*F0, "I"), 1e-14)),
+        ["flexure[0].E:", "-2000000000.0"],
+    ),
+    (
+        "I-zero",
+        _all(_del((*F0, "EI")), _set((*F0, "E"), 2e9), _set((*F0, "I"), 0.0)),
+        ["flexure[0].I:", "got 0.0"],
+    ),
+    (
+        "width-negative",
+        _all(
+            _del((*F0, "EI")),
+            _set((*F0, "E"), 2e9),
+            _set((*F0, "width"), -0.01),
+            _set((*F0, "thickness"), 1e-3),
+        ),
+        ["flexure[0].width:", "-0.01"],
+    ),
+    (
+        "thickness-zero",
+        _all(
+            _del((*F0, "EI")),
+            _set((*F0, "E"), 2e9),
+            _set((*F0, "width"), 0.01),
+            _set((*F0, "thickness"), 0),
+        ),
+        ["flexure[0].thickness:", "got 0"],
+    ),
+    (
+        "EI-overflow",
+        _all(_del((*F0, "EI")), _set((*F0, "E"), 1e300), _set((*F0, "I"), 1e300)),
+        ["flexure[0].EI:", "inf"],
+    ),
     # missing required keys
     ("missing-length", _del((*F0, "length")), ["flexure[0].length:", "missing"]),
     ("missing-stiffness", _del((*F1, "EI")), ["flexure[1].EI:", "missing"]),
     ("E-without-I", _all(_del((*F0, "EI")), _set((*F0, "E"), 2e9)), ["flexure[0].I:", "missing"]),
-    ("E-width-no-thickness", _all(_del((*F0, "EI")), _set((*F0, "E"), 2e9),
-                                  _set((*F0, "width"), 0.01)),
-     ["flexure[0].thickness:", "missing"]),
+    (
+        "E-width-no-thickness",
+        _all(_del((*F0, "EI")), _set((*F0, "E"), 2e9), _set((*F0, "width"), 0.01)),
+        ["flexure[0].thickness:", "missing"],
+    ),
     ("EI-and-E", _set((*F0, "E"), 2e9), ["flexure[0].E:", "conflicts with EI", "2000000000.0"]),
-    ("I-and-width", _all(_del((*F0, "EI")), _set((*F0, "E"), 2e9), _set((*F0, "I"), 1e-14),
-                         _set((*F0, "width"), 0.01)),
-     ["flexure[0].width:", "conflicts with I"]),
+    (
+        "I-and-width",
+        _all(
+            _del((*F0, "EI")),
+            _set((*F0, "E"), 2e9),
+            _set((*F0, "I"), 1e-14),
+            _set((*F0, "width"), 0.01),
+        ),
+        ["flexure[0].width:", "conflicts with I"],
+    ),
     ("missing-flexure-name", _del((*F0, "name")), ["flexure[0].name:", "missing"]),
     ("missing-link-name", _del((*L1, "name")), ["link[1].name:", "missing"]),
     ("missing-load-point", _del(("load", 0, "point")), ["load[0].point:", "missing"]),
@@ -447,22 +531,26 @@ BAD = [
     ("length-string", _set((*F0, "length"), "0.02"), ["flexure[0].length:", "'0.02'"]),
     ("EI-bool", _set((*F0, "EI"), True), ["flexure[0].EI:", "True"]),
     ("moment-string", _set(("load", 0, "moment"), "1"), ["load[0].moment:", "'1'"]),
-    ("force-element-string", _set(("load", 0, "force"), ["a", 1.0]),
-     ["load[0].force[0]:", "'a'"]),
+    ("force-element-string", _set(("load", 0, "force"), ["a", 1.0]), ["load[0].force[0]:", "'a'"]),
     ("at-string", _set((*F0, "at"), "origin"), ["flexure[0].at:", "'origin'"]),
     ("name-number", _set((*F0, "name"), 5), ["flexure[0].name:", "got 5"]),
     ("name-with-dot", _set((*L0, "name"), "mid.dle"), ["link[0].name:", "'mid.dle'"]),
-    ("point-name-with-dot", _set(("base", "points"), {"r.0": [0.0, 0.0]}),
-     ["base.points:", "'r.0'"]),
+    (
+        "point-name-with-dot",
+        _set(("base", "points"), {"r.0": [0.0, 0.0]}),
+        ["base.points:", "'r.0'"],
+    ),
     ("parent-number", _set((*F1, "parent"), 3), ["flexure[1].parent:", "got 3"]),
     ("scene-name-number", _set(("name",), 1), ["name:", "got 1"]),
     ("model-not-table", _set(("model",), "scm"), ["model:", "'scm'"]),
     ("flexure-not-array", _set(("flexure",), {"name": "a"}), ["flexure:", "array of tables"]),
-    ("route-not-list", _set(("tendon", 0, "route"), "base.r0"),
-     ["tendon[0].route:", "'base.r0'"]),
+    ("route-not-list", _set(("tendon", 0, "route"), "base.r0"), ["tendon[0].route:", "'base.r0'"]),
     ("route-element-number", _set(("tendon", 0, "route", 1), 7), ["tendon[0].route[1]:", "7"]),
-    ("output-points-string", _set(("output", "points"), "middle.pad"),
-     ["output.points:", "'middle.pad'"]),
+    (
+        "output-points-string",
+        _set(("output", "points"), "middle.pad"),
+        ["output.points:", "'middle.pad'"],
+    ),
     ("tension-bool", _set(("tendon", 0, "tension"), False), ["tendon[0].tension:", "False"]),
     # NaN / inf
     ("length-nan", _set((*F0, "length"), NAN), ["flexure[0].length:", "nan"]),
@@ -471,48 +559,87 @@ BAD = [
     ("force-inf", _set(("load", 0, "force"), [0.0, -INF]), ["load[0].force[1]:", "-inf"]),
     ("moment-nan", _set(("load", 0, "moment"), NAN), ["load[0].moment:", "nan"]),
     ("tension-inf", _set(("tendon", 0, "tension"), INF), ["tendon[0].tension:", "inf"]),
-    ("base-point-nan", _set(("base", "points", "r0"), [NAN, 0.0]),
-     ["base.points.r0[0]:", "nan"]),
-    ("link-point-inf", _set((*L0, "points", "pad"), [0.02, INF]),
-     ["link[0].points.pad[1]:", "inf"]),
+    ("base-point-nan", _set(("base", "points", "r0"), [NAN, 0.0]), ["base.points.r0[0]:", "nan"]),
+    (
+        "link-point-inf",
+        _set((*L0, "points", "pad"), [0.02, INF]),
+        ["link[0].points.pad[1]:", "inf"],
+    ),
     ("tolerance-nan", _set(("model", "tolerance"), NAN), ["model.tolerance:", "nan"]),
-    ("E-inf", _all(_del((*F0, "EI")), _set((*F0, "E"), INF), _set((*F0, "I"), 1e-14)),
-     ["flexure[0].E:", "inf"]),
+    (
+        "E-inf",
+        _all(_del((*F0, "EI")), _set((*F0, "E"), INF), _set((*F0, "I"), 1e-14)),
+        ["flexure[0].E:", "inf"],
+    ),
     # unknown parent / point / body
-    ("unknown-flexure-parent", _set((*F1, "parent"), "midle"),
-     ["flexure[1].parent:", "'midle'", "middle"]),
+    (
+        "unknown-flexure-parent",
+        _set((*F1, "parent"), "midle"),
+        ["flexure[1].parent:", "'midle'", "middle"],
+    ),
     ("unknown-link-parent", _set((*L0, "parent"), "proximl"), ["link[0].parent:", "'proximl'"]),
-    ("unknown-load-point", _set(("load", 0, "point"), "fingertip.pd"),
-     ["load[0].point:", "'fingertip.pd'", "fingertip.pad"]),
-    ("unknown-load-body", _set(("load", 0, "point"), "fingertp.pad"),
-     ["load[0].point:", "'fingertp'"]),
-    ("flexure-point-not-tip", _set(("load", 0, "point"), "distal.root"),
-     ["load[0].point:", "'distal.root'", "distal.tip"]),
+    (
+        "unknown-load-point",
+        _set(("load", 0, "point"), "fingertip.pd"),
+        ["load[0].point:", "'fingertip.pd'", "fingertip.pad"],
+    ),
+    (
+        "unknown-load-body",
+        _set(("load", 0, "point"), "fingertp.pad"),
+        ["load[0].point:", "'fingertp'"],
+    ),
+    (
+        "flexure-point-not-tip",
+        _set(("load", 0, "point"), "distal.root"),
+        ["load[0].point:", "'distal.root'", "distal.tip"],
+    ),
     ("ref-without-dot", _set(("load", 0, "point"), "fingertip"), ["load[0].point:", "'fingertip'"]),
-    ("route-unknown-point", _set(("tendon", 0, "route", 1), "middle.hol"),
-     ["tendon[0].route[1]:", "'middle.hol'"]),
-    ("route-repeated-point", _set(("tendon", 0, "route", 1), "base.r0"),
-     ["tendon[0].route[1]:", "'base.r0'"]),
-    ("output-unknown-point", _set(("output", "points", 1), "fingertip.nail"),
-     ["output.points[1]:", "'fingertip.nail'"]),
+    (
+        "route-unknown-point",
+        _set(("tendon", 0, "route", 1), "middle.hol"),
+        ["tendon[0].route[1]:", "'middle.hol'"],
+    ),
+    (
+        "route-repeated-point",
+        _set(("tendon", 0, "route", 1), "base.r0"),
+        ["tendon[0].route[1]:", "'base.r0'"],
+    ),
+    (
+        "output-unknown-point",
+        _set(("output", "points", 1), "fingertip.nail"),
+        ["output.points[1]:", "'fingertip.nail'"],
+    ),
     # duplicate names
     ("duplicate-flexures", _set((*F1, "name"), "proximal"), ["flexure[1].name:", "'proximal'"]),
     ("duplicate-flexure-link", _set((*L0, "name"), "distal"), ["link[0].name:", "'distal'"]),
     ("link-named-base", _set((*L1, "name"), "base"), ["link[1].name:", "'base'"]),
     ("flexure-named-base", _set((*F0, "name"), "base"), ["flexure[0].name:", "'base'"]),
     # cycles
-    ("cycle-through-link", _set((*F0, "parent"), "distal"),
-     ["flexure[0].parent:", "cycle", "'distal'"]),
+    (
+        "cycle-through-link",
+        _set((*F0, "parent"), "distal"),
+        ["flexure[0].parent:", "cycle", "'distal'"],
+    ),
     ("self-parent", _set((*F1, "parent"), "distal"), ["flexure[1].parent:", "cycle", "'distal'"]),
     # empty scene
     ("no-flexure-key", _del(("flexure",)), ["flexure:", "at least one"]),
-    ("empty-flexure-list", _all(_set(("flexure",), []), _set(("link",), []),
-                                _set(("load",), []), _set(("tendon",), []),
-                                _del(("output",))),
-     ["flexure:", "at least one"]),
+    (
+        "empty-flexure-list",
+        _all(
+            _set(("flexure",), []),
+            _set(("link",), []),
+            _set(("load",), []),
+            _set(("tendon",), []),
+            _del(("output",)),
+        ),
+        ["flexure:", "at least one"],
+    ),
     # tendons
-    ("route-one-point", _set(("tendon", 0, "route"), ["base.r0"]),
-     ["tendon[0].route:", "two", "['base.r0']"]),
+    (
+        "route-one-point",
+        _set(("tendon", 0, "route"), ["base.r0"]),
+        ["tendon[0].route:", "two", "['base.r0']"],
+    ),
     ("route-empty", _set(("tendon", 0, "route"), []), ["tendon[0].route:", "got []"]),
     ("tension-negative", _set(("tendon", 0, "tension"), -1.0), ["tendon[0].tension:", "-1.0"]),
     # model keys
@@ -523,47 +650,73 @@ BAD = [
     ("modes-bool", _set(("model", "modes"), True), ["model.modes:", "True"]),
     ("modes-string", _set(("model", "modes"), "3"), ["model.modes:", "'3'"]),
     ("flexure-modes-zero", _set((*F0, "modes"), 0), ["flexure[0].modes:", "got 0"]),
-    ("flexure-model-modes-zero", _set((*F1, "model"), {"modes": 0}),
-     ["flexure[1].model.modes:", "got 0"]),
+    (
+        "flexure-model-modes-zero",
+        _set((*F1, "model"), {"modes": 0}),
+        ["flexure[1].model.modes:", "got 0"],
+    ),
     ("elements-zero", _set(("model", "elements"), 0), ["model.elements:", "got 0"]),
     ("flexure-elements-float", _set((*F0, "elements"), 4.5), ["flexure[0].elements:", "4.5"]),
     ("kind-unknown", _set(("model", "kind"), "beam"), ["model.kind:", "'beam'"]),
     ("flexure-kind-unknown", _set((*F1, "kind"), "SCM"), ["flexure[1].kind:", "'SCM'"]),
     ("kernel-unknown", _set(("model", "kernel"), "fast"), ["model.kernel:", "'fast'"]),
-    ("flexure-model-kernel-unknown", _set((*F0, "model"), {"kernel": "taylor"}),
-     ["flexure[0].model.kernel:", "'taylor'"]),
+    (
+        "flexure-model-kernel-unknown",
+        _set((*F0, "model"), {"kernel": "taylor"}),
+        ["flexure[0].model.kernel:", "'taylor'"],
+    ),
     ("tolerance-zero", _set(("model", "tolerance"), 0.0), ["model.tolerance:", "got 0.0"]),
     ("tolerance-negative", _set((*F0, "tolerance"), -1e-4), ["flexure[0].tolerance:", "-0.0001"]),
-    ("override-given-twice", _all(_set((*F0, "modes"), 4), _set((*F0, "model"), {"modes": 5})),
-     ["flexure[0].model.modes:", "got 5"]),
+    (
+        "override-given-twice",
+        _all(_set((*F0, "modes"), 4), _set((*F0, "model"), {"modes": 5})),
+        ["flexure[0].model.modes:", "got 5"],
+    ),
     # unknown keys
-    ("typo-flexure-key", _all(_del((*F1, "length")), _set((*F1, "lenght"), 0.015)),
-     ["flexure[1].lenght:", "unknown key", "'length'"]),
+    (
+        "typo-flexure-key",
+        _all(_del((*F1, "length")), _set((*F1, "lenght"), 0.015)),
+        ["flexure[1].lenght:", "unknown key", "'length'"],
+    ),
     ("unknown-top-level", _set(("flexures",), []), ["flexures:", "unknown"]),
     ("unknown-model-key", _set(("model", "mode"), 3), ["model.mode:", "unknown"]),
-    ("unknown-flexure-model-key", _set((*F0, "model"), {"elemnts": 3}),
-     ["flexure[0].model.elemnts:", "unknown"]),
+    (
+        "unknown-flexure-model-key",
+        _set((*F0, "model"), {"elemnts": 3}),
+        ["flexure[0].model.elemnts:", "unknown"],
+    ),
     ("unknown-base-key", _set(("base", "point"), {}), ["base.point:", "unknown"]),
     ("unknown-link-key", _set((*L0, "at"), [0.0, 0.0, 0.0]), ["link[0].at:", "unknown"]),
     ("unknown-load-key", _set(("load", 0, "torque"), 1.0), ["load[0].torque:", "unknown"]),
     ("unknown-tendon-key", _set(("tendon", 0, "force"), 1.0), ["tendon[0].force:", "unknown"]),
     ("unknown-output-key", _set(("output", "point"), []), ["output.point:", "unknown"]),
-    ("flexure-declares-points", _set((*F0, "points"), {"p": [0.0, 0.0]}),
-     ["flexure[0].points:", "tip"]),
+    (
+        "flexure-declares-points",
+        _set((*F0, "points"), {"p": [0.0, 0.0]}),
+        ["flexure[0].points:", "tip"],
+    ),
     # link parent must be a flexure
     ("link-parent-base", _set((*L0, "parent"), "base"), ["link[0].parent:", "'base'", "flexure"]),
-    ("link-parent-link", _set((*L1, "parent"), "middle"),
-     ["link[1].parent:", "'middle'", "flexure"]),
+    (
+        "link-parent-link",
+        _set((*L1, "parent"), "middle"),
+        ["link[1].parent:", "'middle'", "flexure"],
+    ),
     # vector lengths
     ("at-two-numbers", _set((*F1, "at"), [0.045, 0.0]), ["flexure[1].at:", "3", "[0.045, 0.0]"]),
     ("at-four-numbers", _set((*F0, "at"), [0, 0, 0, 0]), ["flexure[0].at:", "[0, 0, 0, 0]"]),
-    ("force-three-numbers", _set(("load", 0, "force"), [0.0, -1.0, 0.0]),
-     ["load[0].force:", "2", "[0.0, -1.0, 0.0]"]),
+    (
+        "force-three-numbers",
+        _set(("load", 0, "force"), [0.0, -1.0, 0.0]),
+        ["load[0].force:", "2", "[0.0, -1.0, 0.0]"],
+    ),
     ("force-scalar", _set(("load", 0, "force"), -1.0), ["load[0].force:", "-1.0"]),
-    ("base-point-one-number", _set(("base", "points", "r0"), [0.0]),
-     ["base.points.r0:", "[0.0]"]),
-    ("link-point-three-numbers", _set((*L1, "points", "pad"), [0.0, 0.0, 0.0]),
-     ["link[1].points.pad:", "[0.0, 0.0, 0.0]"]),
+    ("base-point-one-number", _set(("base", "points", "r0"), [0.0]), ["base.points.r0:", "[0.0]"]),
+    (
+        "link-point-three-numbers",
+        _set((*L1, "points", "pad"), [0.0, 0.0, 0.0]),
+        ["link[1].points.pad:", "[0.0, 0.0, 0.0]"],
+    ),
 ]
 
 
@@ -577,7 +730,7 @@ def test_invalid_scene(mutate, expected):
     assert "\n" not in msg and msg.strip() == msg
     for s in expected:
         assert s in msg, f"{s!r} not in {msg!r}"
-    assert msg.startswith(expected[0]), msg     # the message starts with the key path
+    assert msg.startswith(expected[0]), msg  # the message starts with the key path
 
 
 def test_all_bad_case_ids_unique():

@@ -1,9 +1,9 @@
 """flexgen.settings.SolverSettings mirrors fg_settings of chain_solver.h (names, order, types),
 its defaults are the solver's, and it rejects what the solver cannot run with."""
+
 import math
 import re
 from dataclasses import fields
-from pathlib import Path
 
 import pytest
 
@@ -16,7 +16,7 @@ HEADER = SOURCES / "chain_solver.h"
 def header_fields():
     text = HEADER.read_text()
     end = text.index("} fg_settings;")
-    body = text[text.rindex("typedef struct {", 0, end) + len("typedef struct {"):end]
+    body = text[text.rindex("typedef struct {", 0, end) + len("typedef struct {") : end]
     body = re.sub(r"/\*.*?\*/", "", body, flags=re.S)
     out = []
     for decl in body.split(";"):
@@ -30,33 +30,45 @@ def header_fields():
 
 def test_fields_mirror_the_header():
     declared = header_fields()
-    assert [(f.name, {"float": "double", "int": "int"}[f.type]) for f in fields(SolverSettings)] \
-        == declared
+    assert [
+        (f.name, {"float": "double", "int": "int"}[f.type]) for f in fields(SolverSettings)
+    ] == declared
     # and the struct compiled into the core (cffi reads the header) has them in that order
     assert [name for name, _ in ffi.typeof("fg_settings").fields] == [n for n, _ in declared]
 
 
 def test_defaults_are_the_solvers():
     assert DEFAULT == SolverSettings()
-    assert (DEFAULT.tol, DEFAULT.max_iterations, DEFAULT.max_steps, DEFAULT.max_dq) \
-        == (1e-12, 50, 500, 0.5)
+    assert (DEFAULT.tol, DEFAULT.max_iterations, DEFAULT.max_steps, DEFAULT.max_dq) == (
+        1e-12,
+        50,
+        500,
+        0.5,
+    )
     assert (DEFAULT.initial_step, DEFAULT.max_step, DEFAULT.min_step) == (0.1, 0.25, 1e-5)
-    assert DEFAULT.lapack_min_size == 32     # built-in below, LAPACK from 32 (solver-speed.md)
+    assert DEFAULT.lapack_min_size == 32  # built-in below, LAPACK from 32 (solver-speed.md)
 
 
-@pytest.mark.parametrize("field, value, message", [
-    ("tol", math.inf, "settings.tol: must be a finite number in (0, 1), got inf"),
-    ("tol", 0.0, "settings.tol: must be a finite number in (0, 1), got 0.0"),
-    ("max_dq", -1.0, "settings.max_dq: must be a finite number > 0, got -1.0"),
-    ("max_steps", -1, "settings.max_steps: must be an integer in [0, 2**31 - 1], got -1"),
-    ("max_iterations", 2**31, "settings.max_iterations: must be an integer in [0, 2**31 - 1]"),
-    ("line_search_halvings", 0, "settings.line_search_halvings: must be an integer in [1, "),
-    ("max_iterations", 2.0, "settings.max_iterations: must be an integer, got 2.0"),
-    ("armijo", True, "settings.armijo: must be a finite number, got True"),
-    ("initial_step", 0.5, "settings.initial_step: must lie in [min_step, max_step]"),
-    ("stagnation_lag", 9, "settings.stagnation_lag: must be at most stagnation_after (8), got 9"),
-    ("step_shrink", 1.0, "settings.step_shrink: must be a finite number in (0, 1), got 1.0"),
-])
+@pytest.mark.parametrize(
+    "field, value, message",
+    [
+        ("tol", math.inf, "settings.tol: must be a finite number in (0, 1), got inf"),
+        ("tol", 0.0, "settings.tol: must be a finite number in (0, 1), got 0.0"),
+        ("max_dq", -1.0, "settings.max_dq: must be a finite number > 0, got -1.0"),
+        ("max_steps", -1, "settings.max_steps: must be an integer in [0, 2**31 - 1], got -1"),
+        ("max_iterations", 2**31, "settings.max_iterations: must be an integer in [0, 2**31 - 1]"),
+        ("line_search_halvings", 0, "settings.line_search_halvings: must be an integer in [1, "),
+        ("max_iterations", 2.0, "settings.max_iterations: must be an integer, got 2.0"),
+        ("armijo", True, "settings.armijo: must be a finite number, got True"),
+        ("initial_step", 0.5, "settings.initial_step: must lie in [min_step, max_step]"),
+        (
+            "stagnation_lag",
+            9,
+            "settings.stagnation_lag: must be at most stagnation_after (8), got 9",
+        ),
+        ("step_shrink", 1.0, "settings.step_shrink: must be a finite number in (0, 1), got 1.0"),
+    ],
+)
 def test_bad_values_are_named(field, value, message):
     with pytest.raises(ValueError) as exc:
         SolverSettings(**{field: value})

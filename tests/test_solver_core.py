@@ -13,14 +13,15 @@ differences of the residual (and the compliance against J K^-1 J^T); ``Solver.so
 loads and tensions; settings and options reaching the core; the C source (strict C99, no heap, no
 writable globals); a workspace that carries nothing from one solve to the next.
 """
+
 from __future__ import annotations
 
 import math
 import re
 import shutil
 import subprocess
-from functools import lru_cache
 from dataclasses import replace
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -41,14 +42,15 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 SOURCE = ROOT / "flexgen" / "compiled" / "chain_solver.c"
 
-EULER = math.pi ** 2 / 4          # the first Euler load of a cantilever, EI = L = 1
-ELASTICA = 3.4375929              # the load of examples/rectangular_elastica.toml
+EULER = math.pi**2 / 4  # the first Euler load of a cantilever, EI = L = 1
+ELASTICA = 3.4375929  # the load of examples/rectangular_elastica.toml
 ELASTICA_TIP = (0.456947, 0.762760)
-SNAP = dict(force=(-1.74574099, -4.67920763), moment=3.478735754260268)   # a fold near 0.5457
+SNAP = dict(force=(-1.74574099, -4.67920763), moment=3.478735754260268)  # a fold near 0.5457
 WHY = dict(zip(("only", "lower", "y", "ccw"), BUCKLING_SIDES))
 
 
 # -- models and scenes ----------------------------------------------------------------------------
+
 
 def scm(modes: int, kernel: str = "auto"):
     return lambda f: SCMModel(f.length, f.EI, modes, kernel=kernel, name=f.name)
@@ -62,9 +64,16 @@ def prb():
     return lambda f: PRBModel(f.length, f.EI)
 
 
-FACTORIES = {"scm3 gauss": scm(3, "gauss"), "scm5 gauss": scm(5, "gauss"),
-             "scm6 gauss": scm(6, "gauss"), "fem4": fem(4), "fem16": fem(16), "prb": prb(),
-             "scm3": scm(3), "scm4": scm(4)}
+FACTORIES = {
+    "scm3 gauss": scm(3, "gauss"),
+    "scm5 gauss": scm(5, "gauss"),
+    "scm6 gauss": scm(6, "gauss"),
+    "fem4": fem(4),
+    "fem16": fem(16),
+    "prb": prb(),
+    "scm3": scm(3),
+    "scm4": scm(4),
+}
 
 
 def models(scene, label):
@@ -81,11 +90,14 @@ def example(name: str):
 
 
 def cantilever(force=(0.0, 0.0), moment=0.0, L=1.0, EI=1.0, angle=0.0):
-    return scene_from_dict({
-        "name": "cantilever",
-        "flexure": [{"name": "beam", "length": L, "EI": EI, "at": [0.0, 0.0, angle]}],
-        "load": [{"point": "beam.tip", "force": list(force), "moment": moment}],
-        "output": {"points": ["beam.tip"]}})
+    return scene_from_dict(
+        {
+            "name": "cantilever",
+            "flexure": [{"name": "beam", "length": L, "EI": EI, "at": [0.0, 0.0, angle]}],
+            "load": [{"point": "beam.tip", "force": list(force), "moment": moment}],
+            "output": {"points": ["beam.tip"]},
+        }
+    )
 
 
 def column(P: float, angle: float):
@@ -98,52 +110,74 @@ def tendon_column(T: float, ry: float):
     that cancels its transverse pull: the straight state stays an equilibrium, but the tendon
     turns with the tip and a dead load does not, so the bifurcation is not a symmetric one (the
     sides differ in potential energy)."""
-    return scene_from_dict({
-        "name": "tendon column", "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
-        "base": {"points": {"r0": [0.0, ry]}},
-        "tendon": [{"tension": T, "route": ["base.r0", "a.tip"]}],
-        "load": [{"point": "a.tip", "force": [0.0, -T * ry / math.hypot(1.0, ry)],
-                  "moment": 0.0}],
-        "output": {"points": ["a.tip"]}})
+    return scene_from_dict(
+        {
+            "name": "tendon column",
+            "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
+            "base": {"points": {"r0": [0.0, ry]}},
+            "tendon": [{"tension": T, "route": ["base.r0", "a.tip"]}],
+            "load": [
+                {"point": "a.tip", "force": [0.0, -T * ry / math.hypot(1.0, ry)], "moment": 0.0}
+            ],
+            "output": {"points": ["a.tip"]},
+        }
+    )
 
 
 # base -> a -> link l1 -> b -> link l2; a's tip frame also carries flexure c; a tendon through
 # both links, loads with moments on two bodies
-TREE = scene_from_dict({
-    "name": "tree",
-    "base": {"points": {"r0": [0.0, 0.25]}},
-    "flexure": [
-        {"name": "a", "length": 1.0, "EI": 1.0, "at": [0.1, 0.2, 0.3]},
-        {"name": "b", "parent": "l1", "length": 0.7, "EI": 0.6, "at": [0.5, -0.1, 0.4]},
-        {"name": "c", "parent": "a", "length": 0.5, "EI": 0.3, "at": [0.05, 0.0, -0.6]}],
-    "link": [
-        {"name": "l1", "parent": "a", "points": {"p": [0.3, 0.1], "hole": [0.2, 0.08]}},
-        {"name": "l2", "parent": "b", "points": {"pad": [0.2, 0.05], "anchor": [0.3, -0.04]}}],
-    "load": [{"point": "l2.pad", "force": [0.3, -0.5], "moment": 0.1},
-             {"point": "c.tip", "force": [0.0, 0.2], "moment": -0.15}],
-    "tendon": [{"tension": 0.8, "route": ["base.r0", "l1.hole", "l2.anchor"]}],
-    "output": {"points": ["l2.pad", "c.tip"]}})
+TREE = scene_from_dict(
+    {
+        "name": "tree",
+        "base": {"points": {"r0": [0.0, 0.25]}},
+        "flexure": [
+            {"name": "a", "length": 1.0, "EI": 1.0, "at": [0.1, 0.2, 0.3]},
+            {"name": "b", "parent": "l1", "length": 0.7, "EI": 0.6, "at": [0.5, -0.1, 0.4]},
+            {"name": "c", "parent": "a", "length": 0.5, "EI": 0.3, "at": [0.05, 0.0, -0.6]},
+        ],
+        "link": [
+            {"name": "l1", "parent": "a", "points": {"p": [0.3, 0.1], "hole": [0.2, 0.08]}},
+            {"name": "l2", "parent": "b", "points": {"pad": [0.2, 0.05], "anchor": [0.3, -0.04]}},
+        ],
+        "load": [
+            {"point": "l2.pad", "force": [0.3, -0.5], "moment": 0.1},
+            {"point": "c.tip", "force": [0.0, 0.2], "moment": -0.15},
+        ],
+        "tendon": [{"tension": 0.8, "route": ["base.r0", "l1.hole", "l2.anchor"]}],
+        "output": {"points": ["l2.pad", "c.tip"]},
+    }
+)
 
 # a chain of two flexures with a tendon
-TENDON_CHAIN = scene_from_dict({
-    "name": "tendon chain",
-    "base": {"points": {"r": [0.0, 0.15]}},
-    "flexure": [{"name": "p", "length": 1.0, "EI": 1.0},
-                {"name": "d", "parent": "m", "length": 0.8, "EI": 0.7, "at": [0.3, 0.0, 0.2]}],
-    "link": [{"name": "m", "parent": "p", "points": {"hole": [0.05, 0.1]}},
-             {"name": "t", "parent": "d", "points": {"pad": [0.2, 0.05],
-                                                     "anchor": [0.25, 0.08]}}],
-    "load": [{"point": "t.pad", "force": [0.2, -0.6], "moment": 0.05}],
-    "tendon": [{"tension": 0.5, "route": ["base.r", "m.hole", "t.anchor"]}],
-    "output": {"points": ["t.pad"]}})
+TENDON_CHAIN = scene_from_dict(
+    {
+        "name": "tendon chain",
+        "base": {"points": {"r": [0.0, 0.15]}},
+        "flexure": [
+            {"name": "p", "length": 1.0, "EI": 1.0},
+            {"name": "d", "parent": "m", "length": 0.8, "EI": 0.7, "at": [0.3, 0.0, 0.2]},
+        ],
+        "link": [
+            {"name": "m", "parent": "p", "points": {"hole": [0.05, 0.1]}},
+            {"name": "t", "parent": "d", "points": {"pad": [0.2, 0.05], "anchor": [0.25, 0.08]}},
+        ],
+        "load": [{"point": "t.pad", "force": [0.2, -0.6], "moment": 0.05}],
+        "tendon": [{"tension": 0.5, "route": ["base.r", "m.hole", "t.anchor"]}],
+        "output": {"points": ["t.pad"]},
+    }
+)
 
-SCENES = {"cantilever_tip_load": lambda: example("cantilever_tip_load"),
-          "two_link_finger": lambda: example("two_link_finger"),
-          "arc_moment": lambda: example("arc_moment"),
-          "tree": lambda: TREE, "tendon_chain": lambda: TENDON_CHAIN}
+SCENES = {
+    "cantilever_tip_load": lambda: example("cantilever_tip_load"),
+    "two_link_finger": lambda: example("two_link_finger"),
+    "arc_moment": lambda: example("arc_moment"),
+    "tree": lambda: TREE,
+    "tendon_chain": lambda: TENDON_CHAIN,
+}
 
 
 # -- independent references -----------------------------------------------------------------------
+
 
 def potential_gradient(scene, ms, q: np.ndarray) -> tuple[np.ndarray, float]:
     """grad of the total potential (elastic energy + tendons - work of the dead loads) at the
@@ -212,10 +246,17 @@ TIP_TOL = {"scm3 gauss": 2e-3, "scm5 gauss": 1e-5, "scm6 gauss": 1e-5, "fem16": 
 
 
 @pytest.mark.parametrize("label", list(CRITICAL_TOL))
-@pytest.mark.parametrize("angle, side", [
-    (0.0, "y"), (0.3, "y"), (2.0, "y"), (math.pi, "y"),      # buckles to larger world y
-    (math.pi / 2, "ccw"), (-math.pi / 2, "ccw"),             # y the same: counter-clockwise
-])
+@pytest.mark.parametrize(
+    "angle, side",
+    [
+        (0.0, "y"),
+        (0.3, "y"),
+        (2.0, "y"),
+        (math.pi, "y"),  # buckles to larger world y
+        (math.pi / 2, "ccw"),
+        (-math.pi / 2, "ccw"),  # y the same: counter-clockwise
+    ],
+)
 def test_euler_column_buckles_onto_the_exact_post_buckled_branch(label, angle, side):
     """A cantilever turned by ``angle`` under the rectangular elastica's axial load: one
     bifurcation at the Euler load, the side by convention (BUCKLING_SIDES), and the tip of
@@ -245,21 +286,32 @@ def test_rectangular_elastica_example_buckles(label):
     scene = example("rectangular_elastica")
     r = solve(scene, label)
     assert r.converged and r.stable
-    assert r.critical_load_factors[0] == pytest.approx(exact.euler_load(1.0, 1.0) / ELASTICA,
-                                                       rel=CRITICAL_TOL[label])
+    assert r.critical_load_factors[0] == pytest.approx(
+        exact.euler_load(1.0, 1.0) / ELASTICA, rel=CRITICAL_TOL[label]
+    )
     assert sides(r) == ["y"]
     x, y, th = r.points["beam.tip"].pose
-    assert (x, y) == (pytest.approx(ELASTICA_TIP[0], abs=TIP_TOL[label]),
-                      pytest.approx(ELASTICA_TIP[1], abs=TIP_TOL[label]))
+    assert (x, y) == (
+        pytest.approx(ELASTICA_TIP[0], abs=TIP_TOL[label]),
+        pytest.approx(ELASTICA_TIP[1], abs=TIP_TOL[label]),
+    )
     assert th == pytest.approx(math.pi / 2, abs=1e-2)
 
 
 # far beyond the Euler load (16 Euler loads at P = 40), against the exact elastica's post-buckled
 # branch: the models' tip errors grow with the bend (the tip turns by 165 to 179 degrees here):
 # six modes within 1e-4 at P = 12 and 1e-3 beyond, five modes 2e-3, the 16-element chain 5e-3
-FAR = {("scm6 gauss", 12.0): 1e-4, ("scm6 gauss", 25.0): 1e-3, ("scm6 gauss", 40.0): 1e-3,
-       ("scm5 gauss", 12.0): 2e-3, ("scm5 gauss", 25.0): 2e-3, ("scm5 gauss", 40.0): 2e-3,
-       ("fem16", 12.0): 5e-3, ("fem16", 25.0): 5e-3, ("fem16", 40.0): 5e-3}
+FAR = {
+    ("scm6 gauss", 12.0): 1e-4,
+    ("scm6 gauss", 25.0): 1e-3,
+    ("scm6 gauss", 40.0): 1e-3,
+    ("scm5 gauss", 12.0): 2e-3,
+    ("scm5 gauss", 25.0): 2e-3,
+    ("scm5 gauss", 40.0): 2e-3,
+    ("fem16", 12.0): 5e-3,
+    ("fem16", 25.0): 5e-3,
+    ("fem16", 40.0): 5e-3,
+}
 
 
 @pytest.mark.parametrize("label, P", list(FAR))
@@ -286,26 +338,36 @@ def test_below_the_euler_load_the_column_stays_straight(label, angle):
     r = solve(column(0.9 * EULER, angle), label)
     assert r.converged and r.stable and r.critical_load_factors == [] and r.warnings == []
     x, y, th = r.points["beam.tip"].pose
-    assert (x, y, th) == (pytest.approx(math.cos(angle), abs=1e-12),
-                          pytest.approx(math.sin(angle), abs=1e-12),
-                          pytest.approx(angle, abs=1e-12))
+    assert (x, y, th) == (
+        pytest.approx(math.cos(angle), abs=1e-12),
+        pytest.approx(math.sin(angle), abs=1e-12),
+        pytest.approx(angle, abs=1e-12),
+    )
     assert np.all(np.linalg.eigvalsh(r.stiffness) > 0)
 
 
 # -- 2. an asymmetric bifurcation ------------------------------------------------------------------
 
-@pytest.mark.parametrize("label, T, ry, side, other", [
-    ("prb", 8.0, 1.5, "lower", True), ("fem4", 8.0, 1.5, "lower", False),
-    ("fem16", 8.0, 1.5, "lower", False), ("prb", 20.0, -3.0, "lower", True),
-    ("scm5 gauss", 20.0, 1.5, "lower", True),
-    ("fem4", 20.0, 0.5, "only", False), ("fem16", 20.0, 0.5, "only", False),
-])
+
+@pytest.mark.parametrize(
+    "label, T, ry, side, other",
+    [
+        ("prb", 8.0, 1.5, "lower", True),
+        ("fem4", 8.0, 1.5, "lower", False),
+        ("fem16", 8.0, 1.5, "lower", False),
+        ("prb", 20.0, -3.0, "lower", True),
+        ("scm5 gauss", 20.0, 1.5, "lower", True),
+        ("fem4", 20.0, 0.5, "only", False),
+        ("fem16", 20.0, 0.5, "only", False),
+    ],
+)
 def test_asymmetric_bifurcation_under_a_tendon(label, T, ry, side, other):
     """A bifurcation whose sides differ in potential energy: the answer is a stable equilibrium
     (zero gradient of the potential and positive definite stiffness, both computed here) of lower
     potential than the equilibrium on the other side, found here by minimizing the potential
     (BFGS, reference kinematics) from the mirrored state; ``other``: that one exists."""
     from scipy.optimize import minimize
+
     scene = tendon_column(T, ry)
     ms = models(scene, label)
     r = solve_models(scene, ms)
@@ -315,9 +377,13 @@ def test_asymmetric_bifurcation_under_a_tendon(label, T, ry, side, other):
     g, scale = potential_gradient(scene, ms, q)
     assert np.linalg.norm(g) <= 1e-9 * scale
     assert np.all(np.linalg.eigvalsh(r.stiffness) > 0)
-    found = minimize(lambda x: potential(scene, ms, x), -q,
-                     jac=lambda x: potential_gradient(scene, ms, x)[0], method="BFGS",
-                     options=dict(gtol=1e-10))
+    found = minimize(
+        lambda x: potential(scene, ms, x),
+        -q,
+        jac=lambda x: potential_gradient(scene, ms, x)[0],
+        method="BFGS",
+        options=dict(gtol=1e-10),
+    )
     go, so = potential_gradient(scene, ms, found.x)
     distinct = np.linalg.norm(go) <= 1e-6 * so and np.max(np.abs(found.x - q)) > 1e-3
     if other:
@@ -343,12 +409,14 @@ def test_a_warm_start_on_the_other_side_of_a_bifurcation(label, T, ry):
 
 # -- 3. a snap-through -----------------------------------------------------------------------------
 
-@lru_cache(maxsize=None)
+
+@cache
 def exact_equilibria(force, moment, n=601, span=12.0):
     """Every exact equilibrium of the unit cantilever under the dead tip load: the roots of the
     tip-moment residual in the root moment mu0 on [-span, span] (a fine scan, then Brent), as
     (tip pose, stable by the Jacobi test)."""
     from scipy.optimize import brentq
+
     fx, fy = force
 
     def R(mu0):
@@ -374,7 +442,7 @@ def test_snap_through(label, tol):
     r = solve(scene, label)
     assert r.converged and r.stable, r.reason
     ref = exact.cantilever(1.0, 1.0, SNAP["force"], SNAP["moment"])
-    assert not ref.converged and ref.critical_load_factor is not None   # the path ends
+    assert not ref.converged and ref.critical_load_factor is not None  # the path ends
     assert len(r.critical_load_factors) == 1
     assert r.critical_load_factors[0] == pytest.approx(ref.critical_load_factor, rel=1e-4)
     assert sides(r) == ["snap"]
@@ -389,6 +457,7 @@ def test_snap_through(label, tol):
 
 # -- 4. kernel switches ----------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("modes, tol", [(3, 2e-3), (5, 1e-5)])
 def test_rectangular_elastica_with_the_auto_kernel_switches(modes, tol):
     """The scene's own model (scm "auto") passes the polynomial kernel's range (90 degrees) on
@@ -401,8 +470,10 @@ def test_rectangular_elastica_with_the_auto_kernel_switches(modes, tol):
     assert switch[0] == SCMModel(1.0, 1.0, modes, name="beam").switch_warning(r.q["beam"])
     assert len(r.critical_load_factors) == 1
     x, y, th = r.points["beam.tip"].pose
-    assert (x, y) == (pytest.approx(ELASTICA_TIP[0], abs=tol),
-                      pytest.approx(ELASTICA_TIP[1], abs=tol))
+    assert (x, y) == (
+        pytest.approx(ELASTICA_TIP[0], abs=tol),
+        pytest.approx(ELASTICA_TIP[1], abs=tol),
+    )
     assert th == pytest.approx(math.pi / 2, abs=1e-2)
 
 
@@ -411,8 +482,9 @@ def test_poly_kernel_past_its_range():
     equilibrium, and the reason says why; "auto" switches to the Gauss kernel there and gives the
     closed form (a pure moment: the tip turns by M L/EI exactly, the arc)."""
     M = math.radians(150.0)
-    poly = solve_models(cantilever(moment=M), {"beam": SCMModel(1.0, 1.0, 3, kernel="poly",
-                                                               name="beam")})
+    poly = solve_models(
+        cantilever(moment=M), {"beam": SCMModel(1.0, 1.0, 3, kernel="poly", name="beam")}
+    )
     assert poly.converged is False and poly.q == {} and poly.points == {}
     assert "bent past the range of the polynomial kernel" in poly.reason
     auto = solve_models(cantilever(moment=M), {"beam": SCMModel(1.0, 1.0, 3, name="beam")})
@@ -449,14 +521,18 @@ def test_a_reused_model_does_not_carry_a_switch_warning():
 
 # -- 5. warm starts ---------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name, warm, label", [
-    ("cantilever_tip_load", "scm3", "scm3"),
-    ("cantilever_tip_load", "scm3", "scm4"),        # q0 padded with zeros
-    ("two_link_finger", "scm4", "scm3"),            # q0 truncated
-    ("tree", "scm3", "scm3 gauss"),
-    ("tendon_chain", "fem4", "fem4"),
-    ("rectangular_elastica", "scm5 gauss", "scm5 gauss"),   # a buckled answer
-])
+
+@pytest.mark.parametrize(
+    "name, warm, label",
+    [
+        ("cantilever_tip_load", "scm3", "scm3"),
+        ("cantilever_tip_load", "scm3", "scm4"),  # q0 padded with zeros
+        ("two_link_finger", "scm4", "scm3"),  # q0 truncated
+        ("tree", "scm3", "scm3 gauss"),
+        ("tendon_chain", "fem4", "fem4"),
+        ("rectangular_elastica", "scm5 gauss", "scm5 gauss"),  # a buckled answer
+    ],
+)
 def test_warm_start_gives_the_same_equilibrium(name, warm, label):
     scene = example(name) if name == "rectangular_elastica" else SCENES[name]()
     q0 = solve(scene, warm).q
@@ -464,20 +540,27 @@ def test_warm_start_gives_the_same_equilibrium(name, warm, label):
     hot = solve(scene, label, q0=q0)
     assert cold.converged and hot.converged and hot.stable, hot.reason
     for p in cold.points:
-        assert np.allclose(hot.points[p].pose, cold.points[p].pose, rtol=0,
-                           atol=1e-9 * max(f.length for f in scene.flexures))
-    if warm == label:       # from the answer itself: Newton at the full load, no path
+        assert np.allclose(
+            hot.points[p].pose,
+            cold.points[p].pose,
+            rtol=0,
+            atol=1e-9 * max(f.length for f in scene.flexures),
+        )
+    if warm == label:  # from the answer itself: Newton at the full load, no path
         assert hot.iterations <= cold.iterations and hot.critical_load_factors == []
 
 
-@pytest.mark.parametrize("name, q0", [
-    ("cantilever_tip_load", {"beam": [3.0, -1.0, 0.5]}),      # far off: Newton leaves max_dq
-    ("cantilever_tip_load", {"beam": [float("nan")] * 3}),   # not even a state
-    ("two_link_finger", {}),                                 # all zeros: Newton at the full load
-    ("rectangular_elastica", {}),                            # zeros: the unstable straight state
-    ("rectangular_elastica", {"beam": [-1.5]}),              # the mirrored post-buckled branch
-    ("rectangular_elastica", {"beam": [1.5]}),               # near the post-buckled branch
-])
+@pytest.mark.parametrize(
+    "name, q0",
+    [
+        ("cantilever_tip_load", {"beam": [3.0, -1.0, 0.5]}),  # far off: Newton leaves max_dq
+        ("cantilever_tip_load", {"beam": [float("nan")] * 3}),  # not even a state
+        ("two_link_finger", {}),  # all zeros: Newton at the full load
+        ("rectangular_elastica", {}),  # zeros: the unstable straight state
+        ("rectangular_elastica", {"beam": [-1.5]}),  # the mirrored post-buckled branch
+        ("rectangular_elastica", {"beam": [1.5]}),  # near the post-buckled branch
+    ],
+)
 def test_a_poor_warm_start_still_reaches_the_stable_equilibrium(name, q0):
     """Whatever q0, the answer is a stable equilibrium; where the warm start is rejected, the
     one the continuation from the unloaded state reaches."""
@@ -500,26 +583,31 @@ def test_a_poor_warm_start_still_reaches_the_stable_equilibrium(name, q0):
 
 # -- 6. compliance and stiffness -------------------------------------------------------------------
 
-@pytest.mark.parametrize("name, label", [
-    ("cantilever_tip_load", "scm3"),
-    ("two_link_finger", "scm4"),
-    ("tree", "fem16"),                 # a 3-flexure tree with a tendon and moments
-    ("tree", "scm3 gauss"),
-    ("tendon_chain", "prb"),
-])
+
+@pytest.mark.parametrize(
+    "name, label",
+    [
+        ("cantilever_tip_load", "scm3"),
+        ("two_link_finger", "scm4"),
+        ("tree", "fem16"),  # a 3-flexure tree with a tendon and moments
+        ("tree", "scm3 gauss"),
+        ("tendon_chain", "prb"),
+    ],
+)
 def test_compliance_matches_finite_differences_of_solves(name, label):
     """compliance3 = d(pose)/d(fx, fy, m) at each output point: central differences of solves
     under a small extra load at the point."""
     scene = SCENES[name]()
     f0 = scene.flexures[0]
-    fscale, mscale = f0.EI / f0.length ** 2, f0.EI / f0.length
+    fscale, mscale = f0.EI / f0.length**2, f0.EI / f0.length
     base = solve(scene, label)
     assert base.converged and base.stable, base.reason
     for ref in base.points:
         C = np.asarray(base.points[ref].compliance3)
         fd = np.zeros((3, 3))
-        for j, (unit, h) in enumerate((((1, 0, 0), 1e-5 * fscale), ((0, 1, 0), 1e-5 * fscale),
-                                        ((0, 0, 1), 1e-5 * mscale))):
+        for j, (unit, h) in enumerate(
+            (((1, 0, 0), 1e-5 * fscale), ((0, 1, 0), 1e-5 * fscale), ((0, 0, 1), 1e-5 * mscale))
+        ):
             poses = []
             for sign in (1.0, -1.0):
                 extra = Load(ref, (sign * h * unit[0], sign * h * unit[1]), sign * h * unit[2])
@@ -532,15 +620,18 @@ def test_compliance_matches_finite_differences_of_solves(name, label):
         assert np.allclose(base.points[ref].compliance, C[:2, :2], rtol=0, atol=0)
 
 
-@pytest.mark.parametrize("name, label", [
-    ("cantilever_tip_load", "scm3"),
-    ("two_link_finger", "scm4"),
-    ("arc_moment", "scm5 gauss"),
-    ("tree", "fem16"),
-    ("tree", "scm3 gauss"),
-    ("tendon_chain", "prb"),
-    ("rectangular_elastica", "scm5 gauss"),
-])
+@pytest.mark.parametrize(
+    "name, label",
+    [
+        ("cantilever_tip_load", "scm3"),
+        ("two_link_finger", "scm4"),
+        ("arc_moment", "scm5 gauss"),
+        ("tree", "fem16"),
+        ("tree", "scm3 gauss"),
+        ("tendon_chain", "prb"),
+        ("rectangular_elastica", "scm5 gauss"),
+    ],
+)
 def test_stiffness_is_the_derivative_of_the_residual(name, label):
     """At the answer: the residual (grad of the potential, from the reference kinematics) is
     zero; Result.stiffness is its derivative (central differences); the compliance of every
@@ -557,8 +648,17 @@ def test_stiffness_is_the_derivative_of_the_residual(name, label):
     assert K.shape == (chain.ndof, chain.ndof)
     E = np.eye(chain.ndof)
     h = 1e-6
-    Kfd = np.stack([(potential_gradient(scene, ms, q + h * e)[0]
-                     - potential_gradient(scene, ms, q - h * e)[0]) / (2 * h) for e in E], 1)
+    Kfd = np.stack(
+        [
+            (
+                potential_gradient(scene, ms, q + h * e)[0]
+                - potential_gradient(scene, ms, q - h * e)[0]
+            )
+            / (2 * h)
+            for e in E
+        ],
+        1,
+    )
     assert np.linalg.norm(K - Kfd) <= 1e-6 * np.linalg.norm(K)
     assert np.allclose(K, K.T, rtol=0, atol=1e-12 * np.abs(K).max())
     assert np.all(np.linalg.eigvalsh(K) > 0)
@@ -573,6 +673,7 @@ def test_the_validity_margin_from_the_stiffness_is_the_one_it_recomputes():
     """validity.stiffness_margin from Result.stiffness equals the one it solves again for; below
     the Euler load it is 1 - P/P_cr."""
     from flexgen import validity
+
     scene = example("two_link_finger")
     ms = models(scene, "scm3")
     r = solve_models(scene, ms)
@@ -587,16 +688,30 @@ def test_the_validity_margin_from_the_stiffness_is_the_one_it_recomputes():
 
 # -- 7. Solver.solve with other loads and tensions ---------------------------------------------------
 
+
 def test_solver_solve_with_loads_and_tensions_equals_a_fresh_solve():
     scene = example("two_link_finger")
     solver = flexgen.Solver(scene)
-    for loads, tensions in (([[0.0, -0.5, 0.0]], [5.0]), ([[0.1, -0.1, 1e-3]], [20.0]),
-                            (None, [0.0]), ([[0.0, 0.0, 0.0]], None)):
+    for loads, tensions in (
+        ([[0.0, -0.5, 0.0]], [5.0]),
+        ([[0.1, -0.1, 1e-3]], [20.0]),
+        (None, [0.0]),
+        ([[0.0, 0.0, 0.0]], None),
+    ):
         r = solver.solve(loads=loads, tensions=tensions)
-        new_loads = scene.loads if loads is None else tuple(
-            replace(ld, force=(row[0], row[1]), moment=row[2]) for ld, row in zip(scene.loads, loads))
-        new_tendons = scene.tendons if tensions is None else tuple(
-            replace(t, tension=T) for t, T in zip(scene.tendons, tensions))
+        new_loads = (
+            scene.loads
+            if loads is None
+            else tuple(
+                replace(ld, force=(row[0], row[1]), moment=row[2])
+                for ld, row in zip(scene.loads, loads)
+            )
+        )
+        new_tendons = (
+            scene.tendons
+            if tensions is None
+            else tuple(replace(t, tension=T) for t, T in zip(scene.tendons, tensions))
+        )
         fresh = solve_models(replace(scene, loads=new_loads, tendons=new_tendons))
         assert r.converged and fresh.converged
         assert r.q == fresh.q and r.iterations == fresh.iterations
@@ -608,20 +723,23 @@ def test_solver_solve_with_loads_and_tensions_equals_a_fresh_solve():
     assert again.q == solve_models(scene).q
 
 
-@pytest.mark.parametrize("kwargs", [
-    dict(loads=[[0.0, -0.5]]),                  # one value short
-    dict(loads=[[0.0, -0.5, 0.0], [1.0, 0.0, 0.0]]),
-    dict(loads=[0.0, -0.5, 0.0, 1.0]),
-    dict(tensions=[1.0, 2.0]),
-    dict(tensions=[]),
-    dict(loads=[[0.0, float("nan"), 0.0]]),
-    dict(tensions=[float("inf")]),
-])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(loads=[[0.0, -0.5]]),  # one value short
+        dict(loads=[[0.0, -0.5, 0.0], [1.0, 0.0, 0.0]]),
+        dict(loads=[0.0, -0.5, 0.0, 1.0]),
+        dict(tensions=[1.0, 2.0]),
+        dict(tensions=[]),
+        dict(loads=[[0.0, float("nan"), 0.0]]),
+        dict(tensions=[float("inf")]),
+    ],
+)
 def test_bad_loads_or_tensions_are_a_value_error(kwargs):
     solver = flexgen.Solver(example("two_link_finger"))
     with pytest.raises(ValueError, match="loads|tensions"):
         solver.solve(**kwargs)
-    assert solver.solve().converged        # the solver is still usable
+    assert solver.solve().converged  # the solver is still usable
 
 
 def test_a_workspace_carries_nothing_between_solves():
@@ -630,8 +748,15 @@ def test_a_workspace_carries_nothing_between_solves():
     solver = Solver(TREE, models(TREE, "fem16"))
 
     def answer(r):
-        return (r.q, {p: (v.pose, v.compliance3) for p, v in r.points.items()}, r.iterations,
-                r.energy, r.residual, r.warnings, r.critical_load_factors)
+        return (
+            r.q,
+            {p: (v.pose, v.compliance3) for p, v in r.points.items()},
+            r.iterations,
+            r.energy,
+            r.residual,
+            r.warnings,
+            r.critical_load_factors,
+        )
 
     first = answer(solver.solve())
     assert answer(solver.solve()) == first
@@ -646,27 +771,41 @@ def test_a_workspace_carries_nothing_between_solves():
     assert answer(solver.solve()) == first
 
 
-LAPACK_CASES = {"rectangular_elastica": lambda: example("rectangular_elastica"),
-                "tree": lambda: TREE, "column 25": lambda: column(25.0, 0.0),
-                "column vertical": lambda: column(ELASTICA, math.pi / 2),
-                "snap": lambda: cantilever(**SNAP), "tendon lower": lambda: tendon_column(8.0, 1.5),
-                "tendon only": lambda: tendon_column(20.0, 0.5)}
+LAPACK_CASES = {
+    "rectangular_elastica": lambda: example("rectangular_elastica"),
+    "tree": lambda: TREE,
+    "column 25": lambda: column(25.0, 0.0),
+    "column vertical": lambda: column(ELASTICA, math.pi / 2),
+    "snap": lambda: cantilever(**SNAP),
+    "tendon lower": lambda: tendon_column(8.0, 1.5),
+    "tendon only": lambda: tendon_column(20.0, 0.5),
+}
 
 
-@pytest.mark.parametrize("name, label", [
-    ("rectangular_elastica", "scm5 gauss"), ("rectangular_elastica", "fem16"), ("tree", "fem16"),
-    ("column 25", "scm5 gauss"), ("column vertical", "fem16"), ("snap", "scm5 gauss"),
-    ("tendon lower", "fem4"), ("tendon only", "fem4")])
+@pytest.mark.parametrize(
+    "name, label",
+    [
+        ("rectangular_elastica", "scm5 gauss"),
+        ("rectangular_elastica", "fem16"),
+        ("tree", "fem16"),
+        ("column 25", "scm5 gauss"),
+        ("column vertical", "fem16"),
+        ("snap", "scm5 gauss"),
+        ("tendon lower", "fem4"),
+        ("tendon only", "fem4"),
+    ],
+)
 def test_lapack_and_builtin_factorizations_agree(name, label):
     """From lapack_min_size coordinates on the core calls SciPy's LAPACK (factorizations and
     dsyev); its built-in factorizations and Jacobi eigen-solver must give the same answer,
     bifurcations and snap-throughs included."""
     from flexgen.core import lapack
+
     if not lapack():
         pytest.skip("SciPy's LAPACK routines are not available")
     scene = LAPACK_CASES[name]()
     a = solve(scene, label, lapack_min_size=1)
-    b = solve(scene, label, lapack_min_size=10 ** 9)
+    b = solve(scene, label, lapack_min_size=10**9)
     assert a.converged and b.converged
     assert sides(a) == sides(b)
     assert a.critical_load_factors == pytest.approx(b.critical_load_factors, rel=1e-9)
@@ -682,7 +821,7 @@ def test_critical_events_beyond_the_capacity_are_counted_and_said():
     warning counts the others."""
     solver = Solver(column(25.0, 0.0), models(column(25.0, 0.0), "scm3 gauss"))
     full = solver.solve()
-    assert full.converged and len(full.critical_load_factors) == 2      # two bifurcations
+    assert full.converged and len(full.critical_load_factors) == 2  # two bifurcations
     solver.workspace.answer.max_critical = 1
     cut = solver.solve()
     assert cut.converged and cut.critical_load_factors == full.critical_load_factors[:1]
@@ -707,6 +846,7 @@ def test_every_shipped_kernel_is_compiled_into_the_core():
     KernelNotFound naming the ones it has."""
     from flexgen import kernels
     from flexgen.core import compiled_kernels, kernel_functions
+
     shipped = sorted(p.stem for p in (kernels.GENERATED / "c").glob("scm*.c"))
     assert compiled_kernels() == shipped
     with pytest.raises(kernels.KernelNotFound, match="scm99.*scm3_gauss25"):
@@ -729,16 +869,25 @@ def test_the_solver_cache_tells_models_and_settings_apart():
     """flexgen.solve keeps prepared solvers per scene object: every model override and setting
     that changes the answer gets its own (one scene object, solved in turns, twice over)."""
     scene = cantilever(moment=math.radians(150.0))
-    variants = [dict(), dict(modes=5), dict(model="prb"), dict(model="fem", elements=8),
-                dict(model="cc"), dict(tol=1e-6), dict(max_steps=1), dict(max_dq=1e-3),
-                dict(models={"beam": SCMModel(1.0, 2.0, 3, kernel="gauss", name="beam")})]
+    variants = [
+        dict(),
+        dict(modes=5),
+        dict(model="prb"),
+        dict(model="fem", elements=8),
+        dict(model="cc"),
+        dict(tol=1e-6),
+        dict(max_steps=1),
+        dict(max_dq=1e-3),
+        dict(models={"beam": SCMModel(1.0, 2.0, 3, kernel="gauss", name="beam")}),
+    ]
     first = [flexgen.solve(scene, **kw) for kw in variants]
     # the variants differ where they should: fresh solves of each are the reference
     for kw, r in zip(variants, first):
         kw = dict(kw)
         ms = kw.pop("models", None)
-        sc = flexgen.api.override(scene, kw.pop("model", None), kw.pop("modes", None),
-                                  kw.pop("elements", None))
+        sc = flexgen.api.override(
+            scene, kw.pop("model", None), kw.pop("modes", None), kw.pop("elements", None)
+        )
         fresh = Solver(sc, ms, SolverSettings(**kw)).solve()
         assert (r.converged, r.q, r.iterations) == (fresh.converged, fresh.q, fresh.iterations), kw
     assert first[0].converged and first[6].converged is False and first[7].converged is False
@@ -749,18 +898,23 @@ def test_the_solver_cache_tells_models_and_settings_apart():
 
 # -- 8. settings and options --------------------------------------------------------------------------
 
+
 def test_settings_reach_the_core():
     elastica = example("rectangular_elastica")
     default = flexgen.solve(elastica)
     loose = flexgen.solve(elastica, tol=1e-6)
     assert default.converged and loose.converged
     assert default.residual <= 1e-12 and loose.residual <= 1e-6
-    assert loose.iterations < default.iterations          # fewer Newton iterations per step
+    assert loose.iterations < default.iterations  # fewer Newton iterations per step
     x, y, _ = loose.points["beam.tip"].pose
-    assert (x, y) == (pytest.approx(ELASTICA_TIP[0], abs=2e-3),
-                      pytest.approx(ELASTICA_TIP[1], abs=2e-3))
-    assert flexgen.Solver(elastica, settings=SolverSettings(tol=1e-6)).solve().iterations \
+    assert (x, y) == (
+        pytest.approx(ELASTICA_TIP[0], abs=2e-3),
+        pytest.approx(ELASTICA_TIP[1], abs=2e-3),
+    )
+    assert (
+        flexgen.Solver(elastica, settings=SolverSettings(tol=1e-6)).solve().iterations
         == loose.iterations
+    )
     scene = example("cantilever_tip_load")
     # no Newton iteration allowed: no equilibrium
     none = flexgen.solve(scene, max_iterations=0)
@@ -777,7 +931,7 @@ def test_max_steps_on_a_buckling_scene():
     r = flexgen.solve(scene, max_steps=1)
     assert r.converged is False and r.q == {} and r.points == {}
     assert "load continuation needed more than 1 steps" in r.reason
-    assert flexgen.solve(scene).converged       # the cache tells the settings apart
+    assert flexgen.solve(scene).converged  # the cache tells the settings apart
 
 
 def test_max_iterations_and_steps_limit_no_equilibrium_is_reported_not_raised():
@@ -787,13 +941,16 @@ def test_max_iterations_and_steps_limit_no_equilibrium_is_reported_not_raised():
     assert "not converged" in r.table().lower()
 
 
-@pytest.mark.parametrize("call, name", [
-    (lambda s: flexgen.solve(s, bogus_option=1), "bogus_option"),
-    (lambda s: flexgen.solve(s, backend="c"), "backend"),          # the deleted backend=
-    (lambda s: flexgen.solve(s, model_factory=None), "model_factory"),
-    (lambda s: flexgen.Solver(s, bogus_option=1), "bogus_option"),
-    (lambda s: solve_models(s, bogus_option=1), "bogus_option"),
-])
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda s: flexgen.solve(s, bogus_option=1), "bogus_option"),
+        (lambda s: flexgen.solve(s, backend="c"), "backend"),  # the deleted backend=
+        (lambda s: flexgen.solve(s, model_factory=None), "model_factory"),
+        (lambda s: flexgen.Solver(s, bogus_option=1), "bogus_option"),
+        (lambda s: solve_models(s, bogus_option=1), "bogus_option"),
+    ],
+)
 def test_an_unknown_option_is_a_type_error_naming_it(call, name):
     with pytest.raises(TypeError, match=f"'{name}'"):
         call(example("cantilever_tip_load"))
@@ -806,6 +963,7 @@ def test_settings_must_be_solver_settings():
 
 # -- 9. the C source ------------------------------------------------------------------------------
 
+
 def _strip_comments(text: str) -> str:
     return re.sub(r"/\*.*?\*/|//[^\n]*", " ", text, flags=re.S)
 
@@ -815,9 +973,24 @@ def test_c_source_compiles_strictly_without_writable_globals(opt, tmp_path):
     if shutil.which("gcc") is None:
         pytest.skip("gcc is not available")
     obj = tmp_path / "chain_solver.o"
-    proc = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", opt,
-                           f"-I{SOURCE.parent}", "-c", str(SOURCE), "-o", str(obj)],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            "gcc",
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-pedantic",
+            opt,
+            f"-I{SOURCE.parent}",
+            "-c",
+            str(SOURCE),
+            "-o",
+            str(obj),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     if shutil.which("nm") is None:
         pytest.skip("nm is not available")

@@ -1,5 +1,6 @@
 """flexgen.validity: every solve result (``flexgen solve``, ``flexgen.solve``) carries the
 validity warnings of its models, and the indicative error class for the Python API."""
+
 from __future__ import annotations
 
 import json
@@ -11,16 +12,17 @@ from pathlib import Path
 import pytest
 
 import flexgen
-from flexgen_tools import stability as S
 from flexgen import validity as V
+from flexgen_tools import stability as S
 
 ROOT = Path(__file__).resolve().parents[1]
 FINGER = ROOT / "examples" / "two_link_finger.toml"
 CONTRACT_KEYS = {"scene", "converged", "stable", "iterations", "model", "q", "points", "warnings"}
 
 
-def cantilever_toml(tmp_path: Path, fx: float, fy: float, kind: str = "scm",
-                    kernel: str = "auto") -> Path:
+def cantilever_toml(
+    tmp_path: Path, fx: float, fy: float, kind: str = "scm", kernel: str = "auto"
+) -> Path:
     p = tmp_path / f"cantilever_{kind}.toml"
     p.write_text(f"""name = "cantilever"
 [model]
@@ -40,8 +42,12 @@ points = ["beam.tip"]
 
 
 def solve_json(path: Path, *extra: str) -> dict:
-    out = subprocess.run([sys.executable, "-m", "flexgen", "solve", str(path), "--json", *extra],
-                         capture_output=True, text=True, cwd=ROOT)
+    out = subprocess.run(
+        [sys.executable, "-m", "flexgen", "solve", str(path), "--json", *extra],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout)
 
@@ -49,7 +55,7 @@ def solve_json(path: Path, *extra: str) -> dict:
 def test_prb_past_64_deg_warns_in_solve_json(tmp_path):
     """A prb cantilever under a tip force of 8 EI/L^2 turns its pin past 64 deg."""
     data = solve_json(cantilever_toml(tmp_path, 0.0, -8.0, kind="prb"))
-    assert set(data) == CONTRACT_KEYS          # the JSON contract is unchanged
+    assert set(data) == CONTRACT_KEYS  # the JSON contract is unchanged
     assert data["converged"]
     assert abs(data["q"]["beam"][0]) > math.radians(64)
     hits = [w for w in data["warnings"] if "64 deg" in w]
@@ -86,7 +92,7 @@ def test_prb_outside_its_load_case_warns():
 
 def test_poly_past_range_with_auto_warns_once(tmp_path):
     """kernel auto: the solver's switch warning says it; validity adds no second message."""
-    path = cantilever_toml(tmp_path, -8.0, -8.0)       # bends the tip far past 90 deg
+    path = cantilever_toml(tmp_path, -8.0, -8.0)  # bends the tip far past 90 deg
     r = flexgen.solve(path)
     assert r.converged
     assert V.bend(type("M", (), {"kind": "scm"})(), r.q["beam"]) > math.pi / 2
@@ -97,7 +103,7 @@ def test_poly_past_range_with_auto_warns_once(tmp_path):
 
 def test_near_buckling_warns(tmp_path):
     """An axial load at 97 % of the Euler load: straight, stable, 3 % from singular."""
-    P = math.pi ** 2 / 4
+    P = math.pi**2 / 4
     for kind in ("scm", "fem"):
         r = flexgen.solve(cantilever_toml(tmp_path, -0.97 * P, 0.0, kind=kind))
         assert r.converged and r.stable
@@ -109,7 +115,7 @@ def test_near_buckling_warns(tmp_path):
 
 
 def test_margin_is_one_minus_load_over_critical(tmp_path):
-    P = math.pi ** 2 / 4
+    P = math.pi**2 / 4
     scene = flexgen.load_scene(cantilever_toml(tmp_path, -0.6 * P, 0.0))
     r = flexgen.solve(scene, modes=5)
     m = V.stiffness_margin(scene, V.models_of(scene, r), r.q)
@@ -117,7 +123,7 @@ def test_margin_is_one_minus_load_over_critical(tmp_path):
 
 
 def test_load_level_above_calibration_warns(tmp_path):
-    r = flexgen.solve(cantilever_toml(tmp_path, 40.0, 5.0))   # mostly tension: converges
+    r = flexgen.solve(cantilever_toml(tmp_path, 40.0, 5.0))  # mostly tension: converges
     assert r.converged
     assert any("load level" in w and "30" in w for w in r.warnings)
     assert r.error_class["pose"] == math.inf
@@ -131,6 +137,7 @@ def test_tolerance_result_keeps_its_estimate_as_the_claim():
 
 def test_models_passed_to_solve_are_assessed(tmp_path):
     from flexgen.models.prb import PRBModel
+
     path = cantilever_toml(tmp_path, 0.0, -8.0)
     r = flexgen.solve(path, models={"beam": PRBModel(1.0, 1.0)})
     assert any("64 deg" in w for w in r.warnings)

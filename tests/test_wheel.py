@@ -5,6 +5,7 @@ kernel. This is the only test that sees flexgen as installed software rather tha
 It needs the package index for the build requirements and the dependencies (pip's cache makes
 repeated runs quick); set FLEXGEN_SKIP_WHEEL_TEST=1 to skip it offline.
 """
+
 from __future__ import annotations
 
 import json
@@ -19,8 +20,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
 
-pytestmark = pytest.mark.skipif(os.environ.get("FLEXGEN_SKIP_WHEEL_TEST") == "1",
-                                reason="FLEXGEN_SKIP_WHEEL_TEST=1")
+pytestmark = pytest.mark.skipif(
+    os.environ.get("FLEXGEN_SKIP_WHEEL_TEST") == "1", reason="FLEXGEN_SKIP_WHEEL_TEST=1"
+)
 
 
 def run(cmd, **kw) -> subprocess.CompletedProcess:
@@ -31,8 +33,9 @@ def run(cmd, **kw) -> subprocess.CompletedProcess:
 def installed(tmp_path_factory):
     """(venv folder, wheel path) of a wheel built from this checkout, installed fresh."""
     tmp = tmp_path_factory.mktemp("wheel")
-    built = run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", tmp / "dist",
-                 ROOT], cwd=tmp)
+    built = run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", tmp / "dist", ROOT], cwd=tmp
+    )
     assert built.returncode == 0, built.stderr[-3000:]
     wheel = next((tmp / "dist").glob("flexgen-*.whl"))
     venv = tmp / "venv"
@@ -55,8 +58,14 @@ def test_wheel_ships_the_core_the_kernels_and_the_templates(installed):
     _, wheel = installed
     names = zipfile.ZipFile(wheel).namelist()
     assert any(n.startswith("flexgen/_core") and n.endswith(".so") for n in names)
-    for rel in ("generated/numpy/scm3.py", "generated/c/scm3.c", "generated/c/scm3_gauss25.h",
-                "templates/c/kernel.c.jinja", "templates/numpy/kernel.py.jinja", "py.typed"):
+    for rel in (
+        "generated/numpy/scm3.py",
+        "generated/c/scm3.c",
+        "generated/c/scm3_gauss25.h",
+        "templates/c/kernel.c.jinja",
+        "templates/numpy/kernel.py.jinja",
+        "py.typed",
+    ):
         assert f"flexgen/{rel}" in names, rel
     assert not any(n.startswith(("generated/", "templates/", "tests/")) for n in names)
     assert any(n.endswith("LICENSE") for n in names)
@@ -67,10 +76,13 @@ def test_installed_package_solves_every_example_from_another_folder(installed, t
     env = user_env(venv)
     env["HOME"] = str(tmp_path / "home")
     (tmp_path / "home").mkdir()
-    where = run([venv / "bin" / "python", "-c", "import flexgen; print(flexgen.__file__)"],
-                cwd=tmp_path, env=env)
+    where = run(
+        [venv / "bin" / "python", "-c", "import flexgen; print(flexgen.__file__)"],
+        cwd=tmp_path,
+        env=env,
+    )
     assert where.returncode == 0, where.stderr
-    assert str(venv) in where.stdout                  # the wheel's copy, not the checkout
+    assert str(venv) in where.stdout  # the wheel's copy, not the checkout
     for scene in EXAMPLES:
         out = run([venv / "bin" / "flexgen", "solve", scene, "--json"], cwd=tmp_path, env=env)
         assert out.returncode in (0, 1), (scene.name, out.stderr)
@@ -84,13 +96,17 @@ def test_installed_package_solves_every_example_from_another_folder(installed, t
 def test_installed_cli_generates_a_kernel_and_reports_its_version(installed, tmp_path):
     venv, _ = installed
     env = user_env(venv)
-    out = run([venv / "bin" / "flexgen", "generate", "--modes", "4", "--out", "X"],
-              cwd=tmp_path, env=env)
+    out = run(
+        [venv / "bin" / "flexgen", "generate", "--modes", "4", "--out", "X"], cwd=tmp_path, env=env
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     for rel in ("numpy/scm4.py", "c/scm4.c", "c/scm4.h"):
         assert (tmp_path / "X" / rel).is_file(), rel
-    shipped = run([venv / "bin" / "python", "-c",
-                   "import flexgen.kernels as k; print(k.GENERATED)"], cwd=tmp_path, env=env)
+    shipped = run(
+        [venv / "bin" / "python", "-c", "import flexgen.kernels as k; print(k.GENERATED)"],
+        cwd=tmp_path,
+        env=env,
+    )
     # the regenerated kernel equals the one shipped in the package, byte for byte
     gen = Path(shipped.stdout.strip())
     assert (tmp_path / "X" / "c" / "scm4.c").read_text() == (gen / "c" / "scm4.c").read_text()

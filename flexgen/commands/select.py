@@ -6,6 +6,7 @@ equilibrium + compliance, measured here; op count per call of the C kernels). Ex
 T is met, 1 when it is out of reach (or the scene has no equilibrium), 2 for bad input (including
 T <= 0), with a one-line message.
 """
+
 from __future__ import annotations
 
 import sys
@@ -15,19 +16,36 @@ from flexgen.commands.common import integer, tolerance
 
 
 def register(sub) -> None:
-    p = sub.add_parser("select", help="choose the fewest modes per flexure that meet a tolerance",
-                       description=(
-        "Choose, per flexure, the fewest smooth curvature modes (1..8) and the kernel whose "
-        "a-posteriori error estimate on the output points' poses (relative to length) and "
-        "compliances (relative, spectral norm) is <= TOL, and print the choice with its "
-        "estimate and cost. Exit 1 if TOL is out of reach (the best estimate is printed)."))
+    p = sub.add_parser(
+        "select",
+        help="choose the fewest modes per flexure that meet a tolerance",
+        description=(
+            "Choose, per flexure, the fewest smooth curvature modes (1..8) and the kernel whose "
+            "a-posteriori error estimate on the output points' poses (relative to length) and "
+            "compliances (relative, spectral norm) is <= TOL, and print the choice with its "
+            "estimate and cost. Exit 1 if TOL is out of reach (the best estimate is printed)."
+        ),
+    )
     p.add_argument("scene", type=Path, help="scene file (TOML)")
-    p.add_argument("--tol", type=tolerance, required=True, metavar="T",
-                   help="tolerance on the relative error of poses and compliances (> 0)")
-    p.add_argument("--json", action="store_true",
-                   help="print the solved Result as JSON (with modes and error estimates)")
-    p.add_argument("--repeat", type=integer(0), default=5, metavar="N",
-                   help="solves timed for the cost (best of N, default 5; 0 skips timing)")
+    p.add_argument(
+        "--tol",
+        type=tolerance,
+        required=True,
+        metavar="T",
+        help="tolerance on the relative error of poses and compliances (> 0)",
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print the solved Result as JSON (with modes and error estimates)",
+    )
+    p.add_argument(
+        "--repeat",
+        type=integer(0),
+        default=5,
+        metavar="N",
+        help="solves timed for the cost (best of N, default 5; 0 skips timing)",
+    )
     p.set_defaults(run=run)
 
 
@@ -54,24 +72,33 @@ def run(args) -> int:
 def report(scene, sel, repeat: int = 5) -> str:
     """The human-readable choice: one line per flexure, the total estimate and the cost."""
     from flexgen import select
+
     lines = [f"scene: {scene.name}    tolerance {sel.tolerance:.3g}"]
     if not sel.choices:
         lines.append(f"  {sel.message}")
         return "\n".join(lines)
     w = max(8, *(len(n) for n in sel.choices))
-    lines.append(f"  {'flexure':<{w}}  {'modes':>5}  {'kernel':<6}  {'estimate':>9}  "
-                 f"{'C ops/call':>10}  (rich model)")
+    lines.append(
+        f"  {'flexure':<{w}}  {'modes':>5}  {'kernel':<6}  {'estimate':>9}  "
+        f"{'C ops/call':>10}  (rich model)"
+    )
     for name, c in sel.choices.items():
         ops = select.kernel_ops(c.modes, c.kernel)
-        lines.append(f"  {name:<{w}}  {c.modes:>5}  {c.kernel:<6}  {c.error_estimate:>9.2e}  "
-                     f"{ops if ops is not None else '?':>10}  (scm{c.rich})")
+        lines.append(
+            f"  {name:<{w}}  {c.modes:>5}  {c.kernel:<6}  {c.error_estimate:>9.2e}  "
+            f"{ops if ops is not None else '?':>10}  (scm{c.rich})"
+        )
     verdict = "meets" if sel.reached else "DOES NOT meet"
-    lines.append(f"  error estimate of the whole answer: {sel.error_estimate:.2e} ({verdict} "
-                 f"{sel.tolerance:.3g})")
+    lines.append(
+        f"  error estimate of the whole answer: {sel.error_estimate:.2e} ({verdict} "
+        f"{sel.tolerance:.3g})"
+    )
     if repeat > 0 and sel.result.converged:
         t = select.time_per_solve(scene, sel.modes, repeat=repeat)
-        lines.append(f"  cost: {t * 1e6:.1f} us per solve (equilibrium + compliance, chosen "
-                     f"models, prepared solver, best of {repeat})")
+        lines.append(
+            f"  cost: {t * 1e6:.1f} us per solve (equilibrium + compliance, chosen "
+            f"models, prepared solver, best of {repeat})"
+        )
     lines.append(f"  selection: {sel.solves} solves in {sel.seconds * 1e3:.0f} ms")
     if sel.message:
         lines.append(f"  note: {sel.message}")
