@@ -148,6 +148,8 @@ class Workspace:
         self.critical = np.empty(MAX_CRITICAL)
         self.critical_kind = np.empty(MAX_CRITICAL, dtype=np.intc)
         self.switched = np.zeros(max(int(p.nflex), 1), dtype=np.intc)
+        self.bend = np.zeros(max(int(p.nflex), 1))                    # per flexure, core order
+        self.kernel = np.zeros(max(int(p.nflex), 1), dtype=np.intc)   # FG_KERNEL_*
         self.q0 = np.zeros(max(n, 1))
         a = ffi.new("fg_answer *")
         dbl = lambda x: ffi.cast("double *", x.ctypes.data)  # noqa: E731
@@ -161,6 +163,8 @@ class Workspace:
         a.critical_kind = ffi.cast("int *", self.critical_kind.ctypes.data)
         a.max_critical = MAX_CRITICAL
         a.switched = ffi.cast("int *", self.switched.ctypes.data)
+        a.bend = dbl(self.bend)
+        a.kernel = ffi.cast("int *", self.kernel.ctypes.data)
         self.answer = a
         self.work_ptr = dbl(self.work)
         self.iwork_ptr = ffi.cast("int *", self.iwork.ctypes.data)

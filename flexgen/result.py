@@ -94,6 +94,14 @@ class Result:
     # the generalized stiffness at equilibrium, coordinates packed as ``q`` lists them (Python
     # API only; None when not converged or for the exact solver)
     stiffness: np.ndarray | None = field(default=None, compare=False, repr=False)
+    # at equilibrium (Python API only; chain models): the margin to a critical load (smallest
+    # generalized eigenvalue of the stiffness against the elastic Hessian: 1 unloaded,
+    # 1 - P/P_cr on an axial load, < 0 unstable), each flexure's largest bend max |phi(s)|
+    # relative to its root (rad), and the kernel evaluating each smooth curvature flexure
+    # ("poly", "gauss", "gauss past its certified range", ...)
+    stability_margin: float | None = None
+    bend: dict[str, float] = field(default_factory=dict, compare=False)
+    kernel: dict[str, str] = field(default_factory=dict, compare=False)
     # the indicative error class {"pose", "compliance"} of flexgen.validity (Python API only)
     error_class: dict[str, float] | None = field(default=None, compare=False)
 

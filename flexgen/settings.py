@@ -49,6 +49,7 @@ class SolverSettings:
     moderate_growth: float = 1.2         # this much longer
     step_shrink: float = 0.5             # after a failed step the next is this fraction of it
     lapack_min_size: int = 32            # LAPACK factorizations from this many coordinates on
+    bend_samples: int = 65               # points along a flexure where its bend is sampled
 
     def __post_init__(self):
         for f in fields(self):

@@ -42,6 +42,15 @@ BUCKLING_SIDES = (
 )
 
 
+# fg_answer.kernel (FG_KERNEL_*): the kernel evaluating a smooth curvature flexure at equilibrium
+KERNEL_STATES = {
+    1: "poly",
+    2: "poly past its range",
+    3: "gauss",
+    4: "gauss past its certified range",
+}
+
+
 def buckling_warning(lam_c: float, why: str) -> str:
     """The warning of a bifurcation crossed at critical load factor ``lam_c``."""
     return (
@@ -228,6 +237,13 @@ class Solver:
             residual=a.residual,
             solver="core",
             stiffness=ws.K.copy(),
+            stability_margin=a.margin,
+            bend=dict(zip(p.flexure_order, ws.bend.tolist())),
+            kernel={
+                name: KERNEL_STATES[k]
+                for name, k in zip(p.flexure_order, ws.kernel.tolist())
+                if k
+            },
         )
 
     def _reason(self, status: int) -> str:

@@ -532,24 +532,15 @@ def _names(names) -> str:
     )
 
 
-def stiffness_margin(
-    scene: Scene, models: Mapping, q: Mapping, K=None, energy_diagonal=None
-) -> float:
+def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None) -> float:
     """How far the equilibrium q (full load) is from a critical load: the smallest generalized
     eigenvalue of (K, hess U), i.e. the smallest eigenvalue of L^-1 K L^-T with hess U = L L^T.
     1 unloaded, 1 - P/P_cr on an axial load below buckling, 0 at a critical load, < 0 unstable
     (nan if hess U is not positive definite). Independent of the model's coordinates.
 
     ``K``: the stiffness at q (``Result.stiffness``, coordinates packed in the scene's flexure
-    order); None: solved again by the core, warm-started at q. ``energy_diagonal``: the
-    diagonal of hess U when it is diagonal (``Problem.stiffness``: every built-in model's is),
-    which makes L^-1 K L^-T a scaling."""
-    if energy_diagonal is not None and K is not None:
-        d = np.asarray(energy_diagonal, dtype=float)
-        if not np.all(d > 0):
-            return math.nan
-        s = 1.0 / np.sqrt(d)
-        return float(np.linalg.eigvalsh(K * np.multiply.outer(s, s))[0])
+    order); None: solved again by the core, warm-started at q. (The core reports the same
+    number for its answers: ``Result.stability_margin``.)"""
     if K is None:
         from flexgen.solver import Solver
 
@@ -570,77 +561,127 @@ def stiffness_margin(
     return float(np.linalg.eigvalsh(Li @ K @ Li.T)[0])
 
 
+@dataclass(frozen=True)
+class _Context:
+    """What ``assess`` needs of a scene and its models that does not change between answers
+    (kept per models mapping: a prepared solver's answers reuse it)."""
+
+    labels: dict[str, str]
+    scm: tuple[str, ...]  # smooth curvature flexures
+    prb: tuple[str, ...]
+    by_label: tuple[tuple[str, tuple[str, ...], tuple | None], ...]  # label, flexures, table
+    load_level: float
+    prb_problem: str | None
+
+
+_CONTEXTS: dict[tuple, tuple] = {}
+
+
+def _context(scene: Scene, models: Mapping, label) -> _Context:
+    key = (id(scene), id(models), label if isinstance(label, str | None) else id(label))
+    got = _CONTEXTS.get(key)
+    if got is not None and got[0] is scene and got[1] is models:
+        return got[2]
+    labels = {
+        name: (label if isinstance(label, str) else (label or {}).get(name) or model_label(m))
+        for name, m in models.items()
+    }
+    groups: dict[str, list[str]] = {}
+    for name, lab in labels.items():
+        groups.setdefault(lab, []).append(name)
+    lam, prb_problem = _scene_constants(scene)
+    ctx = _Context(
+        labels,
+        tuple(n for n, m in models.items() if getattr(m, "kind", "") == "scm"),
+        tuple(n for n, m in models.items() if getattr(m, "kind", "") == "prb"),
+        tuple((lab, tuple(names), claim_table(lab)[0]) for lab, names in groups.items()),
+        lam,
+        prb_problem,
+    )
+    if len(_CONTEXTS) >= 64:
+        _CONTEXTS.clear()
+    _CONTEXTS[key] = (scene, models, ctx)
+    return ctx
+
+
+def _kernel_state(m, q: np.ndarray) -> str:
+    """The kernel evaluating a smooth curvature model at q (``Result.kernel``'s words), for an
+    answer that does not carry it."""
+    if m.poly is not None and m.poly.in_range(q):
+        return "poly"
+    if m.gauss is None:
+        return "poly past its range"
+    return "gauss" if m.gauss.in_range(q) else "gauss past its certified range"
+
+
 def assess(
     scene: Scene,
     result,
     models: Mapping,
     label: str | Mapping[str, str] | None = None,
     calibrated: bool = True,
-    energy_diagonal=None,
 ) -> Claim:
     """The claim and the validity warnings of a converged ``solve`` result whose flexure models
     are ``models`` ({flexure: model}, as passed to solve). ``label``: the CLAIMS label of every
     flexure's model (a str for all, or {flexure: label}; default ``model_label`` of each).
     ``calibrated=False`` (a tolerance was requested: the claim is the error estimate) leaves out
     the warnings that only say the calibration table ends (load level, bands) and claims nothing
-    from the table."""
-    labels = {
-        name: (label if isinstance(label, str) else (label or {}).get(name) or model_label(m))
+    from the table. The bend, kernel and stability margin at the equilibrium are the core's
+    (``Result.bend``, ``kernel``, ``stability_margin``) where the result carries them."""
+    ctx = _context(scene, models, label)
+    labels = ctx.labels
+    warnings: list[str] = []
+    oor = switched = False
+    core_bend = getattr(result, "bend", None) or {}
+    bends = {
+        name: core_bend[name] if name in core_bend else bend(m, result.q[name])
         for name, m in models.items()
     }
-    warnings: list[str] = []
-    beta, beta_at, oor, switched = 0.0, None, False, False
-    prb = []
+    beta_at = max(bends, key=bends.__getitem__)
+    beta = bends[beta_at]
     unclaimed: set[str] = set()  # flexures already warned that nothing is claimed
-    for name, m in models.items():
-        q = np.asarray(result.q[name], dtype=float)
-        b = bend(m, q)
-        if beta_at is None or b > beta:
-            beta, beta_at = b, name
-        kind = getattr(m, "kind", "")
-        if kind == "scm":
-            poly_ok = m.poly is not None and bool(m.poly.in_range(q))
-            switched |= m.gauss is not None and m.poly is not None and not poly_ok
-            if m.gauss is None:
-                if not poly_ok:
-                    oor = True
-                    warnings.append(
-                        f"flexure {name!r} ({labels[name]}): bend {_deg(b)} is past the "
-                        f"{math.degrees(m.poly.PHI_MAX):.0f} deg range of the polynomial kernel "
-                        f"scm{m.n_dof}; the answer may be wrong by any amount"
-                    )
-            elif not poly_ok and not m.gauss.in_range(q):
-                oor = True
-                warnings.append(
-                    f"flexure {name!r} ({labels[name]}): bend {_deg(b)} is past the certified "
-                    f"range of the Gauss kernel {m.gauss_name} "
-                    f"({math.degrees(m.gauss.PHI_MAX):.0f} deg); its error bound does not hold"
-                )
-        elif kind == "prb":
-            prb.append(name)
-            if b > PRB_LIMIT:
-                unclaimed.add(name)
-                warnings.append(
-                    f"flexure {name!r} (prb): pin rotation {_deg(b)} is past the pseudo-rigid-"
-                    f"body model's {_deg(PRB_LIMIT)} validity; no accuracy is claimed for it"
-                )
-    if prb:
-        why = _scene_constants(scene)[1]
-        if why is not None:
-            unclaimed.update(prb)
+    kernels = getattr(result, "kernel", None) or {}
+    for name in ctx.scm:
+        m = models[name]
+        state = kernels.get(name) or _kernel_state(m, np.asarray(result.q[name], dtype=float))
+        switched |= m.poly is not None and state.startswith("gauss")
+        if state == "poly past its range":
+            oor = True
             warnings.append(
-                f"{_names(prb)} (prb): the pseudo-rigid-body constants are fitted for a force at "
-                f"the tip of a single flexure, and this scene has {why}; no accuracy is claimed"
+                f"flexure {name!r} ({labels[name]}): bend {_deg(bends[name])} is past the "
+                f"{math.degrees(m.poly.PHI_MAX):.0f} deg range of the polynomial kernel "
+                f"scm{m.n_dof}; the answer may be wrong by any amount"
             )
+        elif state == "gauss past its certified range":
+            oor = True
+            warnings.append(
+                f"flexure {name!r} ({labels[name]}): bend {_deg(bends[name])} is past the "
+                f"certified range of the Gauss kernel {m.gauss_name} "
+                f"({math.degrees(m.gauss.PHI_MAX):.0f} deg); its error bound does not hold"
+            )
+    for name in ctx.prb:
+        if bends[name] > PRB_LIMIT:
+            unclaimed.add(name)
+            warnings.append(
+                f"flexure {name!r} (prb): pin rotation {_deg(bends[name])} is past the pseudo-"
+                f"rigid-body model's {_deg(PRB_LIMIT)} validity; no accuracy is claimed for it"
+            )
+    if ctx.prb and ctx.prb_problem is not None:
+        unclaimed.update(ctx.prb)
+        warnings.append(
+            f"{_names(ctx.prb)} (prb): the pseudo-rigid-body constants are fitted for a force at "
+            f"the tip of a single flexure, and this scene has {ctx.prb_problem}; no accuracy is "
+            f"claimed"
+        )
     if beta > BANDS[-1]:
         unclaimed.update(models)
         warnings.append(
             f"flexure {beta_at!r} ({labels[beta_at]}): bent {_deg(beta)}, past the "
             f"{_deg(BANDS[-1])} the error classes cover; no accuracy is claimed"
         )
-    margin = stiffness_margin(
-        scene, models, result.q, getattr(result, "stiffness", None), energy_diagonal
-    )
+    margin = getattr(result, "stability_margin", None)
+    if margin is None:
+        margin = stiffness_margin(scene, models, result.q, getattr(result, "stiffness", None))
     if margin < NEAR_SINGULAR and getattr(result, "stable", True):
         pts = ", ".join(repr(p) for p in getattr(result, "points", {})) or "the output points"
         warnings.append(
@@ -648,7 +689,7 @@ def assess(
             f"{NEAR_SINGULAR:.0%}), so the compliance at {pts} amplifies any model error by "
             f"about {1 / max(margin, 1e-300):.3g}x"
         )
-    lam = _scene_constants(scene)[0]
+    lam = ctx.load_level
     if calibrated and lam > LOAD_BANDS[-1]:
         unclaimed.update(models)
         warnings.append(
@@ -660,11 +701,7 @@ def assess(
     idx = band_index(beta, lam)
     if calibrated and idx is not None:
         pose = comp = 0.0
-        by_label: dict[str, list[str]] = {}
-        for name, lab in labels.items():
-            by_label.setdefault(lab, []).append(name)
-        for lab, names in by_label.items():
-            table, _ = claim_table(lab)
+        for lab, names, table in ctx.by_label:
             pe, ce = (None, None) if table is None else table[idx[0]][idx[1]]
             if pe is None:
                 pose = comp = math.inf
@@ -696,6 +733,8 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
     and kernel the result reports (a tolerance chooses them per flexure)."""
     from flexgen.models.registry import build_model, build_models
 
+    if model_factory is None and models is not None and len(models) == len(scene.flexures):
+        return models  # complete (a solver's own): kept as it is, so its context is reused
     if models is not None or model_factory is not None:
         return build_models(scene, models, model_factory)
 
@@ -707,9 +746,7 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
     return build_models(scene, None, factory)
 
 
-def check(
-    scene: Scene, result, models: Mapping | None = None, model_factory=None, energy_diagonal=None
-):
+def check(scene: Scene, result, models: Mapping | None = None, model_factory=None):
     """Append the validity warnings of a converged chain-model ``result`` to
     ``result.warnings`` (no duplicates) and set ``result.error_class`` ({"pose", "compliance"}:
     the indicative error class, inf where nothing is claimed; None when a tolerance was
@@ -719,9 +756,7 @@ def check(
         result.error_class = None
         return None
     ms = models_of(scene, result, models, model_factory)
-    claim = assess(
-        scene, result, ms, calibrated=result.tolerance is None, energy_diagonal=energy_diagonal
-    )
+    claim = assess(scene, result, ms, calibrated=result.tolerance is None)
     for w in claim.warnings:
         if w not in result.warnings:
             result.warnings.append(w)

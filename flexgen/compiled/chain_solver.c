@@ -1737,6 +1737,91 @@ static void clear_switched(fg_ws *w)
 /* Solve: the warm start, else the unloaded state, the direct solve, else the continuation
  * (equilibrium.solve); always to an answer (FG_SOLVED) or to the reason there is none
  * (FG_NO_EQUILIBRIUM: out->failure, last_error*, model_error*), as the Python solver did. */
+/* max |phi(s)| along flexure f at its coordinates q (rad, relative to its root frame), on
+ * samples points s/L = 0 .. 1: for a kernel flexure phi = sum q_n B_n with
+ * B_0 = s/L and B_n = (P_{n+1}(x) - P_{n-1}(x)) / (2 (2n + 1)), x = 2 s/L - 1 (the integral of
+ * the shifted Legendre polynomial), the Legendre values by their three-term recurrence; for the
+ * n-element chain the joint angles q_0 + ... + q_k; for the pseudo-rigid body |q_0| */
+static double flexure_bend(const fg_flexure *f, const double *q, int samples, double *P)
+{
+    int k = f->ndof, i, m;
+    double most = 0.0;
+    if (f->kind == FG_MODEL_KERNEL) {
+        for (i = 0; i < samples; ++i) {
+            double sigma = samples > 1 ? (double)i / (double)(samples - 1) : 1.0;
+            double x = 2.0 * sigma - 1.0, phi = q[0] * sigma;
+            P[0] = 1.0;
+            P[1] = x;
+            for (m = 1; m < k; ++m)
+                P[m + 1] = ((2.0 * m + 1.0) * x * P[m] - m * P[m - 1]) / (m + 1.0);
+            for (m = 1; m < k; ++m)
+                phi += q[m] * (P[m + 1] - P[m - 1]) / (2.0 * (2.0 * m + 1.0));
+            if (fabs(phi) > most)
+                most = fabs(phi);
+        }
+        return most;
+    }
+    if (f->kind == FG_MODEL_FEM) {
+        double phi = 0.0;
+        for (i = 0; i < k; ++i) {
+            phi += q[i];
+            if (fabs(phi) > most)
+                most = fabs(phi);
+        }
+        return most;
+    }
+    return fabs(q[0]);
+}
+
+/* What the validity of an answer depends on, at the equilibrium (fg_answer.margin, bend,
+ * kernel): the margin to a critical load, each flexure's largest bend and the kernel that
+ * evaluates it there. The margin is the smallest eigenvalue of D^-1/2 K D^-1/2 (D the diagonal
+ * energy Hessian: the generalized eigenvalue of (K, D)). */
+static void describe_answer(fg_ws *w, fg_answer *out)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, i, j;
+    const double *q = out->q;
+    const double *K = out->stiffness;   /* full, when the caller wanted it; else rebuilt below */
+    double *A = w->lc;
+    out->margin = NAN;
+    for (i = 0; i < n; ++i)
+        if (!(p->stiffness[i] > 0.0))
+            break;
+    if (i == n && K != NULL) {
+        for (i = 0; i < n; ++i)
+            for (j = i; j < n; ++j)
+                A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j]
+                                               / sqrt(p->stiffness[i] * p->stiffness[j]);
+        out->margin = n > 0 ? min_eig(w, A) : 1.0;
+    }
+    for (i = 0; i < p->nflex; ++i) {
+        const fg_flexure *f = &p->flex[i];
+        const double *qf = q + f->offset;
+        if (out->bend != NULL)
+            out->bend[i] = flexure_bend(f, qf, p->settings.bend_samples, w->scratch);
+        if (out->kernel != NULL) {
+            int state = FG_KERNEL_NONE;
+            if (f->kind == FG_MODEL_KERNEL) {
+                if (f->poly != NULL && f->in_range(qf))
+                    state = FG_KERNEL_POLY;
+                else if (f->gauss != NULL)
+                    state = f->gauss_in_range(qf) ? FG_KERNEL_GAUSS : FG_KERNEL_GAUSS_PAST;
+                else
+                    state = FG_KERNEL_POLY_PAST;
+            }
+            out->kernel[i] = state;
+        }
+    }
+}
+
+int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
+                   double *scratch)
+{
+    int switched = 0;
+    return flexure_tip(f, q, pose, J, H, scratch, &switched);
+}
+
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
 {
     fg_ws ws, *w = &ws;
@@ -1802,6 +1887,7 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     }
 answer:
     status = finish(w, cur, spare, factor, iterations, out);
+    describe_answer(w, out);
     if (out->switched != NULL)
         for (j = 0; j < p->nflex; ++j)
             out->switched[j] = w->switched[j];

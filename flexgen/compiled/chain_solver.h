@@ -133,6 +133,7 @@ typedef struct {
     double moderate_growth;         /* this much longer */
     double step_shrink;             /* a failed step: the next one this fraction of it */
     int lapack_min_size;            /* LAPACK (fg_lapack) from this many coordinates on */
+    int bend_samples;               /* fg_answer.bend: points along each flexure (>= 2) */
 } fg_settings;
 
 typedef struct {
@@ -190,11 +191,36 @@ typedef struct {
     int model_error_flexure;
     int model_error_route;
     int evaluations;      /* chain evaluations (kinematics and kernels) in the solve */
+    /* FG_SOLVED: what the validity of the answer depends on, at the equilibrium */
+    double margin;        /* smallest eigenvalue of D^-1/2 K D^-1/2, D = diag(stiffness): 1
+                           * unloaded, 1 - P/P_cr on an axial load below buckling, 0 at a
+                           * critical load, < 0 unstable; NAN without the stiffness array */
+    double *bend;         /* nflex (fg_problem.flex order): max |phi(s)| of each flexure relative
+                           * to its root frame, rad, on settings.bend_samples points; NULL: not
+                           * wanted */
+    int *kernel;          /* nflex: the kernel evaluating each flexure at the equilibrium
+                           * (FG_KERNEL_*); NULL: not wanted */
 } fg_answer;
+
+/* fg_answer.kernel: which kernel evaluates a FG_MODEL_KERNEL flexure at the equilibrium */
+enum {
+    FG_KERNEL_NONE = 0,         /* not a kernel model (fem, prb) */
+    FG_KERNEL_POLY = 1,         /* the polynomial kernel, within its range */
+    FG_KERNEL_POLY_PAST = 2,    /* a polynomial kernel past its range (no Gauss kernel) */
+    FG_KERNEL_GAUSS = 3,        /* the Gauss kernel, within its certified range */
+    FG_KERNEL_GAUSS_PAST = 4    /* the Gauss kernel past its certified range */
+};
 
 size_t fg_work_size(const fg_problem *p);
 size_t fg_iwork_size(const fg_problem *p);
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
+
+/* One flexure's tip pose (3), J (3 x k) and H (3 x k x k) in its root frame, physical units, at
+ * its coordinates q, as the solver evaluates it (the one implementation of the n-element chain
+ * and the pseudo-rigid body; flexgen.models.fem and .prb call it); scratch: 4 (k + 1) doubles.
+ * 0 if the model cannot be evaluated at q (a polynomial-only kernel past its range). */
+int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
+                   double *scratch);
 
 #ifdef __cplusplus
 }
