@@ -90,9 +90,9 @@ _lock = threading.Lock()
 
 
 def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
-    key = (id(scene), settings)
+    key = (id(scene), id(settings))
     solver = _solvers.get(key)
-    if solver is None or solver.scene is not scene:
+    if solver is None or solver.scene is not scene or solver.settings is not settings:
         solver = Solver(scene, settings=settings)
         _solvers[key] = solver
         if len(_solvers) > CACHE_SIZE:

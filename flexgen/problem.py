@@ -144,6 +144,7 @@ class Workspace:
         self.q = np.empty(n)
         self.pose = np.empty((m, 3))
         self.compliance = np.empty((m, 3, 3))
+        self.ellipse = np.empty((m, 3))  # major, minor, angle per output
         self.K = np.empty((n, n))
         self.critical = np.empty(MAX_CRITICAL)
         self.critical_kind = np.empty(MAX_CRITICAL, dtype=np.intc)
@@ -164,6 +165,7 @@ class Workspace:
         a.max_critical = MAX_CRITICAL
         a.switched = ffi.cast("int *", self.switched.ctypes.data)
         a.bend = dbl(self.bend)
+        a.ellipse = dbl(self.ellipse)
         a.kernel = ffi.cast("int *", self.kernel.ctypes.data)
         self.answer = a
         self.work_ptr = dbl(self.work)

@@ -17,26 +17,16 @@ import numpy as np
 
 def ellipse(C) -> dict[str, float]:
     """Eigenvalues of a symmetric 2x2 compliance (``major`` >= ``minor``) and the angle of the
-    major axis from the world x axis in (-pi/2, pi/2] (0 when the ellipse is a circle).
+    major axis from the world x axis in (-pi/2, pi/2] (0 when the ellipse is a circle): the
+    core's closed form (``fg_ellipse`` in chain_solver.h), which also gives every chain-model
+    answer its ellipses."""
+    from .core import ffi, lib
+    from .settings import DEFAULT
 
-    Closed form (a 2x2 needs no eigen-solver): with C = [[a, b], [b, d]] symmetrized,
-    major = (a + d)/2 + hypot((a - d)/2, b), minor = det C / major (no cancellation when the
-    ellipse is thin and the major eigenvalue positive), angle = atan2(2 b, a - d) / 2."""
-    (a, b1), (b2, d) = C[0][:2], C[1][:2]
-    a, b, d = float(a), 0.5 * (float(b1) + float(b2)), float(d)
-    if not math.isfinite(a + b + d):
-        return {"major": math.nan, "minor": math.nan, "angle": math.nan}
-    half = math.hypot(0.5 * (a - d), b)
-    mean = 0.5 * (a + d)
-    major = mean + half
-    minor = (a * d - b * b) / major if major > 0.0 and mean > 0.0 else mean - half
-    if major - minor <= 1e-14 * max(abs(major), abs(minor), 1e-300):
-        angle = 0.0
-    else:
-        angle = 0.5 * math.atan2(2.0 * b, a - d)
-        if angle <= -math.pi / 2:
-            angle += math.pi
-    return {"major": major, "minor": minor, "angle": float(angle)}
+    out = ffi.new("double[3]")
+    lib.fg_ellipse([float(C[0][0]), float(C[0][1]), float(C[1][0]), float(C[1][1])],
+                   DEFAULT.circle_tol, out)
+    return {"major": out[0], "minor": out[1], "angle": out[2]}
 
 
 @dataclass(slots=True)
@@ -55,15 +45,20 @@ class PointResult:
 
 
 def point_result(
-    ref: str, pose: list[float], c3: list[list[float]], warnings: list[str]
+    ref: str, pose: list[float], c3: list[list[float]], ell: list[float], warnings: list[str]
 ) -> PointResult:
-    """The PointResult of an output point from its pose and 3x3 compliance as plain lists
-    (every chain-model answer is built here; plain floats are cheaper than numpy at this size);
-    a non-finite compliance adds its warning to ``warnings``."""
+    """The PointResult of an output point from its pose, 3x3 compliance and ellipse (major,
+    minor, angle) as plain lists (every chain-model answer is built here; plain floats are
+    cheaper than numpy at this size); a non-finite compliance adds its warning to
+    ``warnings``."""
     if not math.isfinite(sum(c3[0]) + sum(c3[1]) + sum(c3[2])):
         warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
-    c2 = [c3[0][:2], c3[1][:2]]
-    return PointResult(pose=pose, compliance=c2, ellipse=ellipse(c2), compliance3=c3)
+    return PointResult(
+        pose=pose,
+        compliance=[c3[0][:2], c3[1][:2]],
+        ellipse={"major": ell[0], "minor": ell[1], "angle": ell[2]},
+        compliance3=c3,
+    )
 
 
 UNSTABLE = "the equilibrium is unstable: the stiffness matrix is not positive definite"

@@ -50,6 +50,7 @@ class SolverSettings:
     step_shrink: float = 0.5             # after a failed step the next is this fraction of it
     lapack_min_size: int = 32            # LAPACK factorizations from this many coordinates on
     bend_samples: int = 65               # points along a flexure where its bend is sampled
+    circle_tol: float = 1e-14            # ellipse axes equal to this (relative): a circle, angle 0
 
     def __post_init__(self):
         for f in fields(self):
@@ -130,6 +131,7 @@ _RANGES = {
     "fast_growth": (lambda x: x >= 1, _any, ">= 1"),
     "moderate_growth": (lambda x: x >= 1, _any, ">= 1"),
     "step_shrink": (_pos, _lt1, "in (0, 1)"),
+    "circle_tol": (_nonneg, _lt1, "in [0, 1)"),
 }
 
 DEFAULT = SolverSettings()

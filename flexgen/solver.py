@@ -215,9 +215,9 @@ class Solver:
         stable = bool(a.stable)
         if not stable:
             warnings.append(UNSTABLE)
-        poses, compliances = ws.pose.tolist(), ws.compliance.tolist()
+        poses, compliances, ellipses = ws.pose.tolist(), ws.compliance.tolist(), ws.ellipse.tolist()
         points = {
-            ref: point_result(ref, poses[i], compliances[i], warnings)
+            ref: point_result(ref, poses[i], compliances[i], ellipses[i], warnings)
             for i, ref in enumerate(p.outputs)
         }
         qs = q.tolist()

@@ -60,6 +60,7 @@
  * so its eigenvalues are LAPACK's to a few ulps) and a bound on its sweeps (it converges
  * quadratically, in about ten): properties of the numerical method, not tuning of the solve
  * (fg_settings holds those). */
+#define FG_PI 3.14159265358979323846
 #define FG_JACOBI_SMALL 1e-18
 #define FG_JACOBI_SWEEPS 100
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
@@ -1308,6 +1309,14 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor
                 double s = 0.5 * (C[a * 3 + i] + C[i * 3 + a]);
                 C[a * 3 + i] = C[i * 3 + a] = s;
             }
+        if (out->ellipse != NULL) {
+            double C2[4];
+            C2[0] = C[0];
+            C2[1] = C[1];
+            C2[2] = C[3];
+            C2[3] = C[4];
+            fg_ellipse(C2, set->circle_tol, out->ellipse + 3 * j);
+        }
     }
     return FG_SOLVED;
 }
@@ -1737,6 +1746,29 @@ static void clear_switched(fg_ws *w)
 /* Solve: the warm start, else the unloaded state, the direct solve, else the continuation
  * (equilibrium.solve); always to an answer (FG_SOLVED) or to the reason there is none
  * (FG_NO_EQUILIBRIUM: out->failure, last_error*, model_error*), as the Python solver did. */
+void fg_ellipse(const double *C, double circle_tol, double *out)
+{
+    double a = C[0], b = 0.5 * (C[1] + C[2]), d = C[3], half, mean, major, minor, big;
+    if (!isfinite(a + b + d)) {
+        out[0] = out[1] = out[2] = NAN;
+        return;
+    }
+    half = hypot(0.5 * (a - d), b);
+    mean = 0.5 * (a + d);
+    major = mean + half;
+    minor = major > 0.0 && mean > 0.0 ? (a * d - b * b) / major : mean - half;
+    big = fabs(major) > fabs(minor) ? fabs(major) : fabs(minor);
+    out[0] = major;
+    out[1] = minor;
+    if (major - minor <= circle_tol * (big > 1e-300 ? big : 1e-300)) {
+        out[2] = 0.0;
+    } else {
+        out[2] = 0.5 * atan2(2.0 * b, a - d);
+        if (out[2] <= -0.5 * FG_PI)
+            out[2] += FG_PI;
+    }
+}
+
 /* max |phi(s)| along flexure f at its coordinates q (rad, relative to its root frame), on
  * samples points s/L = 0 .. 1: for a kernel flexure phi = sum q_n B_n with
  * B_0 = s/L and B_n = (P_{n+1}(x) - P_{n-1}(x)) / (2 (2n + 1)), x = 2 s/L - 1 (the integral of

@@ -134,6 +134,8 @@ typedef struct {
     double step_shrink;             /* a failed step: the next one this fraction of it */
     int lapack_min_size;            /* LAPACK (fg_lapack) from this many coordinates on */
     int bend_samples;               /* fg_answer.bend: points along each flexure (>= 2) */
+    double circle_tol;              /* an ellipse whose axes differ by less than this (relative)
+                                     * is a circle: its angle is 0 */
 } fg_settings;
 
 typedef struct {
@@ -200,6 +202,8 @@ typedef struct {
                            * wanted */
     int *kernel;          /* nflex: the kernel evaluating each flexure at the equilibrium
                            * (FG_KERNEL_*); NULL: not wanted */
+    double *ellipse;      /* 3 noutputs: each output's compliance ellipse (fg_ellipse of the
+                           * position rows of its compliance); NULL: not wanted */
 } fg_answer;
 
 /* fg_answer.kernel: which kernel evaluates a FG_MODEL_KERNEL flexure at the equilibrium */
@@ -214,6 +218,13 @@ enum {
 size_t fg_work_size(const fg_problem *p);
 size_t fg_iwork_size(const fg_problem *p);
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
+
+/* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
+ * eigenvalue (major >= minor) and the angle of the major axis from the x axis in (-pi/2, pi/2],
+ * 0 when major - minor <= circle_tol max(|major|, |minor|) (a circle); NAN if C is not finite.
+ * Closed form: major = (a + d)/2 + hypot((a - d)/2, b), minor = det C / major (no cancellation
+ * on a thin ellipse), angle = atan2(2 b, a - d) / 2. */
+void fg_ellipse(const double *C, double circle_tol, double *out);
 
 /* One flexure's tip pose (3), J (3 x k) and H (3 x k x k) in its root frame, physical units, at
  * its coordinates q, as the solver evaluates it (the one implementation of the n-element chain
