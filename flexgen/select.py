@@ -31,6 +31,7 @@ sum over flexures, and after solving the chosen models it is raised, if needed, 
 |answer(chosen) - answer(R)| + the rich model's own estimate (this catches interaction between
 flexures). The choice minimises the total number of modes subject to estimate <= T.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -46,9 +47,9 @@ from . import kernels
 from .result import Result
 from .scene import Scene, SceneError
 
-MAX_MODES = 8                 # the polynomial kernels shipped: scm1 .. scm8
-RHO_FLOOR = 1e-13             # added to the differences when the contraction rate is measured
-SAFETY = 1.05                 # margin on every measured difference (see docs/selection.md)
+MAX_MODES = 8  # the polynomial kernels shipped: scm1 .. scm8
+RHO_FLOOR = 1e-13  # added to the differences when the contraction rate is measured
+SAFETY = 1.05  # margin on every measured difference (see docs/selection.md)
 
 
 class SelectionError(SceneError):
@@ -57,8 +58,7 @@ class SelectionError(SceneError):
 
 def max_gauss_modes() -> int:
     """The most modes a shipped Gauss kernel has (6 in the checked-in set)."""
-    found = [int(m[1]) for n in kernels.available()
-             if (m := re.match(r"^scm(\d+)_gauss\d+$", n))]
+    found = [int(m[1]) for n in kernels.available() if (m := re.match(r"^scm(\d+)_gauss\d+$", n))]
     return max(found, default=0)
 
 
@@ -72,30 +72,39 @@ def scene_tolerance(scene: Scene) -> float | None:
 
 
 def check_tolerance(tol: Any) -> float:
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not math.isfinite(tol) or tol <= 0:
+    if (
+        isinstance(tol, bool)
+        or not isinstance(tol, (int, float))
+        or not math.isfinite(tol)
+        or tol <= 0
+    ):
         raise SelectionError(f"tolerance: must be a positive finite number, got {tol!r}")
     return float(tol)
 
 
 # -- the error measure -------------------------------------------------------------------------
 
-Outputs = dict        # ref -> (pose (3,), compliance (2, 2))
+Outputs = dict  # ref -> (pose (3,), compliance (2, 2))
 
 
 def outputs_of(result: Result) -> Outputs | None:
     """The output points of a converged Result as {ref: (pose, 2x2 compliance)}."""
     if not result.converged:
         return None
-    return {ref: (np.asarray(p.pose, float), np.asarray(p.compliance, float))
-            for ref, p in result.points.items()}
+    return {
+        ref: (np.asarray(p.pose, float), np.asarray(p.compliance, float))
+        for ref, p in result.points.items()
+    }
 
 
 def outputs_of_exact(sol) -> Outputs | None:
     """The output points of a ``models.exact.SceneSolution``."""
     if not sol.converged:
         return None
-    return {ref: (np.asarray(sol.poses[ref], float), np.asarray(sol.compliance[ref], float))
-            for ref in sol.poses}
+    return {
+        ref: (np.asarray(sol.poses[ref], float), np.asarray(sol.compliance[ref], float))
+        for ref in sol.poses
+    }
 
 
 def length_scales(scene: Scene, refs: Iterable[str]) -> dict[str, float]:
@@ -105,8 +114,9 @@ def length_scales(scene: Scene, refs: Iterable[str]) -> dict[str, float]:
     out = {}
     for ref in refs:
         body, _ = scene.resolve_point(ref)
-        path = scene.flexure_path(body if scene.body_kind(body) != "link"
-                                  else scene.body_parent(body))
+        path = scene.flexure_path(
+            body if scene.body_kind(body) != "link" else scene.body_parent(body)
+        )
         out[ref] = sum(scene.flexure(n).length for n in path) or longest
     return out
 
@@ -135,12 +145,13 @@ def error(got: Outputs | None, ref: Outputs, scales: Mapping[str, float]) -> flo
 
 # -- solving one choice of modes ---------------------------------------------------------------
 
+
 @dataclass
 class Solved:
     modes: tuple[int, ...]
     result: Result
-    outputs: Outputs | None           # None: no stable equilibrium
-    kernels: tuple[str, ...]          # kernel used at equilibrium per flexure ("poly"/"gauss")
+    outputs: Outputs | None  # None: no stable equilibrium
+    kernels: tuple[str, ...]  # kernel used at equilibrium per flexure ("poly"/"gauss")
     seconds: float
 
 
@@ -152,7 +163,8 @@ class _Problem:
             if f.model.kind != "scm":
                 raise SelectionError(
                     f"flexure[{i}].kind: a tolerance chooses smooth curvature modes, so every "
-                    f"flexure must be kind 'scm', got {f.model.kind!r} for {f.name!r}")
+                    f"flexure must be kind 'scm', got {f.model.kind!r} for {f.name!r}"
+                )
         self.scene = scene
         self.names = tuple(f.name for f in scene.flexures)
         self.flex = scene.flexures
@@ -172,11 +184,15 @@ class _Problem:
 
     def models(self, modes: Sequence[int]):
         from .models.scm import SCMModel
-        return {f.name: SCMModel(f.length, f.EI, N, self.kernel_choice(i, N), name=f.name)
-                for i, (f, N) in enumerate(zip(self.flex, modes))}
+
+        return {
+            f.name: SCMModel(f.length, f.EI, N, self.kernel_choice(i, N), name=f.name)
+            for i, (f, N) in enumerate(zip(self.flex, modes))
+        }
 
     def solve(self, modes: Sequence[int], q0=None) -> Solved:
         from .solver import solve_models
+
         modes = tuple(int(n) for n in modes)
         if modes in self.cache:
             return self.cache[modes]
@@ -186,8 +202,9 @@ class _Problem:
         dt = time.perf_counter() - t0
         self.solves += 1
         outs = outputs_of(res) if res.stable else None
-        if outs is not None and not all(np.all(np.isfinite(C)) and np.all(np.isfinite(p))
-                                        for p, C in outs.values()):
+        if outs is not None and not all(
+            np.all(np.isfinite(C)) and np.all(np.isfinite(p)) for p, C in outs.values()
+        ):
             outs = None
         used = []
         for name in self.names:
@@ -204,8 +221,9 @@ def _kernel_module(N: int, kernel: str):
     return kernels.load_numpy(name)
 
 
-def kernel_term(scene: Scene, i: int, N: int, kernel: str, refs: Sequence[str],
-                scales: Mapping[str, float]) -> np.ndarray:
+def kernel_term(
+    scene: Scene, i: int, N: int, kernel: str, refs: Sequence[str], scales: Mapping[str, float]
+) -> np.ndarray:
     """Flexure i's certified kernel bounds as error components: position ERROR_BOUND L_i / L_p
     at the points beyond it, compliance 2 JACOBIAN_ERROR_BOUND (J and J^T in C = J K^-1 J^T)."""
     mod = _kernel_module(N, kernel)
@@ -215,22 +233,28 @@ def kernel_term(scene: Scene, i: int, N: int, kernel: str, refs: Sequence[str],
         body, _ = scene.resolve_point(ref)
         owner = body if scene.body_kind(body) != "link" else scene.body_parent(body)
         beyond = body != "base" and f.name in scene.flexure_path(owner)
-        out.extend([float(mod.ERROR_BOUND) * f.length / scales[ref] if beyond else 0.0, 0.0,
-                    2.0 * float(mod.JACOBIAN_ERROR_BOUND)])
+        out.extend(
+            [
+                float(mod.ERROR_BOUND) * f.length / scales[ref] if beyond else 0.0,
+                0.0,
+                2.0 * float(mod.JACOBIAN_ERROR_BOUND),
+            ]
+        )
     return np.array(out)
 
 
 # -- the estimate table ------------------------------------------------------------------------
 
+
 @dataclass
 class FlexureTable:
     name: str
-    rich: int                                   # M: modes of the rich model
-    est: dict[int, np.ndarray] = field(default_factory=dict)      # N -> truncation estimate
-    kernel: dict[int, str] = field(default_factory=dict)          # N -> kernel at equilibrium
-    kern: dict[int, np.ndarray] = field(default_factory=dict)     # N -> kernel bounds
-    total: dict[int, np.ndarray] = field(default_factory=dict)    # N -> est + kernel bounds
-    extrapolated: set = field(default_factory=set)                # N estimated by rho
+    rich: int  # M: modes of the rich model
+    est: dict[int, np.ndarray] = field(default_factory=dict)  # N -> truncation estimate
+    kernel: dict[int, str] = field(default_factory=dict)  # N -> kernel at equilibrium
+    kern: dict[int, np.ndarray] = field(default_factory=dict)  # N -> kernel bounds
+    total: dict[int, np.ndarray] = field(default_factory=dict)  # N -> est + kernel bounds
+    extrapolated: set = field(default_factory=set)  # N estimated by rho
 
 
 @dataclass
@@ -240,15 +264,18 @@ class Table:
     refs: tuple[str, ...]
     scales: dict[str, float]
     flexures: list[FlexureTable]
-    reason: str | None = None                   # set when no rich answer could be found
+    reason: str | None = None  # set when no rich answer could be found
 
 
 def _rich_modes(pb: _Problem) -> tuple[tuple[int, ...], Solved | None, str | None]:
     """M per flexure (8 where the polynomial kernel stays in range, else the Gauss maximum) and
     the rich answer."""
     from .models.scm import SCMModel
-    base = tuple(min(pb.gauss_max, MAX_MODES) if pb.kernel_choice(i, pb.gauss_max) else MAX_MODES
-                 for i in range(len(pb.names)))
+
+    base = tuple(
+        min(pb.gauss_max, MAX_MODES) if pb.kernel_choice(i, pb.gauss_max) else MAX_MODES
+        for i in range(len(pb.names))
+    )
     if any(pb.kernel_choice(i, n) is None for i, n in enumerate(base)):
         return base, None, "no kernel available"
     pre = pb.solve(base)
@@ -259,7 +286,7 @@ def _rich_modes(pb: _Problem) -> tuple[tuple[int, ...], Solved | None, str | Non
         if pb.kernel_choice(i, MAX_MODES) == "poly" and MAX_MODES > base[i]:
             q = np.zeros(MAX_MODES)
             qi = pre.result.q[f.name]
-            q[:len(qi)] = qi
+            q[: len(qi)] = qi
             if SCMModel(f.length, f.EI, MAX_MODES, "poly").in_range(q):
                 rich[i] = MAX_MODES
     for _ in range(len(rich) + 1):
@@ -269,7 +296,7 @@ def _rich_modes(pb: _Problem) -> tuple[tuple[int, ...], Solved | None, str | Non
         bad = [i for i, n in enumerate(rich) if n != base[i] and sol.kernels[i] != "poly"]
         if sol.outputs is not None and not bad:
             return tuple(rich), sol, None
-        for i in (bad or [i for i, n in enumerate(rich) if n != base[i]]):
+        for i in bad or [i for i, n in enumerate(rich) if n != base[i]]:
             rich[i] = base[i]
     return base, pre, None
 
@@ -316,7 +343,7 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
                 base = d.get(Mi - 2)
                 ft.est[Mi] = rho * SAFETY * base if base is not None else inf.copy()
                 ft.extrapolated.add(Mi)
-                if Mi - 1 >= 1:       # M - 1 against M, plus M's own error
+                if Mi - 1 >= 1:  # M - 1 against M, plus M's own error
                     a, b = sols.get(Mi - 1), sols.get(Mi)
                     step = inf if a is None or b is None else error_components(a, b, scales)
                     ft.est[Mi - 1] = SAFETY * step + ft.est[Mi]
@@ -326,11 +353,15 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
                 ft.est[N] = SAFETY * d.get(N, inf) + ft.est.get(N + 2, inf)
             if s.outputs is None:
                 stopped = True
-            elif (stop_at is not None and rho is not None and N + 1 < Mi
-                  and np.max(ft.est.get(N, inf)) > stop_at
-                  and np.max(ft.est.get(N + 1, inf)) > stop_at):
+            elif (
+                stop_at is not None
+                and rho is not None
+                and N + 1 < Mi
+                and np.max(ft.est.get(N, inf)) > stop_at
+                and np.max(ft.est.get(N + 1, inf)) > stop_at
+            ):
                 stopped = True
-        if rho is None:         # a flexure with M = 1 (cannot happen with the shipped kernels)
+        if rho is None:  # a flexure with M = 1 (cannot happen with the shipped kernels)
             rho = 1.0
             ft.est[Mi] = np.zeros(ncomp)
         for N in range(1, Mi + 1):
@@ -361,13 +392,14 @@ def _contraction(d: Mapping[int, np.ndarray], M: int) -> np.ndarray | float:
 
 # -- choosing ----------------------------------------------------------------------------------
 
+
 @dataclass
 class FlexureChoice:
     name: str
     modes: int
-    kernel: str                      # "poly" or "gauss": the kernel used at the equilibrium
-    error_estimate: float            # this flexure's share: truncation estimate + kernel bound
-    rich: int                        # modes of the rich model the estimate was measured against
+    kernel: str  # "poly" or "gauss": the kernel used at the equilibrium
+    error_estimate: float  # this flexure's share: truncation estimate + kernel bound
+    rich: int  # modes of the rich model the estimate was measured against
 
 
 @dataclass
@@ -377,9 +409,9 @@ class Selection:
     error_estimate: float
     reached: bool
     result: Result
-    solves: int                      # chain solves the selection used
-    seconds: float                   # wall time of the selection
-    message: str | None = None       # why T is out of reach / no answer
+    solves: int  # chain solves the selection used
+    seconds: float  # wall time of the selection
+    message: str | None = None  # why T is out of reach / no answer
 
     @property
     def modes(self) -> dict[str, int]:
@@ -390,18 +422,21 @@ def choose(table: Table, tol: float) -> tuple[tuple[int, ...], np.ndarray, bool]
     """The mode choice with the fewest total modes whose summed estimate is <= tol (ties: the
     smaller estimate); if none, the one with the smallest estimate. -> (modes, estimate, met)."""
     fts = table.flexures
-    opts = [[N for N in sorted(ft.total) if np.all(np.isfinite(ft.total[N]))] or [ft.rich]
-            for ft in fts]
+    opts = [
+        [N for N in sorted(ft.total) if np.all(np.isfinite(ft.total[N]))] or [ft.rich] for ft in fts
+    ]
     best_ok, best_any = None, None
     count = math.prod(len(o) for o in opts)
     if count <= 50000:
         combos: Iterable = itertools.product(*opts)
-    else:                                    # many flexures: each flexure alone, then combined
+    else:  # many flexures: each flexure alone, then combined
         combos = [tuple(_greedy(ft, o, tol / len(fts)) for ft, o in zip(fts, opts))]
         combos += [tuple(o[-1] for o in opts)]
     for combo in combos:
-        tot = combine([ft.est[N] for ft, N in zip(fts, combo)],
-                      [ft.kern.get(N, ft.total[N]) for ft, N in zip(fts, combo)])
+        tot = combine(
+            [ft.est[N] for ft, N in zip(fts, combo)],
+            [ft.kern.get(N, ft.total[N]) for ft, N in zip(fts, combo)],
+        )
         e = float(np.max(tot)) if np.size(tot) else 0.0
         key_any = (e, sum(combo))
         if best_any is None or key_any < best_any[0]:
@@ -448,8 +483,10 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
     fts = {ft.name: ft for ft in table.flexures}
     order = list(pb.names)
     rich = table.rich
-    rich_tot = combine([fts[n].est[fts[n].rich] for n in order],
-                       [fts[n].kern.get(fts[n].rich, fts[n].total[fts[n].rich]) for n in order])
+    rich_tot = combine(
+        [fts[n].est[fts[n].rich] for n in order],
+        [fts[n].kern.get(fts[n].rich, fts[n].total[fts[n].rich]) for n in order],
+    )
 
     def direct(modes) -> tuple[Solved, np.ndarray]:
         """err(chosen) <= |chosen - rich| + err(rich): measured, plus the rich model's estimate
@@ -457,8 +494,11 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
         s = pb.solve(modes, q0=rich.result.q)
         if s.outputs is None:
             return s, np.full_like(rich_tot, math.inf)
-        extra = [kernel_term(scene, k, N, s.kernels[k], table.refs, table.scales)
-                 for k, N in enumerate(modes) if s.kernels[k] != rich.kernels[k]]
+        extra = [
+            kernel_term(scene, k, N, s.kernels[k], table.refs, table.scales)
+            for k, N in enumerate(modes)
+            if s.kernels[k] != rich.kernels[k]
+        ]
         e = SAFETY * error_components(s.outputs, rich.outputs, table.scales) + rich_tot
         return s, e + combine([], extra) if extra else e
 
@@ -467,8 +507,11 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
         if float(np.max(tot)) <= tol or not met:
             break
         # interaction pushed the estimate over T: give a mode to the flexure with most error
-        grow = [(float(np.max(fts[n].total[N])), k) for k, (n, N) in enumerate(zip(order, modes))
-                if N < fts[n].rich]
+        grow = [
+            (float(np.max(fts[n].total[N])), k)
+            for k, (n, N) in enumerate(zip(order, modes))
+            if N < fts[n].rich
+        ]
         if not grow:
             break
         _, k = max(grow)
@@ -487,7 +530,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
                 if any(pb.kernel_choice(j, N) is None for j, N in enumerate(fewer)):
                     continue
                 if float(np.max(fts[order[k]].total.get(fewer[k], math.inf))) > tol:
-                    continue        # this flexure alone already misses T at one mode fewer
+                    continue  # this flexure alone already misses T at one mode fewer
                 s2, t2 = direct(fewer)
                 if float(np.max(t2)) <= tol:
                     modes, chosen, tot, improved = fewer, s2, t2, True
@@ -506,9 +549,11 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
     msg = None
     if not reached:
         M = ", ".join(f"{ft.name} {ft.rich}" for ft in table.flexures)
-        msg = (f"tolerance {tol:.3g} is out of reach: the best estimate is {est:.3g} with the "
-               f"richest models available ({M} modes; polynomial kernels up to {MAX_MODES} modes "
-               f"within their range, Gauss kernels up to {pb.gauss_max} past it)")
+        msg = (
+            f"tolerance {tol:.3g} is out of reach: the best estimate is {est:.3g} with the "
+            f"richest models available ({M} modes; polynomial kernels up to {MAX_MODES} modes "
+            f"within their range, Gauss kernels up to {pb.gauss_max} past it)"
+        )
         res.warnings.append(msg)
     return Selection(tol, choices, est, reached, res, pb.solves, time.perf_counter() - t0, msg)
 
@@ -520,6 +565,7 @@ def select_models(scene, tolerance: float, /, **solve_kwargs) -> Selection:
     every chain solve (``tol`` there is the residual tolerance of the equilibrium, not this one).
     Raises SelectionError for tolerance <= 0 or a flexure that is not "scm"."""
     from .scene import as_scene
+
     tol = check_tolerance(tolerance)
     scene = as_scene(scene)
     t0 = time.perf_counter()
@@ -557,11 +603,13 @@ def kernel_ops(modes: int, kernel: str) -> int | None:
     return int(m[1]) if m else None
 
 
-def time_per_solve(scene: Scene, modes: Mapping[str, int], repeat: int = 5,
-                   **solve_kwargs) -> float:
+def time_per_solve(
+    scene: Scene, modes: Mapping[str, int], repeat: int = 5, **solve_kwargs
+) -> float:
     """Seconds per solve (equilibrium + compliance, continuation from the unloaded state) with
     the given modes through a prepared solver, the best of ``repeat`` after one untimed call."""
     from .solver import Solver, make_settings
+
     pb = _Problem(scene, solve_kwargs)
     solver = Solver(scene, pb.models([modes[n] for n in pb.names]), make_settings(**pb.kw))
     solver.solve()
@@ -573,7 +621,21 @@ def time_per_solve(scene: Scene, modes: Mapping[str, int], repeat: int = 5,
     return best
 
 
-__all__ = ["solve_to_tolerance", "select_models", "select_from_table", "estimate_table", "choose",
-           "Selection", "FlexureChoice", "SelectionError", "scene_tolerance", "error",
-           "error_components", "outputs_of", "outputs_of_exact", "length_scales",
-           "time_per_solve", "kernel_ops"]
+__all__ = [
+    "solve_to_tolerance",
+    "select_models",
+    "select_from_table",
+    "estimate_table",
+    "choose",
+    "Selection",
+    "FlexureChoice",
+    "SelectionError",
+    "scene_tolerance",
+    "error",
+    "error_components",
+    "outputs_of",
+    "outputs_of_exact",
+    "length_scales",
+    "time_per_solve",
+    "kernel_ops",
+]

@@ -168,9 +168,7 @@ class Solver:
         ncritical = a.ncritical
         if ncritical:
             stored = min(ncritical, a.max_critical)
-            for lam, kind in zip(
-                ws.critical[:stored].tolist(), ws.critical_kind[:stored].tolist()
-            ):
+            for lam, kind in zip(ws.critical[:stored].tolist(), ws.critical_kind[:stored].tolist()):
                 critical.append(lam)
                 warnings.append(
                     snap_warning(lam)

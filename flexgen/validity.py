@@ -42,6 +42,7 @@ With a requested tolerance (``flexgen.select``) the claim is the a-posteriori ``
 instead: the calibration-table warnings (load level, bands) are then not given, the others are.
 ``exact`` is the reference and is not assessed; a result that did not converge already says so.
 """
+
 from __future__ import annotations
 
 import math
@@ -55,376 +56,363 @@ from flexgen.scene import Scene
 
 PRB_LIMIT = math.radians(64.0)
 NEAR_SINGULAR = 0.05
-BANDS = (math.radians(30), math.radians(60), math.radians(90), math.radians(120),
-         math.radians(150), math.pi)
-LOAD_BANDS = (1.0, 3.0, 10.0, 30.0)     # load level lambda (see load_level)
+BANDS = (
+    math.radians(30),
+    math.radians(60),
+    math.radians(90),
+    math.radians(120),
+    math.radians(150),
+    math.pi,
+)
+LOAD_BANDS = (1.0, 3.0, 10.0, 30.0)  # load level lambda (see load_level)
 
 # label -> table[load band][bend band] = (pose bound, compliance bound) or (None, None) where
 # nothing is claimed. Calibrated (``flexgen_tools.stability.calibrate``) on the full sweep of
 # `flexgen stability`; the block between the markers is rewritten by
 # `python -m flexgen_tools.stability --calibrate`.
 # CLAIMS-BEGIN
-CLAIMS: dict = {'cc': (((0.32, 1.0), (None, None), (None, None), (None, None), (None, None), (None, None)),
+CLAIMS: dict = {
+    "cc": (
+        ((0.32, 1.0), (None, None), (None, None), (None, None), (None, None), (None, None)),
         ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
         ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
-        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None))),
- 'fem16': (((0.001, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
-           ((0.0032, 0.01), (0.0032, 0.01), (0.01, 0.01), (None, None), (None, None), (None, None)),
-           ((0.0032, 0.01),
-            (0.01, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01)),
-           ((0.01, 0.01),
-            (0.01, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.01),
-            (0.032, 0.032))),
- 'fem32': (((0.00032, 0.001), (None, None), (None, None), (None, None), (None, None), (None, None)),
-           ((0.001, 0.0032),
+        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
+    ),
+    "fem16": (
+        ((0.001, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((0.0032, 0.01), (0.0032, 0.01), (0.01, 0.01), (None, None), (None, None), (None, None)),
+        ((0.0032, 0.01), (0.01, 0.01), (0.032, 0.01), (0.032, 0.01), (0.032, 0.01), (0.032, 0.01)),
+        ((0.01, 0.01), (0.01, 0.01), (0.032, 0.01), (0.032, 0.01), (0.032, 0.01), (0.032, 0.032)),
+    ),
+    "fem32": (
+        ((0.00032, 0.001), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (0.001, 0.0032),
             (0.001, 0.0032),
             (0.0032, 0.0032),
             (None, None),
             (None, None),
-            (None, None)),
-           ((0.001, 0.0032),
+            (None, None),
+        ),
+        (
+            (0.001, 0.0032),
             (0.0032, 0.0032),
             (0.01, 0.0032),
             (0.01, 0.0032),
             (0.01, 0.0032),
-            (0.01, 0.0032)),
-           ((0.001, 0.0032),
+            (0.01, 0.0032),
+        ),
+        (
+            (0.001, 0.0032),
             (0.0032, 0.0032),
             (0.01, 0.0032),
             (0.01, 0.0032),
             (0.01, 0.0032),
-            (0.01, 0.0032))),
- 'fem4': (((0.032, 0.1), (None, None), (None, None), (None, None), (None, None), (None, None)),
-          ((0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (None, None), (None, None), (None, None)),
-          ((0.1, 0.1), (0.1, 0.1), (0.32, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32)),
-          ((0.1, 0.32), (0.1, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32))),
- 'fem64': (((0.0001, 0.00032),
-            (None, None),
-            (None, None),
-            (None, None),
-            (None, None),
-            (None, None)),
-           ((0.00032, 0.00032),
+            (0.01, 0.0032),
+        ),
+    ),
+    "fem4": (
+        ((0.032, 0.1), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (None, None), (None, None), (None, None)),
+        ((0.1, 0.1), (0.1, 0.1), (0.32, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32)),
+        ((0.1, 0.32), (0.1, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32)),
+    ),
+    "fem64": (
+        ((0.0001, 0.00032), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (0.00032, 0.00032),
             (0.00032, 0.00032),
             (0.00032, 0.001),
             (None, None),
             (None, None),
-            (None, None)),
-           ((0.00032, 0.001),
+            (None, None),
+        ),
+        (
+            (0.00032, 0.001),
             (0.001, 0.001),
             (0.001, 0.001),
             (0.001, 0.001),
             (0.001, 0.001),
-            (0.001, 0.001)),
-           ((0.00032, 0.001),
+            (0.001, 0.001),
+        ),
+        (
+            (0.00032, 0.001),
             (0.001, 0.001),
             (0.001, 0.001),
             (0.001, 0.001),
             (0.001, 0.001),
-            (0.001, 0.001))),
- 'fem8': (((0.01, 0.032), (None, None), (None, None), (None, None), (None, None), (None, None)),
-          ((0.032, 0.032),
-           (0.032, 0.032),
-           (0.032, 0.032),
-           (None, None),
-           (None, None),
-           (None, None)),
-          ((0.032, 0.032), (0.032, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032)),
-          ((0.032, 0.1), (0.032, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1))),
- 'prb': (((1.0, 0.32), (None, None), (None, None), (None, None), (None, None), (None, None)),
-         ((1.0, 0.32), (3.2, 1.0), (3.2, 1.0), (None, None), (None, None), (None, None)),
-         ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None)),
-         ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None))),
- 'scm2 gauss': (((0.0032, 0.01),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.032, 0.032),
-                 (0.032, 0.1),
-                 (0.032, 0.1),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32)),
-                ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32), (1.0, 0.32), (1.0, 1.0))),
- 'scm2 poly': (((0.0032, 0.01),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.032, 0.032),
-                (0.032, 0.1),
-                (0.032, 0.1),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (None, None), (None, None), (None, None)),
-               ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (None, None), (None, None), (None, None))),
- 'scm3 auto': (((3.2e-05, 0.00032),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.001, 0.001),
-                (0.001, 0.0032),
-                (0.0032, 0.01),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.0032, 0.0032),
-                (0.0032, 0.01),
-                (0.0032, 0.01),
-                (0.01, 0.032),
-                (0.01, 0.032),
-                (0.032, 0.032)),
-               ((0.032, 0.032),
-                (0.032, 0.032),
-                (0.032, 0.032),
-                (0.032, 0.1),
-                (0.032, 0.1),
-                (0.032, 0.1))),
- 'scm3 gauss': (((3.2e-05, 0.00032),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.001, 0.001),
-                 (0.001, 0.0032),
-                 (0.0032, 0.01),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.0032, 0.0032),
-                 (0.0032, 0.01),
-                 (0.0032, 0.01),
-                 (0.01, 0.032),
-                 (0.01, 0.032),
-                 (0.032, 0.032)),
-                ((0.032, 0.032),
-                 (0.032, 0.032),
-                 (0.032, 0.032),
-                 (0.032, 0.1),
-                 (0.032, 0.1),
-                 (0.032, 0.1))),
- 'scm3 poly': (((3.2e-05, 0.00032),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.001, 0.001),
-                (0.001, 0.0032),
-                (0.0032, 0.01),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.0032, 0.0032),
-                (0.0032, 0.01),
-                (0.0032, 0.01),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.032, 0.032),
-                (0.032, 0.032),
-                (0.032, 0.032),
-                (None, None),
-                (None, None),
-                (None, None))),
- 'scm4 gauss': (((1e-06, 3.2e-05),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-06, 3.2e-05),
-                 (3.2e-05, 0.00032),
-                 (0.00032, 0.001),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((0.0001, 0.0001),
-                 (0.0001, 0.00032),
-                 (0.00032, 0.001),
-                 (0.001, 0.01),
-                 (0.0032, 0.01),
-                 (0.0032, 0.01)),
-                ((0.001, 0.001),
-                 (0.0032, 0.0032),
-                 (0.0032, 0.0032),
-                 (0.0032, 0.01),
-                 (0.0032, 0.032),
-                 (0.01, 0.032))),
- 'scm4 poly': (((1e-06, 3.2e-05),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-06, 3.2e-05),
-                (3.2e-05, 0.00032),
-                (0.00032, 0.001),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.0001, 0.0001),
-                (0.0001, 0.00032),
-                (0.00032, 0.001),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.001, 0.001),
-                (0.0032, 0.0032),
-                (0.0032, 0.0032),
-                (None, None),
-                (None, None),
-                (None, None))),
- 'scm5 auto': (((1e-08, 3.2e-07),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-07, 3.2e-07),
-                (3.2e-06, 3.2e-05),
-                (3.2e-06, 3.2e-05),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-06, 3.2e-06),
-                (3.2e-06, 3.2e-05),
-                (3.2e-05, 0.00032),
-                (0.0001, 0.001),
-                (0.00032, 0.0032),
-                (0.00032, 0.0032)),
-               ((0.0001, 0.0001),
-                (0.0001, 0.0001),
-                (0.0001, 0.001),
-                (0.001, 0.0032),
-                (0.0032, 0.01),
-                (0.0032, 0.01))),
- 'scm5 gauss': (((1e-08, 3.2e-07),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-07, 3.2e-07),
-                 (3.2e-06, 3.2e-05),
-                 (3.2e-06, 3.2e-05),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-06, 3.2e-06),
-                 (3.2e-06, 3.2e-05),
-                 (3.2e-05, 0.00032),
-                 (0.0001, 0.001),
-                 (0.00032, 0.0032),
-                 (0.00032, 0.0032)),
-                ((0.0001, 0.0001),
-                 (0.0001, 0.0001),
-                 (0.0001, 0.001),
-                 (0.001, 0.0032),
-                 (0.0032, 0.01),
-                 (0.0032, 0.01))),
- 'scm5 poly': (((1e-08, 3.2e-07),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-07, 3.2e-07),
-                (3.2e-06, 3.2e-05),
-                (3.2e-06, 3.2e-05),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-06, 3.2e-06),
-                (3.2e-06, 3.2e-05),
-                (3.2e-05, 0.00032),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((0.0001, 0.0001),
-                (0.0001, 0.0001),
-                (0.0001, 0.001),
-                (None, None),
-                (None, None),
-                (None, None))),
- 'scm6 gauss': (((1e-10, 1e-08),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-09, 1e-08),
-                 (1e-07, 1e-06),
-                 (1e-06, 3.2e-06),
-                 (None, None),
-                 (None, None),
-                 (None, None)),
-                ((1e-08, 3.2e-07),
-                 (1e-06, 1e-05),
-                 (3.2e-06, 3.2e-05),
-                 (1e-05, 0.0001),
-                 (1e-05, 0.0001),
-                 (3.2e-05, 0.0001)),
-                ((1e-06, 3.2e-06),
-                 (3.2e-06, 3.2e-05),
-                 (3.2e-05, 0.00032),
-                 (0.00032, 0.001),
-                 (0.00032, 0.0032),
-                 (0.001, 0.0032))),
- 'scm6 poly': (((3.2e-10, 1e-08),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-09, 1e-08),
-                (1e-07, 1e-06),
-                (1e-06, 3.2e-06),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-08, 3.2e-07),
-                (1e-06, 1e-05),
-                (3.2e-06, 3.2e-05),
-                (None, None),
-                (None, None),
-                (None, None)),
-               ((1e-06, 3.2e-06),
-                (3.2e-06, 3.2e-05),
-                (3.2e-05, 0.00032),
-                (None, None),
-                (None, None),
-                (None, None)))}
+            (0.001, 0.001),
+        ),
+    ),
+    "fem8": (
+        ((0.01, 0.032), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((0.032, 0.032), (0.032, 0.032), (0.032, 0.032), (None, None), (None, None), (None, None)),
+        ((0.032, 0.032), (0.032, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032)),
+        ((0.032, 0.1), (0.032, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1)),
+    ),
+    "prb": (
+        ((1.0, 0.32), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((1.0, 0.32), (3.2, 1.0), (3.2, 1.0), (None, None), (None, None), (None, None)),
+        ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None)),
+        ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None)),
+    ),
+    "scm2 gauss": (
+        ((0.0032, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((0.032, 0.032), (0.032, 0.1), (0.032, 0.1), (None, None), (None, None), (None, None)),
+        ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32)),
+        ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32), (1.0, 0.32), (1.0, 1.0)),
+    ),
+    "scm2 poly": (
+        ((0.0032, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((0.032, 0.032), (0.032, 0.1), (0.032, 0.1), (None, None), (None, None), (None, None)),
+        ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (None, None), (None, None), (None, None)),
+        ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (None, None), (None, None), (None, None)),
+    ),
+    "scm3 auto": (
+        ((3.2e-05, 0.00032), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((0.001, 0.001), (0.001, 0.0032), (0.0032, 0.01), (None, None), (None, None), (None, None)),
+        (
+            (0.0032, 0.0032),
+            (0.0032, 0.01),
+            (0.0032, 0.01),
+            (0.01, 0.032),
+            (0.01, 0.032),
+            (0.032, 0.032),
+        ),
+        ((0.032, 0.032), (0.032, 0.032), (0.032, 0.032), (0.032, 0.1), (0.032, 0.1), (0.032, 0.1)),
+    ),
+    "scm3 gauss": (
+        ((3.2e-05, 0.00032), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((0.001, 0.001), (0.001, 0.0032), (0.0032, 0.01), (None, None), (None, None), (None, None)),
+        (
+            (0.0032, 0.0032),
+            (0.0032, 0.01),
+            (0.0032, 0.01),
+            (0.01, 0.032),
+            (0.01, 0.032),
+            (0.032, 0.032),
+        ),
+        ((0.032, 0.032), (0.032, 0.032), (0.032, 0.032), (0.032, 0.1), (0.032, 0.1), (0.032, 0.1)),
+    ),
+    "scm3 poly": (
+        ((3.2e-05, 0.00032), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        ((0.001, 0.001), (0.001, 0.0032), (0.0032, 0.01), (None, None), (None, None), (None, None)),
+        (
+            (0.0032, 0.0032),
+            (0.0032, 0.01),
+            (0.0032, 0.01),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        ((0.032, 0.032), (0.032, 0.032), (0.032, 0.032), (None, None), (None, None), (None, None)),
+    ),
+    "scm4 gauss": (
+        ((1e-06, 3.2e-05), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (1e-06, 3.2e-05),
+            (3.2e-05, 0.00032),
+            (0.00032, 0.001),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (0.0001, 0.0001),
+            (0.0001, 0.00032),
+            (0.00032, 0.001),
+            (0.001, 0.01),
+            (0.0032, 0.01),
+            (0.0032, 0.01),
+        ),
+        (
+            (0.001, 0.001),
+            (0.0032, 0.0032),
+            (0.0032, 0.0032),
+            (0.0032, 0.01),
+            (0.0032, 0.032),
+            (0.01, 0.032),
+        ),
+    ),
+    "scm4 poly": (
+        ((1e-06, 3.2e-05), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (1e-06, 3.2e-05),
+            (3.2e-05, 0.00032),
+            (0.00032, 0.001),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (0.0001, 0.0001),
+            (0.0001, 0.00032),
+            (0.00032, 0.001),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (0.001, 0.001),
+            (0.0032, 0.0032),
+            (0.0032, 0.0032),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+    ),
+    "scm5 auto": (
+        ((1e-08, 3.2e-07), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (1e-07, 3.2e-07),
+            (3.2e-06, 3.2e-05),
+            (3.2e-06, 3.2e-05),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (1e-06, 3.2e-06),
+            (3.2e-06, 3.2e-05),
+            (3.2e-05, 0.00032),
+            (0.0001, 0.001),
+            (0.00032, 0.0032),
+            (0.00032, 0.0032),
+        ),
+        (
+            (0.0001, 0.0001),
+            (0.0001, 0.0001),
+            (0.0001, 0.001),
+            (0.001, 0.0032),
+            (0.0032, 0.01),
+            (0.0032, 0.01),
+        ),
+    ),
+    "scm5 gauss": (
+        ((1e-08, 3.2e-07), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (1e-07, 3.2e-07),
+            (3.2e-06, 3.2e-05),
+            (3.2e-06, 3.2e-05),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (1e-06, 3.2e-06),
+            (3.2e-06, 3.2e-05),
+            (3.2e-05, 0.00032),
+            (0.0001, 0.001),
+            (0.00032, 0.0032),
+            (0.00032, 0.0032),
+        ),
+        (
+            (0.0001, 0.0001),
+            (0.0001, 0.0001),
+            (0.0001, 0.001),
+            (0.001, 0.0032),
+            (0.0032, 0.01),
+            (0.0032, 0.01),
+        ),
+    ),
+    "scm5 poly": (
+        ((1e-08, 3.2e-07), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (1e-07, 3.2e-07),
+            (3.2e-06, 3.2e-05),
+            (3.2e-06, 3.2e-05),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (1e-06, 3.2e-06),
+            (3.2e-06, 3.2e-05),
+            (3.2e-05, 0.00032),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (0.0001, 0.0001),
+            (0.0001, 0.0001),
+            (0.0001, 0.001),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+    ),
+    "scm6 gauss": (
+        ((1e-10, 1e-08), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (1e-09, 1e-08),
+            (1e-07, 1e-06),
+            (1e-06, 3.2e-06),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (1e-08, 3.2e-07),
+            (1e-06, 1e-05),
+            (3.2e-06, 3.2e-05),
+            (1e-05, 0.0001),
+            (1e-05, 0.0001),
+            (3.2e-05, 0.0001),
+        ),
+        (
+            (1e-06, 3.2e-06),
+            (3.2e-06, 3.2e-05),
+            (3.2e-05, 0.00032),
+            (0.00032, 0.001),
+            (0.00032, 0.0032),
+            (0.001, 0.0032),
+        ),
+    ),
+    "scm6 poly": (
+        ((3.2e-10, 1e-08), (None, None), (None, None), (None, None), (None, None), (None, None)),
+        (
+            (1e-09, 1e-08),
+            (1e-07, 1e-06),
+            (1e-06, 3.2e-06),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (1e-08, 3.2e-07),
+            (1e-06, 1e-05),
+            (3.2e-06, 3.2e-05),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+        (
+            (1e-06, 3.2e-06),
+            (3.2e-06, 3.2e-05),
+            (3.2e-05, 0.00032),
+            (None, None),
+            (None, None),
+            (None, None),
+        ),
+    ),
+}
 # CLAIMS-END
 
 
 # -- what a result claims ----------------------------------------------------------------------
 
+
 @dataclass
 class Claim:
-    pose: float                   # claimed bound on the pose error (inf: nothing claimed)
-    comp: float                   # claimed bound on the compliance error (inf: nothing claimed)
-    beta: float                   # largest bend (rad)
-    margin: float                 # margin to a critical load (stiffness_margin)
-    out_of_range: bool            # a kernel past its valid (poly) or certified (gauss) range
-    switched: bool                # an auto kernel moved from poly to gauss
-    warnings: list = field(default_factory=list)   # validity warnings (added to solve's)
-    uncalibrated: bool = False    # one of those warnings: no error class for this bend and load
+    pose: float  # claimed bound on the pose error (inf: nothing claimed)
+    comp: float  # claimed bound on the compliance error (inf: nothing claimed)
+    beta: float  # largest bend (rad)
+    margin: float  # margin to a critical load (stiffness_margin)
+    out_of_range: bool  # a kernel past its valid (poly) or certified (gauss) range
+    switched: bool  # an auto kernel moved from poly to gauss
+    warnings: list = field(default_factory=list)  # validity warnings (added to solve's)
+    uncalibrated: bool = False  # one of those warnings: no error class for this bend and load
 
     @property
     def error_class(self) -> dict[str, float]:
@@ -434,6 +422,7 @@ class Claim:
 def bend(model, q) -> float:
     """max |phi(s)| of one flexure at coordinates q (relative to its root frame)."""
     from flexgen.models.registry import kind_of
+
     bend_of = kind_of(model).bend
     assert bend_of is not None
     return bend_of(model, np.asarray(q, dtype=float))
@@ -453,10 +442,13 @@ def load_level(scene: Scene) -> float:
     moment loads; a moment counts as much as the force that would exert it at one flexure length
     (checked against exact on cantilevers with tip moments and forces: no answer above its class)."""
     total = sum(math.hypot(*ld.force) for ld in scene.loads) + 2 * sum(
-        t.tension for t in scene.tendons)
+        t.tension for t in scene.tendons
+    )
     moments = sum(abs(ld.moment) for ld in scene.loads)
-    return (max(f.length ** 2 / f.EI for f in scene.flexures) * total
-            + max(f.length / f.EI for f in scene.flexures) * moments)
+    return (
+        max(f.length**2 / f.EI for f in scene.flexures) * total
+        + max(f.length / f.EI for f in scene.flexures) * moments
+    )
 
 
 _SCENE_CONSTANTS: dict[int, tuple] = {}
@@ -496,6 +488,7 @@ def _prb_case_problem(scene: Scene) -> str | None:
 def model_label(model) -> str:
     """The CLAIMS label of a flexure model: "cc", "prb", "scm3 auto", "fem16", ..."""
     from flexgen.models.registry import kind_of
+
     return kind_of(model).label(model)
 
 
@@ -509,15 +502,17 @@ def claim_table(label: str) -> tuple[tuple | None, str | None]:
     if m:
         n, kernel = int(m[1]), m[2]
         for k in range(n, 1, -1):
-            for cand in ((f"scm{k} auto", f"scm{k} gauss") if kernel == "auto"
-                         else (f"scm{k} {kernel}",)):
+            for cand in (
+                (f"scm{k} auto", f"scm{k} gauss") if kernel == "auto" else (f"scm{k} {kernel}",)
+            ):
                 if cand in CLAIMS:
                     return CLAIMS[cand], cand
         return None, None
     m = re.fullmatch(r"fem(\d+)", label)
     if m:
-        calibrated = sorted((int(k[3:]) for k in CLAIMS if re.fullmatch(r"fem\d+", k)),
-                            reverse=True)
+        calibrated = sorted(
+            (int(k[3:]) for k in CLAIMS if re.fullmatch(r"fem\d+", k)), reverse=True
+        )
         e = next((e for e in calibrated if e <= int(m[1])), None)
         if e is not None:
             return CLAIMS[f"fem{e}"], f"fem{e}"
@@ -530,12 +525,16 @@ def _deg(x: float) -> str:
 
 def _names(names) -> str:
     names = list(names)
-    return (f"flexure {names[0]!r}" if len(names) == 1
-            else "flexures " + ", ".join(repr(n) for n in names))
+    return (
+        f"flexure {names[0]!r}"
+        if len(names) == 1
+        else "flexures " + ", ".join(repr(n) for n in names)
+    )
 
 
-def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None,
-                     energy_diagonal=None) -> float:
+def stiffness_margin(
+    scene: Scene, models: Mapping, q: Mapping, K=None, energy_diagonal=None
+) -> float:
     """How far the equilibrium q (full load) is from a critical load: the smallest generalized
     eigenvalue of (K, hess U), i.e. the smallest eigenvalue of L^-1 K L^-T with hess U = L L^T.
     1 unloaded, 1 - P/P_cr on an axial load below buckling, 0 at a critical load, < 0 unstable
@@ -553,6 +552,7 @@ def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None,
         return float(np.linalg.eigvalsh(K * np.multiply.outer(s, s))[0])
     if K is None:
         from flexgen.solver import Solver
+
         K = Solver(scene, models).solve(q0=q).stiffness
         if K is None:
             return math.nan
@@ -561,7 +561,7 @@ def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None,
     for f in scene.flexures:
         m = models[f.name]
         k = int(m.n_dof)
-        KU[start:start + k, start:start + k] = m.energy_hessian(np.asarray(q[f.name], float))
+        KU[start : start + k, start : start + k] = m.energy_hessian(np.asarray(q[f.name], float))
         start += k
     try:
         Li = np.linalg.inv(np.linalg.cholesky(0.5 * (KU + KU.T)))
@@ -570,20 +570,28 @@ def stiffness_margin(scene: Scene, models: Mapping, q: Mapping, K=None,
     return float(np.linalg.eigvalsh(Li @ K @ Li.T)[0])
 
 
-def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str] | None = None,
-           calibrated: bool = True, energy_diagonal=None) -> Claim:
+def assess(
+    scene: Scene,
+    result,
+    models: Mapping,
+    label: str | Mapping[str, str] | None = None,
+    calibrated: bool = True,
+    energy_diagonal=None,
+) -> Claim:
     """The claim and the validity warnings of a converged ``solve`` result whose flexure models
     are ``models`` ({flexure: model}, as passed to solve). ``label``: the CLAIMS label of every
     flexure's model (a str for all, or {flexure: label}; default ``model_label`` of each).
     ``calibrated=False`` (a tolerance was requested: the claim is the error estimate) leaves out
     the warnings that only say the calibration table ends (load level, bands) and claims nothing
     from the table."""
-    labels = {name: (label if isinstance(label, str) else
-                     (label or {}).get(name) or model_label(m)) for name, m in models.items()}
+    labels = {
+        name: (label if isinstance(label, str) else (label or {}).get(name) or model_label(m))
+        for name, m in models.items()
+    }
     warnings: list[str] = []
     beta, beta_at, oor, switched = 0.0, None, False, False
     prb = []
-    unclaimed: set[str] = set()      # flexures already warned that nothing is claimed
+    unclaimed: set[str] = set()  # flexures already warned that nothing is claimed
     for name, m in models.items():
         q = np.asarray(result.q[name], dtype=float)
         b = bend(m, q)
@@ -599,46 +607,54 @@ def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str]
                     warnings.append(
                         f"flexure {name!r} ({labels[name]}): bend {_deg(b)} is past the "
                         f"{math.degrees(m.poly.PHI_MAX):.0f} deg range of the polynomial kernel "
-                        f"scm{m.n_dof}; the answer may be wrong by any amount")
+                        f"scm{m.n_dof}; the answer may be wrong by any amount"
+                    )
             elif not poly_ok and not m.gauss.in_range(q):
                 oor = True
                 warnings.append(
                     f"flexure {name!r} ({labels[name]}): bend {_deg(b)} is past the certified "
                     f"range of the Gauss kernel {m.gauss_name} "
-                    f"({math.degrees(m.gauss.PHI_MAX):.0f} deg); its error bound does not hold")
+                    f"({math.degrees(m.gauss.PHI_MAX):.0f} deg); its error bound does not hold"
+                )
         elif kind == "prb":
             prb.append(name)
             if b > PRB_LIMIT:
                 unclaimed.add(name)
                 warnings.append(
                     f"flexure {name!r} (prb): pin rotation {_deg(b)} is past the pseudo-rigid-"
-                    f"body model's {_deg(PRB_LIMIT)} validity; no accuracy is claimed for it")
+                    f"body model's {_deg(PRB_LIMIT)} validity; no accuracy is claimed for it"
+                )
     if prb:
         why = _scene_constants(scene)[1]
         if why is not None:
             unclaimed.update(prb)
             warnings.append(
                 f"{_names(prb)} (prb): the pseudo-rigid-body constants are fitted for a force at "
-                f"the tip of a single flexure, and this scene has {why}; no accuracy is claimed")
+                f"the tip of a single flexure, and this scene has {why}; no accuracy is claimed"
+            )
     if beta > BANDS[-1]:
         unclaimed.update(models)
         warnings.append(
             f"flexure {beta_at!r} ({labels[beta_at]}): bent {_deg(beta)}, past the "
-            f"{_deg(BANDS[-1])} the error classes cover; no accuracy is claimed")
-    margin = stiffness_margin(scene, models, result.q, getattr(result, "stiffness", None),
-                              energy_diagonal)
+            f"{_deg(BANDS[-1])} the error classes cover; no accuracy is claimed"
+        )
+    margin = stiffness_margin(
+        scene, models, result.q, getattr(result, "stiffness", None), energy_diagonal
+    )
     if margin < NEAR_SINGULAR and getattr(result, "stable", True):
         pts = ", ".join(repr(p) for p in getattr(result, "points", {})) or "the output points"
         warnings.append(
             f"near a critical load: the stiffness is {margin:.1%} from singular (the limit is "
             f"{NEAR_SINGULAR:.0%}), so the compliance at {pts} amplifies any model error by "
-            f"about {1 / max(margin, 1e-300):.3g}x")
+            f"about {1 / max(margin, 1e-300):.3g}x"
+        )
     lam = _scene_constants(scene)[0]
     if calibrated and lam > LOAD_BANDS[-1]:
         unclaimed.update(models)
         warnings.append(
             f"load level {lam:.3g} (largest force x L^2/EI over the flexures) is above the "
-            f"calibrated {LOAD_BANDS[-1]:g}; no accuracy is claimed")
+            f"calibrated {LOAD_BANDS[-1]:g}; no accuracy is claimed"
+        )
     pose = comp = math.inf
     uncalibrated = False
     idx = band_index(beta, lam)
@@ -652,11 +668,12 @@ def assess(scene: Scene, result, models: Mapping, label: str | Mapping[str, str]
             pe, ce = (None, None) if table is None else table[idx[0]][idx[1]]
             if pe is None:
                 pose = comp = math.inf
-                if not unclaimed.issuperset(names):     # else already warned: nothing claimed
+                if not unclaimed.issuperset(names):  # else already warned: nothing claimed
                     uncalibrated = True
                     warnings.append(
                         f"{_names(names)} ({lab}): no calibrated error class at {_deg(beta)} of "
-                        f"bend and load level {lam:.3g} (load x L^2/EI); no accuracy is claimed")
+                        f"bend and load level {lam:.3g} (load x L^2/EI); no accuracy is claimed"
+                    )
             else:
                 pose, comp = max(pose, pe), max(comp, ce)
     if unclaimed:
@@ -678,6 +695,7 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
     ``models``/``model_factory`` as given to solve, else each flexure's ModelSpec with the modes
     and kernel the result reports (a tolerance chooses them per flexure)."""
     from flexgen.models.registry import build_model, build_models
+
     if models is not None or model_factory is not None:
         return build_models(scene, models, model_factory)
 
@@ -685,11 +703,13 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
         info = result.model.get(f.name, {})
         changes = {k: info[k] for k in ("kind", "modes", "elements", "kernel") if k in info}
         return build_model(replace(f, model=replace(f.model, **changes)))
+
     return build_models(scene, None, factory)
 
 
-def check(scene: Scene, result, models: Mapping | None = None, model_factory=None,
-          energy_diagonal=None):
+def check(
+    scene: Scene, result, models: Mapping | None = None, model_factory=None, energy_diagonal=None
+):
     """Append the validity warnings of a converged chain-model ``result`` to
     ``result.warnings`` (no duplicates) and set ``result.error_class`` ({"pose", "compliance"}:
     the indicative error class, inf where nothing is claimed; None when a tolerance was
@@ -699,8 +719,9 @@ def check(scene: Scene, result, models: Mapping | None = None, model_factory=Non
         result.error_class = None
         return None
     ms = models_of(scene, result, models, model_factory)
-    claim = assess(scene, result, ms, calibrated=result.tolerance is None,
-                   energy_diagonal=energy_diagonal)
+    claim = assess(
+        scene, result, ms, calibrated=result.tolerance is None, energy_diagonal=energy_diagonal
+    )
     for w in claim.warnings:
         if w not in result.warnings:
             result.warnings.append(w)
