@@ -675,6 +675,7 @@ def assess(
                         f"bend and load level {lam:.3g} (load x L^2/EI); no accuracy is claimed"
                     )
             else:
+                assert ce is not None  # a CLAIMS cell is (pose, compliance) or (None, None)
                 pose, comp = max(pose, pe), max(comp, ce)
     if unclaimed:
         pose = comp = math.inf
