@@ -142,6 +142,7 @@ class Chain:
         self._frame_of = {BASE: BASE}
         for body in self._order:
             parent = self.body_parent(body)
+            assert parent is not None  # _order holds flexures and links: they have parents
             self._frame_of[body] = body if body in self.flexures else self._frame_of[parent]
         self._flex_order = [b for b in self._order if b in self.flexures]
 
@@ -231,7 +232,9 @@ class Chain:
         frames = {BASE: PointKinematics(np.zeros(3), np.zeros((3, n)), np.zeros((3, n, n)))}
         roots: dict[str, PointKinematics] = {}
         for body in self._order:
-            parent = frames[self.body_parent(body)]
+            parent_name = self.body_parent(body)
+            assert parent_name is not None  # _order holds flexures and links: they have parents
+            parent = frames[parent_name]
             if body in self.links:
                 frames[body] = parent
                 continue

@@ -32,7 +32,14 @@ class KernelNotFound(LookupError):
 def available(folder: Path = GENERATED) -> list[str]:
     """Names of the NumPy kernels in folder/numpy, sorted by modes then family."""
     names = [p.stem for p in (folder / "numpy").glob("scm*.py") if _NAME.match(p.stem)]
-    return sorted(names, key=lambda n: (int(_NAME.match(n)[1]), n))
+    return sorted(names, key=lambda n: (int(_kernel_match(n)[1]), n))
+
+
+def _kernel_match(name: str) -> re.Match[str]:
+    """The _NAME match of a name already filtered by _NAME (so it matches)."""
+    match = _NAME.match(name)
+    assert match is not None, name
+    return match
 
 
 def gauss_kernel_name(modes: int, folder: Path = GENERATED) -> str:
@@ -55,13 +62,13 @@ _NUMPY_DIRS: dict = {}
 
 @lru_cache(maxsize=256)
 def _gauss_kernel_name(modes: int, folder: Path, stamp) -> str:
-    found = [n for n in available(folder) if _NAME.match(n)[1] == str(modes) and "_gauss" in n]
+    found = [n for n in available(folder) if _kernel_match(n)[1] == str(modes) and "_gauss" in n]
     if not found:
         raise KernelNotFound(
             f"no Gauss kernel for {modes} modes in {folder}/numpy; run "
             f"`flexgen generate --modes {modes} --kernel gauss`"
         )
-    return max(found, key=lambda n: int(_NAME.match(n)[2]))
+    return max(found, key=lambda n: int(_kernel_match(n)[2]))
 
 
 @cache
@@ -80,6 +87,8 @@ def load_numpy(name: str, folder: Path = GENERATED) -> ModuleType:
             f"kernel {name!r} not found in {folder}/numpy; generate it with {hint}"
         )
     spec = importlib.util.spec_from_file_location(f"flexgen_generated_{name}", path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot load kernel {name!r} from {path} as a module")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

@@ -13,8 +13,10 @@ matplotlib (Agg, no pyplot) is imported only when drawing.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -107,6 +109,11 @@ def _model_label(result: Result) -> str:
     return ", ".join(dict.fromkeys(labels))
 
 
+def _xy(v: np.ndarray | Sequence[float]) -> tuple[float, float]:
+    """The first two entries of a point or pose as the (x, y) pair matplotlib's xy takes."""
+    return (float(v[0]), float(v[1]))
+
+
 def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | None = None) -> Path:
     """Draw ``scene`` at ``result``'s equilibrium into ``path`` (.png or .svg); returns the path."""
     path = Path(path)
@@ -138,10 +145,9 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
     fig = Figure(figsize=(7.5, 6.0), layout="constrained")
     ax = fig.add_subplot()
     handles = []
-    for g, style, label in (
-        (g0, dict(color="0.6", ls="--", lw=1.2), "unloaded"),
-        (g1, dict(color="C0", ls="-", lw=2.2), "loaded"),
-    ):
+    unloaded_style: dict[str, Any] = dict(color="0.6", ls="--", lw=1.2)
+    loaded_style: dict[str, Any] = dict(color="C0", ls="-", lw=2.2)
+    for g, style, label in ((g0, unloaded_style, "unloaded"), (g1, loaded_style, "loaded")):
         for shape in g.shapes.values():
             ax.plot(shape[:, 0], shape[:, 1], **style)
         for link in scene.links:
@@ -179,22 +185,25 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
         if fmax > 0 and np.any(f):
             tail = xy - 0.18 * size * f / fmax
             ax.annotate(
-                "", xy=xy, xytext=tail, arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.8)
+                "",
+                xy=_xy(xy),
+                xytext=_xy(tail),
+                arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.8),
             )
         if ld.moment:
             sgn = 1.0 if ld.moment > 0 else -1.0
             a, b = xy + 0.05 * size * np.array([1, -sgn]), xy + 0.05 * size * np.array([1, sgn])
             ax.annotate(
                 "",
-                xy=b,
-                xytext=a,
+                xy=_xy(b),
+                xytext=_xy(a),
                 arrowprops=dict(
                     arrowstyle="-|>", color="C2", lw=1.5, connectionstyle=f"arc3,rad={sgn * 0.9}"
                 ),
             )
             ax.annotate(
                 f"M = {ld.moment:.4g}",
-                xy,
+                _xy(xy),
                 xytext=(10, 16),
                 textcoords="offset points",
                 color="C2",
@@ -219,13 +228,13 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
     ]
     if majors:
         F = 0.1 * size / max(majors)
-        for ref, p in result.points.items():
-            e = p.ellipse
+        for ref, point in result.points.items():
+            e = point.ellipse
             if not (math.isfinite(e["major"]) and e["major"] > 0):
                 continue
             ax.add_patch(
                 Ellipse(
-                    tuple(p.pose[:2]),
+                    _xy(point.pose),
                     2 * F * e["major"],
                     2 * F * max(e["minor"], 0.0),
                     angle=math.degrees(e["angle"]),
@@ -234,10 +243,10 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
                     lw=1.6,
                 )
             )
-            ax.plot(*p.pose[:2], "o", color="C1", ms=3)
+            ax.plot(*point.pose[:2], "o", color="C1", ms=3)
             ax.annotate(
                 ref,
-                tuple(p.pose[:2]),
+                _xy(point.pose),
                 xytext=(6, -12),
                 textcoords="offset points",
                 fontsize=8,

@@ -242,7 +242,7 @@ def _declaration_order(text: str, d: Mapping[str, Any]) -> tuple[str, ...] | Non
     return tuple(kinds)
 
 
-def load_scene(path: str | Path) -> Scene:
+def load_scene(path: str | os.PathLike[str]) -> Scene:
     """Read and validate a TOML scene file. Any problem raises a one-line ``SceneError``."""
     path = Path(path)
     try:
@@ -332,6 +332,16 @@ def _vector(v: Any, key: str, n: int) -> tuple[float, ...]:
     return tuple(_number(x, f"{key}[{i}]") for i, x in enumerate(v))
 
 
+def _vector2(v: Any, key: str) -> tuple[float, float]:
+    x, y = _vector(v, key, 2)  # _vector checked the length
+    return (x, y)
+
+
+def _vector3(v: Any, key: str) -> tuple[float, float, float]:
+    x, y, z = _vector(v, key, 3)  # _vector checked the length
+    return (x, y, z)
+
+
 def _identifier(v: Any, key: str, what: str) -> str:
     v = _string(v, key)
     if not v or "." in v or v != v.strip():
@@ -360,10 +370,10 @@ def _array_of_tables(d: Mapping[str, Any], key: str) -> list[Mapping[str, Any]]:
 
 def _points(v: Any, key: str) -> Mapping[str, tuple[float, float]]:
     tbl = _table(v, key)
-    out = {}
+    out: dict[str, tuple[float, float]] = {}
     for name, xy in tbl.items():
         _identifier(name, f"{key}", "a point name")
-        out[name] = _vector(xy, f"{key}.{name}", 2)
+        out[name] = _vector2(xy, f"{key}.{name}")
     return MappingProxyType(out)
 
 
@@ -526,7 +536,7 @@ class _Parser:
         else:
             parent = self._previous("flexure", i, want_flexure=False) or BASE
 
-        at = _vector(tbl["at"], f"{prefix}.at", 3) if "at" in tbl else (0.0, 0.0, 0.0)
+        at = _vector3(tbl["at"], f"{prefix}.at") if "at" in tbl else (0.0, 0.0, 0.0)
         if "length" not in tbl:
             raise _fail(f"{prefix}.length", "missing required key")
         length = _number(tbl["length"], f"{prefix}.length", "+")
@@ -600,11 +610,12 @@ class _Parser:
                 "and links is unknown (set parent, or pass order= to scene_from_dict)",
             )
         else:
-            parent = self._previous("link", i, want_flexure=True)
-            if parent is None:
+            previous = self._previous("link", i, want_flexure=True)
+            if previous is None:
                 raise _fail(
                     f"{prefix}.parent", "missing, and no flexure is declared before this link"
                 )
+            parent = previous
         points = _points(tbl.get("points", {}), f"{prefix}.points")
         return Link(name=link_names[i], parent=parent, points=points)
 
@@ -654,7 +665,7 @@ class _Parser:
             if k not in tbl:
                 raise _fail(f"{prefix}.{k}", "missing required key")
         point = self._ref(tbl["point"], f"{prefix}.point")
-        force = _vector(tbl["force"], f"{prefix}.force", 2)
+        force = _vector2(tbl["force"], f"{prefix}.force")
         moment = _number(tbl.get("moment", 0.0), f"{prefix}.moment")
         return Load(point=point, force=force, moment=moment)
 

@@ -108,6 +108,16 @@ def outputs_of_exact(sol) -> Outputs | None:
     }
 
 
+def _path_owner(scene: Scene, body: str) -> str:
+    """The body whose flexure path a point on ``body`` follows: the body itself (the base or a
+    flexure), or the flexure a link is attached to."""
+    if scene.body_kind(body) != "link":
+        return body
+    parent = scene.body_parent(body)
+    assert parent is not None  # only the base has no parent
+    return parent
+
+
 def length_scales(scene: Scene, refs: Iterable[str]) -> dict[str, float]:
     """L_p for every point: the summed length of the flexures between the base and p (the
     longest flexure's length for a point on the base)."""
@@ -115,9 +125,7 @@ def length_scales(scene: Scene, refs: Iterable[str]) -> dict[str, float]:
     out = {}
     for ref in refs:
         body, _ = scene.resolve_point(ref)
-        path = scene.flexure_path(
-            body if scene.body_kind(body) != "link" else scene.body_parent(body)
-        )
+        path = scene.flexure_path(_path_owner(scene, body))
         out[ref] = sum(scene.flexure(n).length for n in path) or longest
     return out
 
@@ -186,10 +194,13 @@ class _Problem:
     def models(self, modes: Sequence[int]):
         from .models.scm import SCMModel
 
-        return {
-            f.name: SCMModel(f.length, f.EI, N, self.kernel_choice(i, N), name=f.name)
-            for i, (f, N) in enumerate(zip(self.flex, modes))
-        }
+        out = {}
+        for i, (f, N) in enumerate(zip(self.flex, modes)):
+            kernel = self.kernel_choice(i, N)
+            if kernel is None:  # callers check kernel_choice before they solve
+                raise ValueError(f"flexure {f.name!r}: no kernel for {N} modes")
+            out[f.name] = SCMModel(f.length, f.EI, N, kernel, name=f.name)
+        return out
 
     def solve(self, modes: Sequence[int], q0=None) -> Solved:
         from .solver import solve_models
@@ -232,8 +243,7 @@ def kernel_term(
     out = []
     for ref in refs:
         body, _ = scene.resolve_point(ref)
-        owner = body if scene.body_kind(body) != "link" else scene.body_parent(body)
-        beyond = body != "base" and f.name in scene.flexure_path(owner)
+        beyond = body != "base" and f.name in scene.flexure_path(_path_owner(scene, body))
         out.extend(
             [
                 float(mod.ERROR_BOUND) * f.length / scales[ref] if beyond else 0.0,
@@ -261,7 +271,7 @@ class FlexureTable:
 @dataclass
 class Table:
     problem: _Problem
-    rich: Solved
+    rich: Solved | None  # None only when reason says no kernel was available
     refs: tuple[str, ...]
     scales: dict[str, float]
     flexures: list[FlexureTable]
@@ -312,6 +322,7 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
     table = Table(pb, rich, refs, scales, [], reason)
     if reason is not None:
         return table
+    assert rich is not None  # _rich_modes gives an answer whenever it gives no reason
     ncomp = 3 * len(refs)
     inf = np.full(ncomp, math.inf)
     for i, name in enumerate(pb.names):
@@ -448,6 +459,7 @@ def choose(table: Table, tol: float) -> tuple[tuple[int, ...], np.ndarray, bool]
                 best_ok = (key, combo, tot)
     if best_ok is not None:
         return best_ok[1], best_ok[2], True
+    assert best_any is not None  # every option list is non-empty: there is at least one combo
     return best_any[1], best_any[2], False
 
 
@@ -474,16 +486,21 @@ def _greedy(ft: FlexureTable, opts: list[int], share: float) -> int:
 def _finish(table: Table, tol: float, t0: float) -> Selection:
     pb, scene = table.problem, table.problem.scene
     if table.reason is not None:
+        why = f"no answer to estimate the error of: {table.reason}"
+        if table.rich is None:  # no kernel for the rich models: not even a failed result
+            raise ValueError(why)
         res = table.rich.result
-        msg = f"no answer to estimate the error of: {table.reason}"
         res.tolerance, res.error_estimate = tol, None
         if res.converged:
-            res.warnings.append(msg)
-        return Selection(tol, {}, math.inf, False, res, pb.solves, time.perf_counter() - t0, msg)
+            res.warnings.append(why)
+        return Selection(tol, {}, math.inf, False, res, pb.solves, time.perf_counter() - t0, why)
     modes, tot, met = choose(table, tol)
     fts = {ft.name: ft for ft in table.flexures}
     order = list(pb.names)
     rich = table.rich
+    # no reason: _rich_modes found a rich answer with a stable equilibrium
+    assert rich is not None and rich.outputs is not None
+    rich_outputs = rich.outputs
     rich_tot = combine(
         [fts[n].est[fts[n].rich] for n in order],
         [fts[n].kern.get(fts[n].rich, fts[n].total[fts[n].rich]) for n in order],
@@ -500,7 +517,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
             for k, N in enumerate(modes)
             if s.kernels[k] != rich.kernels[k]
         ]
-        e = SAFETY * error_components(s.outputs, rich.outputs, table.scales) + rich_tot
+        e = SAFETY * error_components(s.outputs, rich_outputs, table.scales) + rich_tot
         return s, e + combine([], extra) if extra else e
 
     chosen, tot = direct(modes)

@@ -195,7 +195,10 @@ class Solver:
             for name, flag in zip(p.flexure_order, switched):
                 if flag:
                     sl = p.chain.slices[name]
-                    msg = self.models[name].switch_warning(q[sl] if solved else None)
+                    # only models with both kernels switch (SCMModel); the FlexureModel
+                    # protocol does not declare switch_warning
+                    model: Any = self.models[name]
+                    msg = model.switch_warning(q[sl] if solved else None)
                     if msg:
                         warnings.append(msg)
         if not solved:

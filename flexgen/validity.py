@@ -712,6 +712,7 @@ def assess(
                         f"bend and load level {lam:.3g} (load x L^2/EI); no accuracy is claimed"
                     )
             else:
+                assert ce is not None  # a CLAIMS cell is (pose, compliance) or (None, None)
                 pose, comp = max(pose, pe), max(comp, ce)
     if unclaimed:
         pose = comp = math.inf
@@ -727,7 +728,7 @@ def validity_warnings(scene: Scene, models: Mapping, result) -> list[str]:
     return assess(scene, result, models, calibrated=result.tolerance is None).warnings
 
 
-def models_of(scene: Scene, result, models: Mapping | None = None, model_factory=None) -> dict:
+def models_of(scene: Scene, result, models: Mapping | None = None, model_factory=None) -> Mapping:
     """The flexure models a chain-model ``result`` of ``scene`` was solved with, rebuilt:
     ``models``/``model_factory`` as given to solve, else each flexure's ModelSpec with the modes
     and kernel the result reports (a tolerance chooses them per flexure)."""

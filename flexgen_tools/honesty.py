@@ -160,6 +160,7 @@ def honesty_cases(
             cheapest = None
             if sel.reached and any(n > 1 for n in modes):
                 cheapest = True
+                assert table.rich is not None  # reached: the table has a rich answer
                 for k, n in enumerate(modes):
                     if n <= 1:
                         continue

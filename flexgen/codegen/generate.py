@@ -49,7 +49,7 @@ def _common(kernel: FlexureKernel) -> dict:
             + (
                 f" The polynomial is evaluated exactly in nodal form: {kernel.nodes} Gauss nodes "
                 "integrate the degree "
-                f"{kernel.degree * s.modes} polynomial in s without error."
+                f"{kernel.interpolant.degree * s.modes} polynomial in s without error."
                 if s.family == "poly"
                 else " Valid at any angle; the error bound is certified on |phi| <= PHI_MAX."
             )
@@ -74,7 +74,8 @@ def trig_coefficients(kernel: FlexureKernel) -> tuple[list[list[float]], list[bo
     u = phi^2, highest power first (zero-padded to one length), and which rows are odd in phi
     (those are multiplied by phi after the Horner steps in u)."""
     rows, odd = [], []
-    for _name, coeffs in (("c", kernel.trig.cos), ("s", kernel.trig.sin)):
+    interp = kernel.interpolant
+    for _name, coeffs in (("c", interp.cos), ("s", interp.sin)):
         poly = [mpmath.mpf(c) for c in coeffs]
         for _ in range(3):  # value, first, second derivative
             parity = next(k for k, c in enumerate(poly) if c != 0) % 2

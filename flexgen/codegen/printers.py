@@ -7,13 +7,25 @@ lookup tables instead of branches. Integer powers print as products in C (``x*x*
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TypedDict
+
 import numpy as np
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
+
+class CTypeInfo(TypedDict):
+    """One C scalar type: literal suffix, rounding to the type, libm names of cos and sin."""
+
+    suffix: str
+    to_float: Callable[[float], float]
+    functions: dict[str, str]
+
+
 # per C type: literal suffix and the names of the libm functions we call
-C_TYPES = {
+C_TYPES: dict[str, CTypeInfo] = {
     "double": {"suffix": "", "to_float": float, "functions": {"cos": "cos", "sin": "sin"}},
     "float": {
         "suffix": "f",

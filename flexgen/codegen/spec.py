@@ -67,6 +67,7 @@ class KernelSpec:
 
     @property
     def range_rad(self) -> float:
+        assert self.range_deg is not None  # __post_init__ replaces None by the family default
         return math.radians(self.range_deg)
 
 
@@ -87,4 +88,4 @@ class CConfig:
     float_twin: bool = True
 
 
-BACKENDS = {"numpy": NumPyConfig(), "c": CConfig()}
+BACKENDS: dict[str, NumPyConfig | CConfig] = {"numpy": NumPyConfig(), "c": CConfig()}

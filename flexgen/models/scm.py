@@ -53,7 +53,9 @@ class SCMModel:
                 if kernel == "gauss":
                     raise
                 self.no_gauss = str(missing)  # "auto": fine while the polynomial is in range
-        self.weights = (self.poly or self.gauss).ENERGY_WEIGHTS
+        loaded = self.poly if self.poly is not None else self.gauss
+        assert loaded is not None  # "gauss" (no polynomial) raises above if its kernel is missing
+        self.weights = loaded.ENERGY_WEIGHTS
         self.name = name
 
     # -- kernels -------------------------------------------------------------------------
@@ -62,10 +64,12 @@ class SCMModel:
         q = np.asarray(q, dtype=float)
         if self.poly is not None:
             return bool(self.poly.in_range(q))
+        assert self.gauss is not None  # no polynomial: kernel "gauss", whose kernel must exist
         return bool(self.gauss.in_range(q))
 
     def range_error(self) -> str:
         """Why this flexure cannot be evaluated past its polynomial kernel's range."""
+        assert self.poly is not None, "range_error: this model has no polynomial kernel"
         why = (
             f"and {self.no_gauss}"
             if self.no_gauss

@@ -61,6 +61,8 @@ class FlexureKernel:
         self.a = spec.range_rad
         self.q = sp.symbols(f"q0:{N}", real=True)
         self.basis = [angle_basis(n) for n in range(N)]
+        self.degree: int | None  # poly only: the interpolation degree
+        self.trig: trig.TrigInterpolant | None  # poly only: the cos/sin interpolant
         if spec.family == "poly":
             self.degree = spec.degree or trig.degree_for_tolerance(self.a, spec.tol)
             self.trig = trig.chebyshev_interpolant(self.a, self.degree)
@@ -84,10 +86,18 @@ class FlexureKernel:
         return energy_weights(self.modes)
 
     @property
+    def interpolant(self) -> trig.TrigInterpolant:
+        """The cos/sin interpolant of a poly kernel; ValueError for a gauss kernel (it has none)."""
+        if self.trig is None:
+            raise ValueError(f"{self.name}: a gauss kernel has no trig interpolant")
+        return self.trig
+
+    @property
     def _poly_degree(self) -> int:
         """Highest degree actually present in C or S."""
         deg = 0
-        for coeffs in (self.trig.cos, self.trig.sin):
+        interp = self.interpolant
+        for coeffs in (interp.cos, interp.sin):
             for k, c in enumerate(coeffs):
                 if c != 0:
                     deg = max(deg, k)
@@ -100,7 +110,8 @@ class FlexureKernel:
             c, s = sp.cos(phi), sp.sin(phi)
             return {"c": c, "dc": -s, "ddc": -c, "s": s, "ds": c, "dds": -s}
         out = {}
-        for name, coeffs in (("c", self.trig.cos), ("s", self.trig.sin)):
+        interp = self.interpolant
+        for name, coeffs in (("c", interp.cos), ("s", interp.sin)):
             poly = [sp.Float(c, 40) for c in coeffs]
             d1 = [k * poly[k] for k in range(1, len(poly))]
             d2 = [k * d1[k] for k in range(1, len(d1))]
@@ -152,11 +163,12 @@ class FlexureKernel:
         N, a = self.modes, self.a
         B = self.basis
         if self.spec.family == "poly":
-            D = self.degree
+            interp = self.interpolant
+            D = interp.degree
             rounding = (D + N + self.nodes + 4) * UNIT_ROUNDOFF * math.cosh(a)
-            pose = self.trig.bound(0) + rounding
-            jac = self.trig.bound(1) * max(_l2_norm(B[i]) for i in range(N)) + rounding * max(1, a)
-            hess = self.trig.bound(2) * max(
+            pose = interp.bound(0) + rounding
+            jac = interp.bound(1) * max(_l2_norm(B[i]) for i in range(N)) + rounding * max(1, a)
+            hess = interp.bound(2) * max(
                 _l2_norm(B[i] * B[j]) for i in range(N) for j in range(N)
             ) + rounding * max(1, a * a)
             return ErrorBounds(pose, jac, hess)

@@ -121,7 +121,8 @@ def chebyshev_interpolant(a: float, degree: int) -> TrigInterpolant:
 @cache
 def _chebyshev_t_monomials(k: int) -> tuple[int, ...]:
     """Integer monomial coefficients of T_k, lowest first."""
-    prev, cur = (1,), (0, 1)
+    prev: tuple[int, ...] = (1,)
+    cur: tuple[int, ...] = (0, 1)
     if k == 0:
         return prev
     for _ in range(k - 1):
