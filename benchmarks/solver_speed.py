@@ -286,7 +286,7 @@ def lapack_row(scene, factory, rounds: int = ROUNDS, budget_s: float = 10.0,
         lap.lapack_min_size = saved
     diff = float(np.max(np.abs(q_lapack - q_builtin)) / max(np.max(np.abs(q_lapack)), 1e-300))
     us_l, us_b = 1e6 * statistics.median(t_lapack), 1e6 * statistics.median(t_builtin)
-    return {"ndof": int(n), "lapack_used": bool(lap.potrf) and n >= saved,
+    return {"ndof": int(n), "lapack_used": bool(plan.problem.lapack.potrf) and n >= saved,
             "us_lapack": us_l, "us_builtin": us_b, "ratio": us_b / us_l,
             "q_rel_diff": diff, "agree": diff <= Q_RTOL}
 
