@@ -100,7 +100,7 @@ typedef struct {
     double *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
     double *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
     double *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
-    double *hist;           /* Newton's last stagnation_lag + 1 relative residuals */
+    double hist[FG_MAX_LAG + 1];    /* Newton's last stagnation_lag + 1 relative residuals */
     double *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
     int *switched;          /* per flexure: an "auto" flexure used its Gauss kernel since the
@@ -130,18 +130,13 @@ static size_t tip_size(const fg_problem *p)
     return (size_t)p->nflex * (3 + tip_stride(p));
 }
 
-static size_t history_size(const fg_problem *p)
-{
-    return (size_t)(p->settings.stagnation_lag > 0 ? p->settings.stagnation_lag : 0) + 1;
-}
-
 size_t fg_work_size(const fg_problem *p)
 {
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
     size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
     return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
         + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 10 * n
-        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + history_size(p) + 16;
+        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
 }
 
 size_t fg_iwork_size(const fg_problem *p)
@@ -198,7 +193,6 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
     w->ew = x; x += n;
     w->eV = x; x += n * n;
     w->ework = x; x += 2 * n * n + FG_LWORK(n);
-    w->hist = x; x += history_size(p);
     for (i = 0; i < FG_NSTATES; ++i) {
         fg_state *s = &w->st[i];
         s->q = x; x += n;
@@ -1725,7 +1719,7 @@ static int well_formed(const fg_problem *p, const fg_answer *out)
         || (p->nloads > 0 && (p->load_point == NULL || p->load == NULL))
         || (p->ntendons > 0 && (p->tension == NULL || p->route_start == NULL
                                 || p->route_len == NULL || p->route == NULL))
-        || p->settings.stagnation_lag < 1)
+        || p->settings.stagnation_lag < 1 || p->settings.stagnation_lag > FG_MAX_LAG)
         return 0;
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];

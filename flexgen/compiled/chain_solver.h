@@ -91,8 +91,10 @@ typedef struct {
 
 /* Every tuning constant of the solver. The fields mirror flexgen/settings.py (SolverSettings:
  * the same names, order and types, with the defaults and their validation), and Python copies
- * them by name; no default is written in C. The solver does not check them: a caller from C
- * fills every field with a value SolverSettings would accept. */
+ * them by name; no default is written in C. The solver checks only what memory safety needs
+ * (1 <= stagnation_lag <= FG_MAX_LAG, else FG_MODEL_ERROR): a caller from C fills every field
+ * with a value SolverSettings would accept. */
+#define FG_MAX_LAG 64
 typedef struct {
     double tol;                     /* relative residual of an accepted equilibrium */
     double max_dq;                  /* largest change of a coordinate in one step along the path */
