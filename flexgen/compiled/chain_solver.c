@@ -913,8 +913,10 @@ static int cholesky(const fg_problem *p, const double *A, double *F, int n)
 {
     if (use_lapack(p, n)) {
         char uplo = 'L';          /* column-major lower: the row-major upper triangle */
-        int info = 0, lda = n;
-        memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+        int info = 0, lda = n, i;
+        for (i = 0; i < n; ++i)   /* that triangle is all dpotrf reads */
+            memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
+                   sizeof(double) * (size_t)(n - i));
         p->lapack.potrf(&uplo, &n, F, &lda, &info);
         return info == 0;
     }
