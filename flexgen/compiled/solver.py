@@ -1,10 +1,11 @@
 """Solve a scene with the compiled chain solver and build the same Result the Python solver does.
 
-``solve_compiled`` gives no Result whenever the C solver hands the scene back (``FALLBACK``: a
-case the Python solver reports in full, such as a solve that fails or a warm start not
-accepted; ``MODEL_ERROR``), a model has no C counterpart, a kernel has no C source or gcc is
-missing: the caller then runs the Python solver (and, for the last two, warns that the compiled
-solver was unavailable).
+``solve_compiled`` gives no Result whenever the C solver finds no equilibrium
+(``NO_EQUILIBRIUM``: for now the Python solver re-runs it for its reason; the answer's failure
+fields hold it too, see tests/test_compiled.py's c_reason), meets more critical events than the
+plan stores, or rejects the problem (``MODEL_ERROR``), a model has no C counterpart, a kernel has
+no C source or gcc is missing: the caller then runs the Python solver (and, for the last two,
+warns that the compiled solver was unavailable).
 
 The Plan of a (scene, models, solver settings) is kept (the last ``CACHE_SIZE`` of them, keyed
 by the scene object and the models' parameters), so solving the same scene again, as a
