@@ -41,8 +41,8 @@ enum {
     FG_ERR_LINE_SEARCH = 3,     /* the line search failed (at a load factor, a residual) */
     FG_ERR_JUMP = 4,            /* the path jumped by more than max_dq (at a load factor) */
     FG_ERR_NONFINITE = 5,       /* a model returned a non-finite value */
-    FG_ERR_KERNEL_RANGE = 6,    /* a polynomial-only kernel past its range (model_error_flexure) */
-    FG_ERR_TENDON = 7           /* a tendon segment of zero length (model_error_route) */
+    FG_ERR_KERNEL_RANGE = 6,    /* a polynomial-only kernel past its range (*_error_flexure) */
+    FG_ERR_TENDON = 7           /* a tendon segment of zero length (*_error_route) */
 };
 
 /* the kind of a critical event on the load path (fg_answer.critical_kind): the path ended at a
