@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, fields
 
 INT_MAX = 2**31 - 1
+MAX_LAG = 64            # chain_solver.h: FG_MAX_LAG (Newton keeps that many residuals)
 
 
 @dataclass(frozen=True)
@@ -70,6 +71,9 @@ class SolverSettings:
         if not self.min_step <= self.initial_step <= self.max_step:
             raise ValueError(f"settings.initial_step: must lie in [min_step, max_step] = "
                              f"[{self.min_step!r}, {self.max_step!r}], got {self.initial_step!r}")
+        if self.stagnation_lag > MAX_LAG:
+            _bad("stagnation_lag", f"must be at most {MAX_LAG} (chain_solver.h: FG_MAX_LAG)",
+                 self.stagnation_lag)
         if self.stagnation_lag > self.stagnation_after:
             _bad("stagnation_lag", f"must be at most stagnation_after ({self.stagnation_after})",
                  self.stagnation_lag)

@@ -101,7 +101,7 @@ typedef struct {
     double *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
     double *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
     double *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
-    double *hist;           /* Newton's last stagnation_lag + 1 relative residuals */
+    double hist[FG_MAX_LAG + 1];    /* Newton's last stagnation_lag + 1 relative residuals */
     double *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
     int *switched;          /* per flexure: an "auto" flexure used its Gauss kernel since the
@@ -131,18 +131,13 @@ static size_t tip_size(const fg_problem *p)
     return (size_t)p->nflex * (3 + tip_stride(p));
 }
 
-static size_t history_size(const fg_problem *p)
-{
-    return (size_t)(p->settings.stagnation_lag > 0 ? p->settings.stagnation_lag : 0) + 1;
-}
-
 size_t fg_work_size(const fg_problem *p)
 {
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
     size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
     return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
         + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 10 * n
-        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + history_size(p) + 16;
+        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
 }
 
 size_t fg_iwork_size(const fg_problem *p)
@@ -199,7 +194,6 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
     w->ew = x; x += n;
     w->eV = x; x += n * n;
     w->ework = x; x += 2 * n * n + FG_LWORK(n);
-    w->hist = x; x += history_size(p);
     for (i = 0; i < FG_NSTATES; ++i) {
         fg_state *s = &w->st[i];
         s->q = x; x += n;
@@ -920,8 +914,10 @@ static int cholesky(const fg_problem *p, const double *A, double *F, int n)
 {
     if (use_lapack(p, n)) {
         char uplo = 'L';          /* column-major lower: the row-major upper triangle */
-        int info = 0, lda = n;
-        memcpy(F, A, sizeof(double) * (size_t)n * (size_t)n);
+        int info = 0, lda = n, i;
+        for (i = 0; i < n; ++i)   /* that triangle is all dpotrf reads */
+            memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
+                   sizeof(double) * (size_t)(n - i));
         p->lapack.potrf(&uplo, &n, F, &lda, &info);
         return info == 0;
     }
@@ -1321,6 +1317,22 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor
     return FG_SOLVED;
 }
 
+/* No force and no tendon under tension, only moments: every frame's angle is linear in q (each
+ * model's tip angle is: the curvature kernels', the n-element chain's, the pseudo-rigid body's),
+ * so the loads' Hessians vanish, S = 0 at every q, K is the elastic stiffness and Q constant:
+ * the equilibrium path is a straight line, and any state on it is known without the chain. */
+static int linear_path(const fg_problem *p)
+{
+    int i;
+    for (i = 0; i < p->nloads; ++i)
+        if (p->load[3 * i] != 0.0 || p->load[3 * i + 1] != 0.0)
+            return 0;
+    for (i = 0; i < p->ntendons; ++i)
+        if (p->tension[i] != 0.0)
+            return 0;
+    return 1;
+}
+
 /* The full load in one Newton solve from the unloaded state *st0 (equilibrium._direct_solve):
  * 1 with the equilibrium in *cur if every check passes, else 0 (the continuation runs). The
  * caller checked that st0->K, K at lam = 0 (the elastic stiffness: diagonal), is positive
@@ -1332,17 +1344,37 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor
  * evaluation); Newton at lam = 1 (its first step solves with that factor: no second
  * factorization); the end state in every kernel's range (before the samples, which cannot
  * change that outcome); K at the end positive definite (the factor is also the polishing's and
- * the compliance's); then the direct_samples points of the Hermite path, each one evaluation:
- * positive definite and a Newton correction of at most direct_correction max_dq, and in range.
- * Python checks the ranges of all visited points at the end; the outcome is the same. A rejected
- * attempt leaves no trace: iterations (the caller), the last error, the model error and the
- * kernel-switch flags are restored. */
+ * the compliance's); then the direct_samples points of the Hermite path: positive definite and a
+ * Newton correction of at most direct_correction max_dq, and in range. Python checks the ranges
+ * of all visited points at the end; the outcome is the same. A rejected attempt leaves no trace:
+ * iterations (the caller), the last error, the model error and the kernel-switch flags are
+ * restored.
+ *
+ * Chain evaluations (fg_answer.evaluations). The Python solver, and this one before, took 10
+ * for one scm3 flexure under the tip force of examples/cantilever_tip_load.toml: the unloaded
+ * state, 5 Newton iterations (relative residuals 0.34, 1.0e-2, 1.2e-5, 1.5e-11 -- just above
+ * tol = 1e-12 -- and 1.8e-18; no polishing step follows), 3 samples, and the kinematics of the
+ * answer evaluated once more at the end. Shared or skipped now, without changing a check:
+ * - the unloaded state's parts give K(q0, 1) and Newton's first state (as in Python);
+ * - each state keeps its output points' poses and Jacobians (fg_state.out), so the answer, the
+ *   polished state's included, needs no evaluation (finish), nor does the bifurcation's
+ *   mean-output tie-break;
+ * - a polishing step is taken only while the residual is above polish_target (here none);
+ * - a sample is not evaluated where its state is known in closed form: with no force and no
+ *   tendon under tension (moments only: linear_path) every frame angle is linear in q, so the
+ *   loads' Hessian S vanishes, K is the diagonal elastic stiffness and Q is constant; the sample's
+ *   correction K^-1 r = q - t K^-1 Q and its positive definiteness follow without the chain
+ *   (its range is still checked: no evaluation).
+ * That makes 9 for the tip force: its 5 Newton iterations and 3 samples are all needed. A
+ * sample cannot share a Newton state (those are at lam = 1, a sample is at lam = t < 1 on the
+ * path), and under a force S(q) changes along the path, so no sample follows from the ends.
+ * Fewer would take a weaker check: direct_samples = 1 (one sample, t = 1/2) gives 7. */
 static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state **spare,
                         fg_state *smp, double *end_factor, int *iterations)
 {
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
-    int n = w->n, i, j, ok = 0;
+    int n = w->n, i, j, ok = 0, linear;
     int max_it = set->max_iterations < set->direct_max_iterations ? set->max_iterations
                                                                    : set->direct_max_iterations;
     double *t0 = w->t0, *t1 = w->t1;     /* path tangents dq/dlam at the two ends */
@@ -1376,16 +1408,25 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
         goto done;
     cholesky_solve(p, end_factor, n, c->Q, t1);
     /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
+    linear = linear_path(p);
     for (j = 1; j <= set->direct_samples; ++j) {
         double t = (double)j / (set->direct_samples + 1), *qt = w->vec4, *corr = w->vec3;
         double h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
         double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
         for (i = 0; i < n; ++i)
             qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
-        if (!in_kernel_range(p, qt) || !evaluate(w, qt, t, smp)
-            || !cholesky(p, smp->K, w->la, n))
+        if (!in_kernel_range(p, qt))
             goto done;
-        cholesky_solve(p, w->la, n, smp->r, corr);
+        if (linear) {             /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0) */
+            for (i = 0; i < n; ++i) {
+                double k = st0->K[(size_t)i * (size_t)n + i];
+                corr[i] = (k * qt[i] - t * st0->Q[i]) / k;
+            }
+        } else {
+            if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
+                goto done;
+            cholesky_solve(p, w->la, n, smp->r, corr);
+        }
         if (!(norm_inf(corr, n) <= set->direct_correction * set->max_dq))
             goto done;
     }
@@ -1689,7 +1730,7 @@ static int well_formed(const fg_problem *p, const fg_answer *out)
         || (p->nloads > 0 && (p->load_point == NULL || p->load == NULL))
         || (p->ntendons > 0 && (p->tension == NULL || p->route_start == NULL
                                 || p->route_len == NULL || p->route == NULL))
-        || p->settings.stagnation_lag < 1)
+        || p->settings.stagnation_lag < 1 || p->settings.stagnation_lag > FG_MAX_LAG)
         return 0;
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];

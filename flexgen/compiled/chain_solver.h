@@ -41,8 +41,8 @@ enum {
     FG_ERR_LINE_SEARCH = 3,     /* the line search failed (at a load factor, a residual) */
     FG_ERR_JUMP = 4,            /* the path jumped by more than max_dq (at a load factor) */
     FG_ERR_NONFINITE = 5,       /* a model returned a non-finite value */
-    FG_ERR_KERNEL_RANGE = 6,    /* a polynomial-only kernel past its range (model_error_flexure) */
-    FG_ERR_TENDON = 7           /* a tendon segment of zero length (model_error_route) */
+    FG_ERR_KERNEL_RANGE = 6,    /* a polynomial-only kernel past its range (*_error_flexure) */
+    FG_ERR_TENDON = 7           /* a tendon segment of zero length (*_error_route) */
 };
 
 /* the kind of a critical event on the load path (fg_answer.critical_kind): the path ended at a
@@ -91,8 +91,10 @@ typedef struct {
 
 /* Every tuning constant of the solver. The fields mirror flexgen/settings.py (SolverSettings:
  * the same names, order and types, with the defaults and their validation), and Python copies
- * them by name; no default is written in C. The solver does not check them: a caller from C
- * fills every field with a value SolverSettings would accept. */
+ * them by name; no default is written in C. The solver checks only what memory safety needs
+ * (1 <= stagnation_lag <= FG_MAX_LAG, else FG_MODEL_ERROR): a caller from C fills every field
+ * with a value SolverSettings would accept. */
+#define FG_MAX_LAG 64
 typedef struct {
     double tol;                     /* relative residual of an accepted equilibrium */
     double max_dq;                  /* largest change of a coordinate in one step along the path */
