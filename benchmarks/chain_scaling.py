@@ -9,6 +9,7 @@ or with --stat median the median, of ``rounds`` batches of calls lasting at leas
 after WARMUP_S of warm-up calls), with the Newton iterations and, where the compiled solver
 reports it (``fg_answer.evaluations``), the chain evaluations per solve. The last column is the time relative to n = 1.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,17 +33,29 @@ from flexgen_tools.timing import core_call  # noqa: E402
 
 BATCH_S = 5e-3
 STAT = "min"
-WARMUP_S = 0.3          # calls before timing (caches, CPU frequency)
+WARMUP_S = 0.3  # calls before timing (caches, CPU frequency)
 
 
 def chain_scene(n: int, force=(0.0, -2.0)):
     flex = []
     for i in range(n):
-        flex.append({"name": f"f{i}", "length": 1.0 / n, "EI": 1.0,
-                     "parent": "base" if i == 0 else f"f{i - 1}", "at": [0.0, 0.0, 0.0]})
-    return scene_from_dict({"name": f"chain{n}", "flexure": flex,
-                            "load": [{"point": f"f{n - 1}.tip", "force": list(force)}],
-                            "output": {"points": [f"f{n - 1}.tip"]}})
+        flex.append(
+            {
+                "name": f"f{i}",
+                "length": 1.0 / n,
+                "EI": 1.0,
+                "parent": "base" if i == 0 else f"f{i - 1}",
+                "at": [0.0, 0.0, 0.0],
+            }
+        )
+    return scene_from_dict(
+        {
+            "name": f"chain{n}",
+            "flexure": flex,
+            "load": [{"point": f"f{n - 1}.tip", "force": list(force)}],
+            "output": {"points": [f"f{n - 1}.tip"]},
+        }
+    )
 
 
 def time_plan(run, rounds: int) -> float:
@@ -73,15 +86,20 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="1,2,4,8,16,32")
     ap.add_argument("--rounds", type=int, default=21)
-    ap.add_argument("--stat", choices=("min", "median"), default="min",
-                    help="of the batches (min: robust to other processes on the machine)")
+    ap.add_argument(
+        "--stat",
+        choices=("min", "median"),
+        default="min",
+        help="of the batches (min: robust to other processes on the machine)",
+    )
     args = ap.parse_args(argv)
     global STAT
     STAT = args.stat
     sizes = [int(s) for s in args.sizes.split(",")]
     base = None
-    print(f"{'n':>3} {'ndof':>5} {'us/solve':>10} {'iterations':>10} {'evaluations':>11} "
-          f"{'ratio':>7}")
+    print(
+        f"{'n':>3} {'ndof':>5} {'us/solve':>10} {'iterations':>10} {'evaluations':>11} {'ratio':>7}"
+    )
     for n in sizes:
         scene = chain_scene(n)
         solver = flexgen.Solver(scene, modes=3)
@@ -90,8 +108,10 @@ def main(argv=None) -> None:
             base = t
         a = solver.workspace.answer
         ev = getattr(a, "evaluations", None)
-        print(f"{n:>3} {solver.workspace.q.size:>5} {t * 1e6:>10.2f} {a.iterations:>10} "
-              f"{'-' if ev is None else ev:>11} {t / base:>7.1f}")
+        print(
+            f"{n:>3} {solver.workspace.q.size:>5} {t * 1e6:>10.2f} {a.iterations:>10} "
+            f"{'-' if ev is None else ev:>11} {t / base:>7.1f}"
+        )
 
 
 if __name__ == "__main__":

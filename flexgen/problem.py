@@ -149,8 +149,8 @@ class Workspace:
         self.critical = np.empty(MAX_CRITICAL)
         self.critical_kind = np.empty(MAX_CRITICAL, dtype=np.intc)
         self.switched = np.zeros(max(int(p.nflex), 1), dtype=np.intc)
-        self.bend = np.zeros(max(int(p.nflex), 1))                    # per flexure, core order
-        self.kernel = np.zeros(max(int(p.nflex), 1), dtype=np.intc)   # FG_KERNEL_*
+        self.bend = np.zeros(max(int(p.nflex), 1))  # per flexure, core order
+        self.kernel = np.zeros(max(int(p.nflex), 1), dtype=np.intc)  # FG_KERNEL_*
         self.q0 = np.zeros(max(n, 1))
         a = ffi.new("fg_answer *")
         dbl = lambda x: ffi.cast("double *", x.ctypes.data)  # noqa: E731

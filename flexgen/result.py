@@ -24,8 +24,9 @@ def ellipse(C) -> dict[str, float]:
     from .settings import DEFAULT
 
     out = ffi.new("double[3]")
-    lib.fg_ellipse([float(C[0][0]), float(C[0][1]), float(C[1][0]), float(C[1][1])],
-                   DEFAULT.circle_tol, out)
+    lib.fg_ellipse(
+        [float(C[0][0]), float(C[0][1]), float(C[1][0]), float(C[1][1])], DEFAULT.circle_tol, out
+    )
     return {"major": out[0], "minor": out[1], "angle": out[2]}
 
 

@@ -6,52 +6,53 @@ The C side holds no defaults: the solver copies these fields into the struct by 
 defaults here are the values the solver has always used; ``__post_init__`` rejects a value the
 solver cannot run with, naming the field (``settings.tol: must be ...``).
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
 
 INT_MAX = 2**31 - 1
-MAX_LAG = 64            # chain_solver.h: FG_MAX_LAG (Newton keeps that many residuals)
+MAX_LAG = 64  # chain_solver.h: FG_MAX_LAG (Newton keeps that many residuals)
 
 
 @dataclass(frozen=True)
 class SolverSettings:
-    tol: float = 1e-12                   # relative residual of an accepted equilibrium
-    max_dq: float = 0.5                  # largest change of a coordinate in one step along the path
-    max_iterations: int = 50             # Newton iterations per load step
-    max_steps: int = 500                 # continuation steps (0: the solve fails at once)
-    initial_step: float = 0.1            # first load-factor step of the continuation
-    max_step: float = 0.25               # largest load-factor step
-    min_step: float = 1e-5               # smallest load-factor step (then the path has ended)
-    polish_target: float = 1e-14         # polishing: Newton steps while the residual is above this
-    polish_steps: int = 3                # polishing: at most this many steps
-    direct_max_iterations: int = 12      # direct solve: Newton iterations (at most max_iterations)
-    direct_correction: float = 0.2       # direct solve: largest correction at a sample / max_dq
-    direct_samples: int = 3              # direct solve: Hermite path samples at k / (samples + 1)
-    stagnation_after: int = 8            # Newton stagnates: from this iteration on, the residual
-    stagnation_ratio: float = 0.5        # above this fraction of
-    stagnation_lag: int = 6              # the residual this many iterations earlier
-    armijo: float = 1e-4                 # sufficient-decrease factor of the line searches
-    line_search_halvings: int = 30       # line search: at most this many step lengths tried
-    expansion_doublings: int = 40        # descent: step doublings along negative curvature
-    eigenvalue_floor: float = 1e-10      # descent: |eigenvalue| floored at this fraction of the top
-    roundoff_tol: float = 1e-13          # descent: a change of Pi below this of |Pi| + |U| is rounding
+    tol: float = 1e-12  # relative residual of an accepted equilibrium
+    max_dq: float = 0.5  # largest change of a coordinate in one step along the path
+    max_iterations: int = 50  # Newton iterations per load step
+    max_steps: int = 500  # continuation steps (0: the solve fails at once)
+    initial_step: float = 0.1  # first load-factor step of the continuation
+    max_step: float = 0.25  # largest load-factor step
+    min_step: float = 1e-5  # smallest load-factor step (then the path has ended)
+    polish_target: float = 1e-14  # polishing: Newton steps while the residual is above this
+    polish_steps: int = 3  # polishing: at most this many steps
+    direct_max_iterations: int = 12  # direct solve: Newton iterations (at most max_iterations)
+    direct_correction: float = 0.2  # direct solve: largest correction at a sample / max_dq
+    direct_samples: int = 3  # direct solve: Hermite path samples at k / (samples + 1)
+    stagnation_after: int = 8  # Newton stagnates: from this iteration on, the residual
+    stagnation_ratio: float = 0.5  # above this fraction of
+    stagnation_lag: int = 6  # the residual this many iterations earlier
+    armijo: float = 1e-4  # sufficient-decrease factor of the line searches
+    line_search_halvings: int = 30  # line search: at most this many step lengths tried
+    expansion_doublings: int = 40  # descent: step doublings along negative curvature
+    eigenvalue_floor: float = 1e-10  # descent: |eigenvalue| floored at this fraction of the top
+    roundoff_tol: float = 1e-13  # descent: a change of Pi below this of |Pi| + |U| is rounding
     bifurcation_threshold: float = 1e-6  # |v . Q| <= this (|Q| + |lam S|): a bifurcation
-    bracket_tol: float = 1e-13           # regula falsi: relative load-factor interval (and eigenvalue)
-    bracket_iterations: int = 100        # regula falsi: at most this many trial load factors
-    bracket_clamp: float = 0.01          # regula falsi: trial point kept in [clamp, 1 - clamp]
-    descent_eps: float = 1e-3            # leaving a bifurcation: q +- eps max(1, |q|) v
-    descent_iteration_factor: int = 20   # descent Newton: this many times max_iterations
-    tie_tol: float = 1e-9                # two sides' potentials (mean y) equal to this relative tolerance
-    fast_iterations: int = 3             # a step that took at most this many iterations:
-    fast_growth: float = 2.0             # the next step this much longer;
-    moderate_iterations: int = 6         # at most this many iterations:
-    moderate_growth: float = 1.2         # this much longer
-    step_shrink: float = 0.5             # after a failed step the next is this fraction of it
-    lapack_min_size: int = 32            # LAPACK factorizations from this many coordinates on
-    bend_samples: int = 65               # points along a flexure where its bend is sampled
-    circle_tol: float = 1e-14            # ellipse axes equal to this (relative): a circle, angle 0
+    bracket_tol: float = 1e-13  # regula falsi: relative load-factor interval (and eigenvalue)
+    bracket_iterations: int = 100  # regula falsi: at most this many trial load factors
+    bracket_clamp: float = 0.01  # regula falsi: trial point kept in [clamp, 1 - clamp]
+    descent_eps: float = 1e-3  # leaving a bifurcation: q +- eps max(1, |q|) v
+    descent_iteration_factor: int = 20  # descent Newton: this many times max_iterations
+    tie_tol: float = 1e-9  # two sides' potentials (mean y) equal to this relative tolerance
+    fast_iterations: int = 3  # a step that took at most this many iterations:
+    fast_growth: float = 2.0  # the next step this much longer;
+    moderate_iterations: int = 6  # at most this many iterations:
+    moderate_growth: float = 1.2  # this much longer
+    step_shrink: float = 0.5  # after a failed step the next is this fraction of it
+    lapack_min_size: int = 32  # LAPACK factorizations from this many coordinates on
+    bend_samples: int = 65  # points along a flexure where its bend is sampled
+    circle_tol: float = 1e-14  # ellipse axes equal to this (relative): a circle, angle 0
 
     def __post_init__(self):
         for f in fields(self):
@@ -69,20 +70,34 @@ class SolverSettings:
                 if not (math.isfinite(value) and lo(value) and hi(value)):
                     _bad(f.name, f"must be a finite number {what}", value)
         if not self.min_step <= self.initial_step <= self.max_step:
-            raise ValueError(f"settings.initial_step: must lie in [min_step, max_step] = "
-                             f"[{self.min_step!r}, {self.max_step!r}], got {self.initial_step!r}")
+            raise ValueError(
+                f"settings.initial_step: must lie in [min_step, max_step] = "
+                f"[{self.min_step!r}, {self.max_step!r}], got {self.initial_step!r}"
+            )
         if self.stagnation_lag > MAX_LAG:
-            _bad("stagnation_lag", f"must be at most {MAX_LAG} (chain_solver.h: FG_MAX_LAG)",
-                 self.stagnation_lag)
+            _bad(
+                "stagnation_lag",
+                f"must be at most {MAX_LAG} (chain_solver.h: FG_MAX_LAG)",
+                self.stagnation_lag,
+            )
         if self.stagnation_lag > self.stagnation_after:
-            _bad("stagnation_lag", f"must be at most stagnation_after ({self.stagnation_after})",
-                 self.stagnation_lag)
+            _bad(
+                "stagnation_lag",
+                f"must be at most stagnation_after ({self.stagnation_after})",
+                self.stagnation_lag,
+            )
         if self.moderate_iterations < self.fast_iterations:
-            _bad("moderate_iterations", f"must be at least fast_iterations "
-                 f"({self.fast_iterations})", self.moderate_iterations)
+            _bad(
+                "moderate_iterations",
+                f"must be at least fast_iterations ({self.fast_iterations})",
+                self.moderate_iterations,
+            )
         if self.descent_iteration_factor * self.max_iterations > INT_MAX:
-            _bad("descent_iteration_factor", "times max_iterations must be below 2**31",
-                 self.descent_iteration_factor)
+            _bad(
+                "descent_iteration_factor",
+                "times max_iterations must be below 2**31",
+                self.descent_iteration_factor,
+            )
 
 
 def _bad(name: str, what: str, value) -> None:
@@ -110,9 +125,18 @@ def _any(x):
 
 
 # the int fields that may be 0 (0 disables what they count)
-_ZERO_OK = {"max_steps", "polish_steps", "direct_samples", "expansion_doublings",
-            "bracket_iterations", "fast_iterations", "moderate_iterations", "lapack_min_size",
-            "direct_max_iterations", "max_iterations"}
+_ZERO_OK = {
+    "max_steps",
+    "polish_steps",
+    "direct_samples",
+    "expansion_doublings",
+    "bracket_iterations",
+    "fast_iterations",
+    "moderate_iterations",
+    "lapack_min_size",
+    "direct_max_iterations",
+    "max_iterations",
+}
 
 # float fields: (lower test, upper test, the range in words)
 _RANGES = {

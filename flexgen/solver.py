@@ -243,9 +243,7 @@ class Solver:
             stability_margin=a.margin,
             bend=dict(zip(p.flexure_order, ws.bend.tolist())),
             kernel={
-                name: KERNEL_STATES[k]
-                for name, k in zip(p.flexure_order, ws.kernel.tolist())
-                if k
+                name: KERNEL_STATES[k] for name, k in zip(p.flexure_order, ws.kernel.tolist()) if k
             },
         )
 

@@ -2,6 +2,7 @@
 strict flags, embeds the compiled chain solver with the scm3 / scm3_gauss25 kernels, and agrees
 with flexgen.solve on examples/two_link_finger.toml, also past a kernel switch; a tendon
 tension with no equilibrium ends with the reason (status "no_equilibrium", exit 3)."""
+
 import json
 import re
 import subprocess
@@ -24,9 +25,23 @@ OUTPUTS = ("middle.pad", "fingertip.pad")
 
 
 def build(exe, *defines):
-    subprocess.run(["gcc", *C_FLAGS, *defines, f"-I{SOLVER}", f"-I{GENERATED / 'c'}", str(EXAMPLE),
-                    str(SOLVER / "chain_solver.c"), str(GENERATED / "c" / "scm3.c"),
-                    str(GENERATED / "c" / "scm3_gauss25.c"), "-lm", "-o", str(exe)], check=True)
+    subprocess.run(
+        [
+            "gcc",
+            *C_FLAGS,
+            *defines,
+            f"-I{SOLVER}",
+            f"-I{GENERATED / 'c'}",
+            str(EXAMPLE),
+            str(SOLVER / "chain_solver.c"),
+            str(GENERATED / "c" / "scm3.c"),
+            str(GENERATED / "c" / "scm3_gauss25.c"),
+            "-lm",
+            "-o",
+            str(exe),
+        ],
+        check=True,
+    )
     return exe
 
 
@@ -44,8 +59,9 @@ def finger(tension=None, pad_fy=None):
     """The TOML finger, with the tension / pad force replaced."""
     scene = load_scene(SCENE)
     if tension is not None:
-        scene = replace(scene, tendons=tuple(replace(t, tension=float(tension))
-                                             for t in scene.tendons))
+        scene = replace(
+            scene, tendons=tuple(replace(t, tension=float(tension)) for t in scene.tendons)
+        )
     if pad_fy is not None:
         (load,) = scene.loads
         assert load.point == "fingertip.pad"
@@ -73,9 +89,11 @@ def reference_residual(scene, q):
     return np.linalg.norm(g) / scale
 
 
-@pytest.mark.parametrize("args, tension, pad_fy", [((), None, None), ((0.0, -0.5), 0.0, -0.5),
-                                                   ((12.0,), 12.0, None)],
-                         ids=["defaults", "slack-tendon", "continuation"])
+@pytest.mark.parametrize(
+    "args, tension, pad_fy",
+    [((), None, None), ((0.0, -0.5), 0.0, -0.5), ((12.0,), 12.0, None)],
+    ids=["defaults", "slack-tendon", "continuation"],
+)
 def test_matches_flexgen_solve(controller, args, tension, pad_fy):
     """The full load at once (10 N, 0 N) and, at 12 N, the load continuation (the direct solve's
     path check fails there): the example's hand-filled problem is flexgen's, so the same
@@ -137,7 +155,7 @@ def test_no_equilibrium_exits_3_with_the_reason(controller):
     code, out = run(controller, 400.0)
     assert code == 3
     assert out["status"] == "no_equilibrium" and out["converged"] is False
-    assert out["failure"] == 4                                    # FG_FAIL_LIMIT
+    assert out["failure"] == 4  # FG_FAIL_LIMIT
     assert out["load_factor"] == ref.load_factor
 
 
@@ -146,6 +164,7 @@ def test_settings_are_the_python_defaults():
     from dataclasses import fields
 
     from flexgen.settings import DEFAULT
+
     source = EXAMPLE.read_text()
     found = dict(re.findall(r"s->(\w+) = ([^;]+);", source))
     assert list(found) == [f.name for f in fields(DEFAULT)]

@@ -78,6 +78,7 @@ def test_bad_values_are_named(field, value, message):
 
 def test_max_lag_is_the_headers():
     from flexgen import settings
+
     found = re.search(r"#define FG_MAX_LAG (\d+)", HEADER.read_text())
     assert int(found.group(1)) == settings.MAX_LAG
     with pytest.raises(ValueError, match=r"settings.stagnation_lag: must be at most 64"):
