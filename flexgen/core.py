@@ -37,6 +37,7 @@ PACKAGE = Path(__file__).resolve().parent
 SOURCES = PACKAGE / "compiled"
 
 SOLVED: int = lib.FG_SOLVED
+MODEL_ERROR: int = lib.FG_MODEL_ERROR  # a malformed fg_problem (flexgen.problem never builds one)
 # fg_answer.critical_kind: the path snapped through at a limit point, or crossed a bifurcation
 SNAP_THROUGH: int = lib.FG_SNAP_THROUGH
 

@@ -48,6 +48,11 @@ def _last_error(solver: Any, a: Any) -> str:
 
 def failure_reason(solver: Any, status: int) -> str:
     """The one-line reason of a failed solve (``Solver._result``)."""
+    if status == lib.FG_MODEL_ERROR:
+        return (
+            "the solver core refused the problem as malformed (a count, an index, an array, a "
+            "kernel or a setting it cannot run with)"
+        )
     a = solver.workspace.answer
     lam = a.failure_load_factor
     if a.failure == lib.FG_FAIL_STEPS:

@@ -172,6 +172,17 @@ class Solver:
         ws, p = self.workspace, self.problem
         a = ws.answer
         info = {name: dict(v) for name, v in self._info.items()}
+        if status == core.MODEL_ERROR:  # the core refused the problem: the answer is not filled
+            return Result(
+                scene=self.scene.name,
+                converged=False,
+                stable=False,
+                iterations=0,
+                model=info,
+                q={},
+                points={},
+                reason=self._reason(status),
+            )
         warnings: list[str] = []
         critical: list[float] = []
         ncritical = a.ncritical

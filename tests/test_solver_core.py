@@ -1006,3 +1006,15 @@ def test_c_source_uses_no_heap():
     code = _strip_comments(SOURCE.read_text())
     for name in ("malloc", "calloc", "realloc", "free", "alloca"):
         assert not re.search(rf"\b{name}\s*\(", code), name
+
+
+def test_a_problem_the_core_refuses_is_a_reason_not_a_stale_answer():
+    """FG_MODEL_ERROR (a malformed fg_problem, which flexgen.problem never builds; here a setting
+    changed behind SolverSettings' back): no equilibrium, a reason saying so, and nothing left
+    over from the previous solve."""
+    s = flexgen.Solver(EXAMPLES / "rectangular_elastica.toml")
+    assert s.solve().critical_load_factors            # buckles: a critical load factor
+    s.problem.struct.settings.stagnation_lag = 0
+    r = s.solve()
+    assert not r.converged and "refused the problem as malformed" in r.reason
+    assert r.critical_load_factors == [] and r.warnings == [] and r.points == {}

@@ -132,6 +132,8 @@ static void default_settings(fg_settings *s)
     s->moderate_growth = 1.2;
     s->step_shrink = 0.5;
     s->lapack_min_size = 32;
+    s->bend_samples = 65;
+    s->circle_tol = 1e-14;
 }
 
 /* The finger of examples/two_link_finger.toml with this tendon tension and pad force (y). */

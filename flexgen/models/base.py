@@ -36,3 +36,23 @@ class FlexureModel(Protocol):
     def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
         """(num, 2) centreline points in the root frame, root first, for plots."""
         ...
+
+
+def core_tip(model, q) -> TipKinematics:
+    """The tip kinematics of a model the solver core evaluates by itself (the n-element chain,
+    the pseudo-rigid body): ``fg_flexure_tip`` on the model's ``fg_flexure``, so the formula
+    exists once, in C. (Smooth curvature models evaluate their generated NumPy kernels.)"""
+    from ..core import ffi, lib
+    from .registry import core_description
+
+    k = int(model.n_dof)
+    q = np.ascontiguousarray(np.asarray(q, dtype=float).reshape(k))
+    f = ffi.new("fg_flexure *")
+    f.ndof = k
+    core_description(model, f)
+    pose, J, H = np.empty(3), np.empty((3, k)), np.empty((3, k, k))
+    scratch = np.empty(4 * (k + 1))
+    buffers = [ffi.from_buffer("double[]", a) for a in (q, pose, J, H, scratch)]
+    if not lib.fg_flexure_tip(f, *buffers):
+        raise ValueError(f"{model!r} cannot be evaluated at q = {q.tolist()}")
+    return TipKinematics(pose=pose, J=J, H=H)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import TipKinematics
+from .base import TipKinematics, core_tip
 
 
 class FEMModel:
@@ -44,42 +44,15 @@ class FEMModel:
         seg = np.full(elements + 1, self.h)
         seg[0] = seg[-1] = 0.5 * self.h
         self.segments = seg  # (n + 1,) segment lengths, root first
-        idx = np.arange(elements)
-        self._maxij = np.maximum.outer(idx, idx)  # H's gather index max(i, j)
-        self._phi = np.zeros(elements + 1)  # scratch for tip()
-        self._lcs = np.empty((2, elements + 1))
 
     def _angles(self, q: np.ndarray) -> np.ndarray:
         q = np.asarray(q, dtype=float).reshape(self.n_dof)
         return np.concatenate(([0.0], np.cumsum(q)))  # (n + 1,) absolute segment angles
 
     def tip(self, q: np.ndarray) -> TipKinematics:
-        """Tip pose, Jacobian and Hessian. One point per call, written for it (the chain solver
-        calls this for every state): the tail sums by one reversed cumulative sum of the stacked
-        (cos, sin) terms, the Hessian gathered through the cached index max(i, j) -- the same
-        sums in the same order as the plain formulas, so the same numbers."""
-        n = self.n_dof
-        q = np.asarray(q, dtype=float).reshape(n)
-        phi = self._phi
-        phi[1:] = np.cumsum(q)  # (n + 1,) absolute segment angles
-        lcs = self._lcs
-        np.cos(phi, out=lcs[0])
-        np.sin(phi, out=lcs[1])
-        lcs *= self.segments
-        # tail sums: T[:, i] = sum_{k > i} l_k (cos, sin) phi_k  for joints i = 0..n-1
-        tail = np.cumsum(lcs[:, ::-1], axis=1)[:, ::-1]
-        tc, ts = tail[0, 1:], tail[1, 1:]
-        sums = lcs.sum(axis=1)  # pairwise, as lc.sum() was
-        pose = np.array([sums[0], sums[1], phi[-1]])
-        J = np.empty((3, n))
-        J[0] = -ts
-        J[1] = tc
-        J[2] = 1.0
-        H = np.zeros((3, n, n))
-        H[0] = tc[self._maxij]
-        H[1] = ts[self._maxij]
-        H[:2] *= -1.0
-        return TipKinematics(pose=pose, J=J, H=H)
+        """Tip pose, Jacobian and Hessian: the solver core's own evaluation of this model
+        (``fg_flexure_tip``; the n-element chain is written once, in C)."""
+        return core_tip(self, q)
 
     def energy(self, q: np.ndarray) -> float:
         q = np.asarray(q, dtype=float).reshape(self.n_dof)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import TipKinematics
+from .base import TipKinematics, core_tip
 
 
 class PRBModel:
@@ -35,14 +35,9 @@ class PRBModel:
         self.stiffness = self.gamma * self.K_theta * self.EI / self.length
 
     def tip(self, q: np.ndarray) -> TipKinematics:
-        q = np.asarray(q, dtype=float).reshape(1)
-        a = q[0]
-        r = self.gamma * self.length
-        c, s = np.cos(a), np.sin(a)
-        pose = np.array([(1.0 - self.gamma) * self.length + r * c, r * s, a])
-        J = np.array([[-r * s], [r * c], [1.0]])
-        H = np.array([[[-r * c]], [[-r * s]], [[0.0]]])
-        return TipKinematics(pose=pose, J=J, H=H)
+        """Tip pose, Jacobian and Hessian: the solver core's own evaluation of this model
+        (``fg_flexure_tip``; the pseudo-rigid body is written once, in C)."""
+        return core_tip(self, q)
 
     def energy(self, q: np.ndarray) -> float:
         q = np.asarray(q, dtype=float).reshape(1)

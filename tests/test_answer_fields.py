@@ -1,0 +1,143 @@
+"""What the core computes with every answer besides the equilibrium, against independent
+Python: the stability margin (generalized eigenvalue of the stiffness against the elastic
+Hessian), each flexure's bend (max |phi| along it, from NumPy's Legendre integrals), the kernel
+at equilibrium, the compliance ellipses (NumPy's eigen-decomposition) and the n-element chain's
+and pseudo-rigid body's tip kinematics (written out here from their definitions)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.polynomial import legendre
+
+import flexgen
+from flexgen.api import override
+from flexgen.models.fem import FEMModel
+from flexgen.models.prb import PRBModel
+from flexgen.models.registry import build_models
+
+EXAMPLES = sorted(Path(__file__).resolve().parents[1].glob("examples/*.toml"))
+
+
+def legendre_bend(q: np.ndarray, samples: int = 65) -> float:
+    """max |phi(sigma)|, phi = sum q_n int_0^sigma P_n(2t - 1) dt, by NumPy's legint."""
+    sigma = np.linspace(0.0, 1.0, samples)
+    phi = np.zeros_like(sigma)
+    for n, qn in enumerate(q):
+        c = np.zeros(n + 1)
+        c[n] = 1.0
+        phi += qn * legendre.legval(2 * sigma - 1, legendre.legint(c, lbnd=-1) / 2)
+    return float(np.max(np.abs(phi)))
+
+
+def reference_bend(kind: str, q: np.ndarray) -> float:
+    if kind == "fem":
+        return float(np.max(np.abs(np.cumsum(q)), initial=0.0))
+    if kind == "prb":
+        return abs(float(q[0]))
+    return legendre_bend(q)
+
+
+@pytest.mark.parametrize("model", ["scm", "fem", "prb"])
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_margin_bend_and_ellipses_against_numpy(path, model):
+    scene = override(flexgen.load_scene(path), model)
+    if any(f.model.kind == "exact" for f in scene.flexures):
+        pytest.skip("exact scene")
+    r = flexgen.solve(scene)
+    if not r.converged:
+        pytest.skip(r.reason)
+    models = build_models(scene)
+    # margin: smallest eigenvalue of L^-1 K L^-T, hess U = L L^T
+    KU = np.zeros_like(r.stiffness)
+    start = 0
+    for f in scene.flexures:
+        k = models[f.name].n_dof
+        KU[start : start + k, start : start + k] = models[f.name].energy_hessian(
+            np.asarray(r.q[f.name])
+        )
+        start += k
+    Li = np.linalg.inv(np.linalg.cholesky(KU))
+    margin = np.linalg.eigvalsh(Li @ r.stiffness @ Li.T)[0]
+    assert r.stability_margin == pytest.approx(margin, rel=1e-9, abs=1e-12)
+    assert (r.stability_margin > 0) == r.stable
+    for f in scene.flexures:
+        kind = "scm" if model == "scm" else model
+        assert r.bend[f.name] == pytest.approx(
+            reference_bend(kind, np.asarray(r.q[f.name])), rel=1e-12, abs=1e-15
+        )
+    for p in r.points.values():
+        C = np.asarray(p.compliance)
+        w, V = np.linalg.eigh(0.5 * (C + C.T))
+        assert p.ellipse["major"] == pytest.approx(w[1], rel=1e-9, abs=1e-300)
+        assert p.ellipse["minor"] == pytest.approx(w[0], rel=1e-6, abs=1e-12 * abs(w[1]))
+        if w[1] - w[0] > 1e-9 * abs(w[1]):
+            axis = math.atan2(V[1, 1], V[0, 1])
+            d = (p.ellipse["angle"] - axis) % math.pi
+            assert min(d, math.pi - d) < 1e-7
+            assert -math.pi / 2 < p.ellipse["angle"] <= math.pi / 2
+
+
+def test_kernel_at_equilibrium_names_the_switch():
+    """The rectangular elastica loaded past 90 degrees: the core evaluates it with the Gauss
+    kernel at equilibrium (scm3 "auto"), and with the polynomial kernel on the finger."""
+    path = Path(__file__).resolve().parents[1] / "examples" / "rectangular_elastica.toml"
+    scene = flexgen.load_scene(path)
+    load = scene.loads[0]
+    from dataclasses import replace
+
+    harder = replace(scene, loads=(replace(load, force=(load.force[0] * 1.3, load.force[1])),))
+    r = flexgen.solve(harder)
+    assert r.converged and r.bend["beam"] > math.pi / 2
+    assert r.kernel == {"beam": "gauss"}
+    assert any("switched to the Gauss kernel" in w for w in r.warnings)
+    finger = flexgen.solve(path.with_name("two_link_finger.toml"))
+    assert set(finger.kernel.values()) == {"poly"}
+
+
+def fem_tip_reference(L: float, q: np.ndarray):
+    """The n-element chain from its definition: segments h/2, h, ..., h, h/2, joint i turning
+    every segment after it by q_i; derivatives by the chain rule, written with loops."""
+    n = len(q)
+    h = L / n
+    seg = np.full(n + 1, h)
+    seg[0] = seg[-1] = h / 2
+    phi = np.concatenate(([0.0], np.cumsum(q)))
+    x, y = float(np.sum(seg * np.cos(phi))), float(np.sum(seg * np.sin(phi)))
+    J = np.zeros((3, n))
+    H = np.zeros((3, n, n))
+    for i in range(n):
+        for k in range(i + 1, n + 1):  # segments turned by joint i
+            J[0, i] -= seg[k] * math.sin(phi[k])
+            J[1, i] += seg[k] * math.cos(phi[k])
+            for j in range(n):
+                if j < k:
+                    H[0, i, j] -= seg[k] * math.cos(phi[k])
+                    H[1, i, j] -= seg[k] * math.sin(phi[k])
+        J[2, i] = 1.0
+    return np.array([x, y, phi[-1]]), J, H
+
+
+def test_fem_and_prb_tips_from_the_core_match_their_definitions():
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 5, 16):
+        q = rng.normal(scale=0.3, size=n)
+        tip = FEMModel(0.7, 2.0, n).tip(q)
+        pose, J, H = fem_tip_reference(0.7, q)
+        np.testing.assert_allclose(tip.pose, pose, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(tip.J, J, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(tip.H, H, rtol=0, atol=1e-15)
+    m = PRBModel(0.5, 1.0, gamma=0.85)
+    a = 0.7
+    r = 0.85 * 0.5
+    tip = m.tip(np.array([a]))
+    np.testing.assert_allclose(
+        tip.pose, [0.15 * 0.5 + r * math.cos(a), r * math.sin(a), a], rtol=0, atol=1e-15
+    )
+    np.testing.assert_allclose(tip.J[:, 0], [-r * math.sin(a), r * math.cos(a), 1.0], atol=1e-15)
+    np.testing.assert_allclose(
+        tip.H[:, 0, 0], [-r * math.cos(a), -r * math.sin(a), 0.0], atol=1e-15
+    )
