@@ -1,12 +1,12 @@
 /* A controller-side use of the compiled chain solver: the tendon-driven two-link finger of
  * examples/two_link_finger.toml (two 3-mode smooth curvature flexures, a palm, a middle link and a
  * fingertip; a flexor tendon from the palm through the middle link to the fingertip; a contact
- * force on the fingertip pad), filled into an fg_problem by hand the way flexgen/compiled/plan.py
- * flattens the scene, and solved in one fg_solve call per control cycle: equilibrium, pad poses
+ * force on the fingertip pad), filled into an fg_problem by hand the way flexgen/problem.py fills
+ * it from the scene, and solved in one fg_solve call per control cycle: equilibrium, pad poses
  * and pad compliances. No heap, no globals: the workspace is a fixed-size stack array, checked
  * against fg_work_size / fg_iwork_size at start.
  *
- * Each flexure uses the kernel pair of the Python model kind "auto": the polynomial kernel scm3
+ * Each flexure uses the kernel pair of the scm model's kernel "auto": the polynomial kernel scm3
  * within its range, the Gauss kernel scm3_gauss25 past it. When fg_solve finds no equilibrium
  * (FG_NO_EQUILIBRIUM: e.g. no path to the full load) it says why (answer.failure, at
  * answer.failure_load_factor); a real controller then keeps its last answer.
@@ -145,8 +145,9 @@ static void finger_setup(Finger *f, double tension, double pad_fy)
      * of the middle link, which is the proximal flexure's tip frame (flexure 0) */
     scm3_flexure(f, 0, -1, 0.0, 0.0, 0.0, 0.020, 200e9, 0.010, 0.00025);
     scm3_flexure(f, 1, 0, 0.045, 0.0, 0.0, 0.015, 200e9, 0.010, 0.00020);
-    /* points in the order plan.py lists them (loads, tendon routes, outputs), each on the flexure
-     * frame that carries its link: middle -> proximal (0), fingertip -> distal (1), base -> -1 */
+    /* points in the order flexgen/problem.py lists them (loads, tendon routes, outputs, each
+     * point once), each on the flexure frame that carries its link: middle -> proximal (0),
+     * fingertip -> distal (1), base -> -1 */
     set_point(&f->points[0], 1, 0.015, -0.004);    /* fingertip.pad */
     set_point(&f->points[1], -1, -0.010, 0.004);   /* base.r0 */
     set_point(&f->points[2], 0, 0.002, 0.004);     /* middle.hole */

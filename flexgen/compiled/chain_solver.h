@@ -1,7 +1,9 @@
-/* The compiled chain solver's problem description and answer (see chain_solver.c).
+/* The chain solver's problem description and answer (the solver: chain_solver.c).
  *
- * This header is the single definition of the interface: a scene is flattened into these
- * structs by flexgen/compiled/plan.py, which fills their fields by name. C99; also valid C++.
+ * This header is the single definition of the interface: flexgen/problem.py fills these structs
+ * from a scene by field name through cffi (this header, less its preprocessor lines, is the
+ * cffi declaration), flexgen/solver.py reads the answer; a C program fills them itself. C99;
+ * also valid C++.
  */
 #ifndef FLEXGEN_CHAIN_SOLVER_H
 #define FLEXGEN_CHAIN_SOLVER_H
@@ -33,7 +35,7 @@ enum {
     FG_FAIL_LIMIT = 4           /* no equilibrium beyond a load factor (the path ended) */
 };
 
-/* the last error met on the way (fg_answer.last_error: equilibrium._Solver.last_error) */
+/* the last error met on the way (fg_answer.last_error; flexgen/reasons.py words it) */
 enum {
     FG_ERR_NONE = 0,
     FG_ERR_STAGNATION = 1,      /* Newton stagnated (at a load factor, a relative residual) */
@@ -47,7 +49,7 @@ enum {
 
 /* the kind of a critical event on the load path (fg_answer.critical_kind): the path ended at a
  * limit point and the solve snapped through, or it crossed a bifurcation and took the stable side
- * chosen for this reason (equilibrium.BUCKLING_SIDES[kind - 1] is its text) */
+ * chosen for this reason (flexgen/solver.py: BUCKLING_SIDES[kind - 1] is its text) */
 enum {
     FG_SNAP_THROUGH = 0,
     FG_BUCKLING_ONLY_SIDE = 1,          /* the only stable side found */
@@ -60,7 +62,7 @@ typedef struct {
     int kind;             /* FG_MODEL_* */
     int ndof;             /* its coordinates are q[offset .. offset + ndof) */
     int offset;
-    int parent;           /* flexure whose tip frame carries this root (earlier in the list), -1: base */
+    int parent;           /* flexure whose tip frame carries this root (listed earlier), -1: base */
     double at[3];         /* root frame in the parent frame: x, y, angle */
     double length;
     double gamma;         /* FG_MODEL_PRB: pin position */
@@ -174,12 +176,11 @@ typedef struct {
     int max_critical;     /* their capacity: only the first max_critical events are stored */
     int ncritical;        /* how many were met (every one, also those beyond max_critical) */
     int *switched;        /* nflex (in fg_problem.flex order): 1 if that flexure's "auto" model
-                           * used its Gauss kernel during the solve (SCMModel.switched); NULL:
-                           * not reported */
+                           * used its Gauss kernel during the solve; NULL: not reported */
     /* FG_NO_EQUILIBRIUM: why (FG_FAIL_*) and at which load factor (the reason's lam) */
     int failure;
     double failure_load_factor;
-    /* the last error of the solve (equilibrium._Solver.last_error), what its message prints */
+    /* the last error of the solve, what its message prints (flexgen/reasons.py) */
     int last_error;                 /* FG_ERR_* */
     double last_error_load_factor;  /* STAGNATION, LINE_SEARCH, JUMP */
     double last_error_residual;     /* STAGNATION, NOT_CONVERGED, LINE_SEARCH: relative */
@@ -187,10 +188,9 @@ typedef struct {
     int last_error_flexure;         /* KERNEL_RANGE: the flexure (index in fg_problem.flex) */
     int last_error_route;           /* TENDON: index in fg_problem.route of the zero-length
                                      * segment's first point (its second point follows it) */
-    /* the last model error (equilibrium._Solver.model_error): FG_ERR_NONE, KERNEL_RANGE or
-     * TENDON, with its flexure or route entry as above (-1: none); cleared where the Python
-     * solver cleared sol.model_error (after each accepted continuation step, after a rejected
-     * warm start) */
+    /* the last model error: FG_ERR_NONE, KERNEL_RANGE or TENDON, with its flexure or route
+     * entry as above (-1: none); cleared after each accepted continuation step and after a
+     * rejected warm start, so that it names a model error the solve did not get past */
     int model_error;
     int model_error_flexure;
     int model_error_route;
