@@ -52,13 +52,12 @@ def point_result(
     minor, angle) as plain lists (every chain-model answer is built here; plain floats are
     cheaper than numpy at this size); a non-finite compliance adds its warning to
     ``warnings``."""
-    if not math.isfinite(sum(c3[0]) + sum(c3[1]) + sum(c3[2])):
+    r0, r1, r2 = c3
+    if not math.isfinite(r0[0] + r0[1] + r0[2] + r1[1] + r1[2] + r2[2]):  # symmetric
         warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
+    major, minor, angle = ell
     return PointResult(
-        pose=pose,
-        compliance=[c3[0][:2], c3[1][:2]],
-        ellipse={"major": ell[0], "minor": ell[1], "angle": ell[2]},
-        compliance3=c3,
+        pose, [r0[:2], r1[:2]], {"major": major, "minor": minor, "angle": angle}, c3
     )
 
 

@@ -111,6 +111,7 @@ class Solver:
         self._changed_loads = self._changed_tensions = False
         self._slices = list(self.problem.chain.slices.items())
         # flexures whose model may switch kernels (the others never set the core's flag)
+        self._kernel_models = any(model_info(m)["kind"] == "scm" for m in self.models.values())
         self._switchable = any(
             getattr(m, "gauss", None) is not None and getattr(m, "poly", None) is not None
             for m in self.models.values()
@@ -130,6 +131,16 @@ class Solver:
         coordinates}, e.g. the previous answer's ``q``) is a warm start: Newton at the full load
         from q0, accepted if it converges to a stable equilibrium within ``max_dq`` of it, else
         the solve starts from the unloaded state."""
+        return self._result(self.run(loads, tensions, q0))
+
+    def run(
+        self, loads: Any = None, tensions: Any = None, q0: Mapping[str, Any] | None = None
+    ) -> int:
+        """``solve`` without building a Result, for the tightest loops: the core's status
+        (``flexgen.core.SOLVED`` when an equilibrium was found), the answer left in
+        ``self.workspace`` (``q``, ``pose`` (noutputs x 3), ``compliance`` (noutputs x 3 x 3),
+        ``ellipse``, ``K``; ``answer.stable``, ``answer.iterations``), overwritten by the next
+        call. Outputs in the order of ``self.outputs``, q packed in the scene's flexure order."""
         p = self.problem
         if loads is not None or self._changed_loads:  # None: the scene's own
             self._changed_loads = loads is not None
@@ -148,23 +159,27 @@ class Solver:
             p.struct.q0 = ws.q0_ptr
         else:
             p.struct.q0 = core.ffi.NULL
-        status = core.lib.fg_solve(p.struct, ws.work_ptr, ws.iwork_ptr, ws.answer)
-        return self._result(status)
+        status: int = core.lib.fg_solve(p.struct, ws.work_ptr, ws.iwork_ptr, ws.answer)
+        if status == core.MODEL_ERROR:  # the core checks the loads are finite, off Python's path
+            for what, given in (("loads", p.loads), ("tensions", p.tensions)):
+                if not np.all(np.isfinite(given)):
+                    raise ValueError(f"{what}: every value must be finite")
+        return status
 
     @staticmethod
     def _set(target: np.ndarray, values: Any, what: str) -> None:
         if values is target:
             return
         a = np.asarray(values, dtype=float)
-        if a.size != target.size:
-            raise ValueError(
-                f"{what}: expected {target.shape} values (the scene's "
-                f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), "
-                f"got shape {a.shape}"
-            )
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"{what}: every value must be finite")
-        target.reshape(-1)[:] = a.reshape(-1)
+        if a.shape != target.shape:
+            if a.size != target.size:
+                raise ValueError(
+                    f"{what}: expected {target.shape} values (the scene's "
+                    f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), "
+                    f"got shape {a.shape}"
+                )
+            a = a.reshape(target.shape)
+        target[...] = a
 
     # ---- the answer -------------------------------------------------------------------------
 
@@ -231,10 +246,11 @@ class Solver:
             warnings.append(UNSTABLE)
         poses, compliances, ellipses = ws.pose.tolist(), ws.compliance.tolist(), ws.ellipse.tolist()
         points = {
-            ref: point_result(ref, poses[i], compliances[i], ellipses[i], warnings)
-            for i, ref in enumerate(p.outputs)
+            ref: point_result(ref, pose, c3, ell, warnings)
+            for ref, pose, c3, ell in zip(p.outputs, poses, compliances, ellipses)
         }
         qs = q.tolist()
+        states = ws.kernel.tolist() if self._kernel_models else ()
         return Result(
             scene=self.scene.name,
             converged=True,
@@ -253,9 +269,7 @@ class Solver:
             stiffness=ws.K.copy(),
             stability_margin=a.margin,
             bend=dict(zip(p.flexure_order, ws.bend.tolist())),
-            kernel={
-                name: KERNEL_STATES[k] for name, k in zip(p.flexure_order, ws.kernel.tolist()) if k
-            },
+            kernel={name: KERNEL_STATES[k] for name, k in zip(p.flexure_order, states) if k},
         )
 
     def _reason(self, status: int) -> str:

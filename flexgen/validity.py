@@ -632,11 +632,9 @@ def assess(
     labels = ctx.labels
     warnings: list[str] = []
     oor = switched = False
-    core_bend = getattr(result, "bend", None) or {}
-    bends = {
-        name: core_bend[name] if name in core_bend else bend(m, result.q[name])
-        for name, m in models.items()
-    }
+    bends = getattr(result, "bend", None) or {}
+    if len(bends) != len(models):  # an answer the core did not describe
+        bends = {name: bend(m, result.q[name]) for name, m in models.items()}
     beta_at = max(bends, key=bends.__getitem__)
     beta = bends[beta_at]
     unclaimed: set[str] = set()  # flexures already warned that nothing is claimed

@@ -141,3 +141,22 @@ def test_fem_and_prb_tips_from_the_core_match_their_definitions():
     np.testing.assert_allclose(
         tip.H[:, 0, 0], [-r * math.cos(a), -r * math.sin(a), 0.0], atol=1e-15
     )
+
+
+def test_run_leaves_the_answer_of_solve_in_the_workspace():
+    """Solver.run (the loop path without a Result) finds what Solver.solve reports."""
+    s = flexgen.Solver(EXAMPLES[0].with_name("two_link_finger.toml"))
+    loads = s.problem.loads * 1.1
+    r = s.solve(loads=loads)
+    from flexgen import core
+
+    assert s.run(loads=loads) == core.SOLVED
+    ws = s.workspace
+    for i, ref in enumerate(s.outputs):
+        assert ws.pose[i].tolist() == r.points[ref].pose
+        assert ws.compliance[i].tolist() == r.points[ref].compliance3
+        assert ws.ellipse[i].tolist() == [
+            r.points[ref].ellipse[k] for k in ("major", "minor", "angle")
+        ]
+    assert np.concatenate([r.q[n] for n in r.q]).tolist() == ws.q.tolist()
+    assert bool(ws.answer.stable) == r.stable and ws.answer.iterations == r.iterations

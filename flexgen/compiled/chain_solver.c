@@ -1760,13 +1760,14 @@ static int well_formed(const fg_problem *p, const fg_answer *out)
         if (p->points[i].frame < -1 || p->points[i].frame >= p->nflex)
             return 0;
     for (i = 0; i < p->nloads; ++i)
-        if (p->load_point[i] < 0 || p->load_point[i] >= p->npoints)
+        if (p->load_point[i] < 0 || p->load_point[i] >= p->npoints
+            || !isfinite(p->load[3 * i] + p->load[3 * i + 1] + p->load[3 * i + 2]))
             return 0;
     for (i = 0; i < p->noutputs; ++i)
         if (p->outputs[i] < 0 || p->outputs[i] >= p->npoints)
             return 0;
     for (i = 0; i < p->ntendons; ++i) {
-        if (p->route_start[i] < 0 || p->route_len[i] < 0)
+        if (p->route_start[i] < 0 || p->route_len[i] < 0 || !isfinite(p->tension[i]))
             return 0;
         for (j = 0; j < p->route_len[i]; ++j) {
             int r = p->route[p->route_start[i] + j];
