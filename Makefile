@@ -1,7 +1,7 @@
 # flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
 PYTHON ?= python3
 
-.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver demo
+.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver bench-chain demo
 
 # Installs flexgen editable with its test and lint tools; builds the compiled core (flexgen._core)
 # from flexgen/compiled and generated/c. Run it again after editing any C source.
@@ -25,7 +25,7 @@ check-generated:
 	$(PYTHON) -m flexgen generate --out generated --check
 
 # Every benchmark page under docs/ (about 8 minutes on 2 cores).
-bench: bench-kernels bench-growth bench-models bench-solver
+bench: bench-kernels bench-growth bench-models bench-solver bench-chain
 
 # flexgen bench (accuracy vs speed) and flexgen stability (where models fail) into docs/
 # (flexgen_tools/bench.py, flexgen_tools/stability.py; need this checkout's examples/)
@@ -36,6 +36,10 @@ bench-models:
 # time per solve: flexgen.solve, a prepared Solver.solve(), the bare core call; LAPACK vs built-in
 bench-solver:
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/solver_speed.py --out docs/solver-speed.md
+
+# time per solve of a chain of n = 1..32 flexures, and the evaluations per solve
+bench-chain:
+	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/chain_scaling.py --out docs/chain-scaling.md
 
 bench-kernels:
 	$(PYTHON) benchmarks/kernels.py --out docs/benchmarks.md

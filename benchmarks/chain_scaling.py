@@ -92,11 +92,13 @@ def main(argv=None) -> None:
         default="min",
         help="of the batches (min: robust to other processes on the machine)",
     )
+    ap.add_argument("--out", help="also write the table as a Markdown page to this file")
     args = ap.parse_args(argv)
     global STAT
     STAT = args.stat
     sizes = [int(s) for s in args.sizes.split(",")]
     base = None
+    rows = []
     print(
         f"{'n':>3} {'ndof':>5} {'us/solve':>10} {'iterations':>10} {'evaluations':>11} {'ratio':>7}"
     )
@@ -107,11 +109,24 @@ def main(argv=None) -> None:
         if base is None:
             base = t
         a = solver.workspace.answer
-        ev = getattr(a, "evaluations", None)
-        print(
-            f"{n:>3} {solver.workspace.q.size:>5} {t * 1e6:>10.2f} {a.iterations:>10} "
-            f"{'-' if ev is None else ev:>11} {t / base:>7.1f}"
-        )
+        row = (n, solver.workspace.q.size, t * 1e6, a.iterations, a.evaluations, t / base)
+        rows.append(row)
+        print(f"{row[0]:>3} {row[1]:>5} {row[2]:>10.2f} {row[3]:>10} {row[4]:>11} {row[5]:>7.1f}")
+    if args.out:
+        lines = [
+            "# Chain scaling: time per solve against the number of flexures",
+            "",
+            f"Written by `python benchmarks/chain_scaling.py --out {args.out}` (part of "
+            "`make bench`) on this project's shared 2-core machine: a chain of n scm3 flexures "
+            "(length 1/n each, EI = 1, in a row) under the tip force (0, -2), the bare core call "
+            f"of a prepared `flexgen.Solver`, the {STAT} of {args.rounds} batches. Evaluations: "
+            "chain evaluations (kinematics and kernels) per solve, as the core counts them.",
+            "",
+            "| n | coordinates | us per solve | Newton iterations | evaluations | time / (n = 1) |",
+            "|---|---|---|---|---|---|",
+        ]
+        lines += [f"| {r[0]} | {r[1]} | {r[2]:.2f} | {r[3]} | {r[4]} | {r[5]:.1f} |" for r in rows]
+        Path(args.out).write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":
