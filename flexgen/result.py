@@ -56,9 +56,7 @@ def point_result(
     if not math.isfinite(r0[0] + r0[1] + r0[2] + r1[1] + r1[2] + r2[2]):  # symmetric
         warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
     major, minor, angle = ell
-    return PointResult(
-        pose, [r0[:2], r1[:2]], {"major": major, "minor": minor, "angle": angle}, c3
-    )
+    return PointResult(pose, [r0[:2], r1[:2]], {"major": major, "minor": minor, "angle": angle}, c3)
 
 
 UNSTABLE = "the equilibrium is unstable: the stiffness matrix is not positive definite"

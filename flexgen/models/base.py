@@ -8,7 +8,7 @@ energy with gradient and Hessian. The chain solver needs nothing else.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -33,6 +33,12 @@ class FlexureModel(Protocol):
     def energy(self, q: np.ndarray) -> float: ...
     def energy_gradient(self, q: np.ndarray) -> np.ndarray: ...
     def energy_hessian(self, q: np.ndarray) -> np.ndarray: ...
+    def core_flexure(self, f: Any) -> np.ndarray:
+        """Fill the solver core's ``fg_flexure`` f (kind, length, kernels...); return the
+        diagonal of the energy Hessian (every chain model's energy is quadratic with a diagonal
+        Hessian)."""
+        ...
+
     def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
         """(num, 2) centreline points in the root frame, root first, for plots."""
         ...
@@ -43,13 +49,12 @@ def core_tip(model, q) -> TipKinematics:
     the pseudo-rigid body): ``fg_flexure_tip`` on the model's ``fg_flexure``, so the formula
     exists once, in C. (Smooth curvature models evaluate their generated NumPy kernels.)"""
     from ..core import ffi, lib
-    from .registry import core_description
 
     k = int(model.n_dof)
     q = np.ascontiguousarray(np.asarray(q, dtype=float).reshape(k))
     f = ffi.new("fg_flexure *")
     f.ndof = k
-    core_description(model, f)
+    model.core_flexure(f)
     pose, J, H = np.empty(3), np.empty((3, k)), np.empty((3, k, k))
     scratch = np.empty(4 * (k + 1))
     buffers = [ffi.from_buffer("double[]", a) for a in (q, pose, J, H, scratch)]

@@ -49,6 +49,14 @@ class FEMModel:
         q = np.asarray(q, dtype=float).reshape(self.n_dof)
         return np.concatenate(([0.0], np.cumsum(q)))  # (n + 1,) absolute segment angles
 
+    def core_flexure(self, f) -> np.ndarray:
+        """Describe this flexure to the solver core (``fg_flexure`` f, FG_MODEL_FEM); the
+        diagonal of the energy Hessian."""
+        from ..core import lib
+
+        f.kind, f.length = lib.FG_MODEL_FEM, self.length
+        return np.full(self.n_dof, self.spring)
+
     def tip(self, q: np.ndarray) -> TipKinematics:
         """Tip pose, Jacobian and Hessian: the solver core's own evaluation of this model
         (``fg_flexure_tip``; the n-element chain is written once, in C)."""

@@ -34,6 +34,14 @@ class PRBModel:
         self.K_theta = float(K_theta)
         self.stiffness = self.gamma * self.K_theta * self.EI / self.length
 
+    def core_flexure(self, f) -> np.ndarray:
+        """Describe this flexure to the solver core (``fg_flexure`` f, FG_MODEL_PRB); the
+        diagonal of the energy Hessian."""
+        from ..core import lib
+
+        f.kind, f.length, f.gamma = lib.FG_MODEL_PRB, self.length, self.gamma
+        return np.array([self.stiffness])
+
     def tip(self, q: np.ndarray) -> TipKinematics:
         """Tip pose, Jacobian and Hessian: the solver core's own evaluation of this model
         (``fg_flexure_tip``; the pseudo-rigid body is written once, in C)."""

@@ -50,31 +50,6 @@ def _fem(flexure: Flexure, cls: Any) -> FlexureModel:
     return cls(float(flexure.length), float(flexure.EI), int(flexure.model.elements))
 
 
-def _core_scm(model: Any, f: Any) -> np.ndarray:
-    from ..core import kernel_functions, lib
-
-    f.kind, f.length = lib.FG_MODEL_KERNEL, model.length
-    if model.poly is not None:
-        f.poly, f.in_range = kernel_functions(f"scm{model.n_dof}")
-    if model.gauss is not None:
-        f.gauss, f.gauss_in_range = kernel_functions(model.gauss_name)
-    return model.EI / model.length * np.asarray(model.weights, dtype=float)
-
-
-def _core_fem(model: Any, f: Any) -> np.ndarray:
-    from ..core import lib
-
-    f.kind, f.length = lib.FG_MODEL_FEM, model.length
-    return np.full(model.n_dof, model.spring)
-
-
-def _core_prb(model: Any, f: Any) -> np.ndarray:
-    from ..core import lib
-
-    f.kind, f.length, f.gamma = lib.FG_MODEL_PRB, model.length, model.gamma
-    return np.array([model.stiffness])
-
-
 @cache
 def _angle_samples(modes: int) -> np.ndarray:
     from .scm import angle_basis
@@ -100,8 +75,7 @@ class ModelKind:
     module: str | None  # where its class lives (None: not a chain model)
     cls: str | None
     build: Callable[[Flexure, Any], FlexureModel] | None
-    # fills the model's fg_flexure for the core; returns the diagonal of its energy Hessian
-    core: Callable[[Any, Any], np.ndarray] | None
+    chain: bool  # a chain model: the core solves it (its class fills its fg_flexure)
     info: Callable[[Any], dict[str, Any]]  # the Result's "model" entry of a flexure
     label: Callable[[Any], str]  # "scm3 auto", "cc", "fem16", "prb": validity's CLAIMS rows
     bend: Callable[[Any, np.ndarray], float] | None  # max |phi(s)| along the flexure at q
@@ -117,7 +91,7 @@ KINDS: dict[str, ModelKind] = {
         "flexgen.models.scm",
         "SCMModel",
         _scm,
-        _core_scm,
+        True,
         lambda m: {"kind": "scm", "modes": int(m.n_dof)},
         _scm_label,
         _bend_scm,
@@ -127,7 +101,7 @@ KINDS: dict[str, ModelKind] = {
         "flexgen.models.scm",
         "SCMModel",
         _scm,
-        _core_scm,
+        True,
         lambda m: {"kind": "scm", "modes": int(m.n_dof)},
         _scm_label,
         _bend_scm,
@@ -137,7 +111,7 @@ KINDS: dict[str, ModelKind] = {
         "flexgen.models.prb",
         "PRBModel",
         _prb,
-        _core_prb,
+        True,
         lambda m: {"kind": "prb"},
         lambda m: "prb",
         _bend_prb,
@@ -147,13 +121,13 @@ KINDS: dict[str, ModelKind] = {
         "flexgen.models.fem",
         "FEMModel",
         _fem,
-        _core_fem,
+        True,
         lambda m: {"kind": "fem", "elements": int(m.n_dof)},
         lambda m: f"fem{int(m.n_dof)}",
         _bend_fem,
     ),
     "exact": ModelKind(
-        "exact", None, None, None, None, lambda m: {"kind": "exact"}, lambda m: "exact", None
+        "exact", None, None, None, False, lambda m: {"kind": "exact"}, lambda m: "exact", None
     ),
 }
 MODEL_KINDS = tuple(KINDS)
@@ -186,19 +160,19 @@ def build_model(flexure: Flexure) -> FlexureModel:
 def kind_of(model: Any) -> ModelKind:
     """The registry row of a built model (by its ``kind`` attribute)."""
     kind = KINDS.get(getattr(model, "kind", None))  # type: ignore[arg-type]
-    if kind is None or kind.core is None:
+    if kind is None or not kind.chain:
         raise ModelError(
             f"model {model!r} is not one of the chain model kinds "
-            f"({', '.join(k for k, v in KINDS.items() if v.core)})"
+            f"({', '.join(k for k, v in KINDS.items() if v.chain)})"
         )
     return kind
 
 
 def core_description(model: Any, flexure_struct: Any) -> np.ndarray:
-    """Fill the core's ``fg_flexure`` for ``model``; the diagonal of its energy Hessian."""
-    core = kind_of(model).core
-    assert core is not None
-    return core(model, flexure_struct)
+    """Fill the core's ``fg_flexure`` for ``model`` (its ``core_flexure``: each model class
+    describes itself to the core); the diagonal of its energy Hessian."""
+    kind_of(model)  # a chain model kind, else ModelError
+    return np.asarray(model.core_flexure(flexure_struct), dtype=float)
 
 
 def model_info(model: Any) -> dict[str, Any]:

@@ -67,6 +67,18 @@ class SCMModel:
         assert self.gauss is not None  # no polynomial: kernel "gauss", whose kernel must exist
         return bool(self.gauss.in_range(q))
 
+    def core_flexure(self, f) -> np.ndarray:
+        """Describe this flexure to the solver core: its generated C kernels (compiled into
+        flexgen._core) in the ``fg_flexure`` f; the diagonal of the energy Hessian."""
+        from flexgen.core import kernel_functions, lib
+
+        f.kind, f.length = lib.FG_MODEL_KERNEL, self.length
+        if self.poly is not None:
+            f.poly, f.in_range = kernel_functions(f"scm{self.n_dof}")
+        if self.gauss is not None:
+            f.gauss, f.gauss_in_range = kernel_functions(self.gauss_name)
+        return self.EI / self.length * np.asarray(self.weights, dtype=float)
+
     def range_error(self) -> str:
         """Why this flexure cannot be evaluated past its polynomial kernel's range."""
         assert self.poly is not None, "range_error: this model has no polynomial kernel"
