@@ -35,7 +35,7 @@ from typing import Any
 
 from .result import Result
 from .scene import MODEL_KINDS, Scene, SceneError, as_scene
-from .settings import SolverSettings
+from .settings import DEFAULT, SolverSettings
 from .solver import Solver, make_settings
 from .validity import check
 
@@ -100,6 +100,15 @@ def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
     return solver
 
 
+def _assessed(solver: Solver, q0: Mapping[str, Any] | None) -> Result:
+    """``solver.solve(q0=q0)`` with the margin to a critical load the validity check needs (the
+    core's ``fg_margin``, while the workspace holds this answer's stiffness)."""
+    result = solver.solve(q0=q0)
+    if result.converged:
+        result.stability_margin = solver.margin()
+    return result
+
+
 def solve_scene(
     scene: Scene,
     models: Mapping[str, Any] | None = None,
@@ -114,6 +123,15 @@ def solve_scene(
     (``flexgen.validity.check``: appended to ``warnings``) and, for the Python API,
     ``error_class`` = {"pose", "compliance"}, the indicative error class (None when a tolerance
     chose the models: ``error_estimate`` is then the claim; not part of the JSON contract)."""
+    if models is None and tolerance is None and not options:
+        # the same Scene object again (a loop): its prepared solver, if one is kept, says the
+        # scene is neither exact nor asking for a tolerance
+        solver = _solvers.get((id(scene), id(DEFAULT if settings is None else settings)))
+        if solver is not None and solver.scene is scene:
+            with _lock:
+                result = _assessed(solver, q0)
+            check(scene, result, solver.models)
+            return result, None
     if uses_exact(scene):
         from . import exact_result
 
@@ -133,11 +151,11 @@ def solve_scene(
         return result, None
     if models is not None:
         solver = Solver(scene, models, settings)
-        result = solver.solve(q0=q0)
+        result = _assessed(solver, q0)
     else:
         with _lock:
             solver = _cached_solver(scene, settings)
-            result = solver.solve(q0=q0)
+            result = _assessed(solver, q0)
     check(scene, result, solver.models)
     return result, None
 

@@ -169,5 +169,6 @@ class Workspace:
         a.kernel = ffi.cast("int *", self.kernel.ctypes.data)
         self.answer = a
         self.work_ptr = dbl(self.work)
+        self.K_ptr = dbl(self.K)
         self.iwork_ptr = ffi.cast("int *", self.iwork.ctypes.data)
         self.q0_ptr = dbl(self.q0)

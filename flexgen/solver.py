@@ -267,10 +267,17 @@ class Solver:
             residual=a.residual,
             solver="core",
             stiffness=ws.K.copy(),
-            stability_margin=a.margin,
             bend=dict(zip(p.flexure_order, ws.bend.tolist())),
             kernel={name: KERNEL_STATES[k] for name, k in zip(p.flexure_order, states) if k},
         )
+
+    def margin(self) -> float:
+        """The margin to a critical load of the last solve's answer (``fg_margin``: the
+        smallest eigenvalue of the stiffness scaled by the elastic energy's Hessian; 1 unloaded,
+        1 - P/P_cr on an axial load, < 0 unstable). An eigen-decomposition, O(n^3): not part of
+        ``solve``; ``flexgen.solve`` asks for it to assess the answer."""
+        ws = self.workspace
+        return float(core.lib.fg_margin(self.problem.struct, ws.K_ptr, ws.work_ptr, ws.iwork_ptr))
 
     def _reason(self, status: int) -> str:
         from .reasons import failure_reason

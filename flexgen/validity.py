@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 import re
+from bisect import bisect_left
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
@@ -428,11 +429,14 @@ def bend(model, q) -> float:
     return bend_of(model, np.asarray(q, dtype=float))
 
 
+_LOAD_EDGES = [e * (1 + 1e-12) for e in LOAD_BANDS]
+_BEND_EDGES = [e + 1e-12 for e in BANDS]
+
+
 def band_index(beta: float, lam: float) -> tuple[int, int] | None:
     """(load band, bend band) of an answer, None past the last of either."""
-    i = next((k for k, e in enumerate(LOAD_BANDS) if lam <= e * (1 + 1e-12)), None)
-    j = next((k for k, e in enumerate(BANDS) if beta <= e + 1e-12), None)
-    return None if i is None or j is None else (i, j)
+    i, j = bisect_left(_LOAD_EDGES, lam), bisect_left(_BEND_EDGES, beta)
+    return None if i == len(_LOAD_EDGES) or j == len(_BEND_EDGES) else (i, j)
 
 
 def load_level(scene: Scene) -> float:

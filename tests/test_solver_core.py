@@ -1013,7 +1013,7 @@ def test_a_problem_the_core_refuses_is_a_reason_not_a_stale_answer():
     changed behind SolverSettings' back): no equilibrium, a reason saying so, and nothing left
     over from the previous solve."""
     s = flexgen.Solver(EXAMPLES / "rectangular_elastica.toml")
-    assert s.solve().critical_load_factors            # buckles: a critical load factor
+    assert s.solve().critical_load_factors  # buckles: a critical load factor
     s.problem.struct.settings.stagnation_lag = 0
     r = s.solve()
     assert not r.converged and "refused the problem as malformed" in r.reason

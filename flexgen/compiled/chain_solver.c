@@ -1854,28 +1854,14 @@ static double flexure_bend(const fg_flexure *f, const double *q, int samples, do
     return fabs(q[0]);
 }
 
-/* What the validity of an answer depends on, at the equilibrium (fg_answer.margin, bend,
- * kernel): the margin to a critical load, each flexure's largest bend and the kernel that
- * evaluates it there. The margin is the smallest eigenvalue of D^-1/2 K D^-1/2 (D the diagonal
- * energy Hessian: the generalized eigenvalue of (K, D)). */
+/* What the validity of an answer depends on, at the equilibrium (fg_answer.bend, kernel):
+ * each flexure's largest bend and the kernel that evaluates it there. (The margin to a critical
+ * load costs an eigen-decomposition, O(n^3): fg_margin, on request.) */
 static void describe_answer(fg_ws *w, fg_answer *out)
 {
     const fg_problem *p = w->p;
-    int n = w->n, i, j;
+    int i;
     const double *q = out->q;
-    const double *K = out->stiffness;   /* full, when the caller wanted it; else rebuilt below */
-    double *A = w->lc;
-    out->margin = NAN;
-    for (i = 0; i < n; ++i)
-        if (!(p->stiffness[i] > 0.0))
-            break;
-    if (i == n && K != NULL) {
-        for (i = 0; i < n; ++i)
-            for (j = i; j < n; ++j)
-                A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j]
-                                               / sqrt(p->stiffness[i] * p->stiffness[j]);
-        out->margin = n > 0 ? min_eig(w, A) : 1.0;
-    }
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
         const double *qf = q + f->offset;
@@ -1894,6 +1880,25 @@ static void describe_answer(fg_ws *w, fg_answer *out)
             out->kernel[i] = state;
         }
     }
+}
+
+double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork)
+{
+    fg_ws ws, *w = &ws;
+    int n = p->ndof, i, j;
+    double *A;
+    for (i = 0; i < n; ++i)
+        if (!(p->stiffness[i] > 0.0))
+            return NAN;
+    if (n == 0)
+        return 1.0;
+    bind(w, p, work, iwork);
+    A = w->lc;
+    for (i = 0; i < n; ++i)
+        for (j = i; j < n; ++j)
+            A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j]
+                                           / sqrt(p->stiffness[i] * p->stiffness[j]);
+    return min_eig(w, A);
 }
 
 int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,

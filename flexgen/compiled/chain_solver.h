@@ -195,10 +195,8 @@ typedef struct {
     int model_error_flexure;
     int model_error_route;
     int evaluations;      /* chain evaluations (kinematics and kernels) in the solve */
-    /* FG_SOLVED: what the validity of the answer depends on, at the equilibrium */
-    double margin;        /* smallest eigenvalue of D^-1/2 K D^-1/2, D = diag(stiffness): 1
-                           * unloaded, 1 - P/P_cr on an axial load below buckling, 0 at a
-                           * critical load, < 0 unstable; NAN without the stiffness array */
+    /* FG_SOLVED: what the validity of the answer depends on, at the equilibrium (and
+     * fg_margin, on request) */
     double *bend;         /* nflex (fg_problem.flex order): max |phi(s)| of each flexure relative
                            * to its root frame, rad, on settings.bend_samples points; NULL: not
                            * wanted */
@@ -220,6 +218,15 @@ enum {
 size_t fg_work_size(const fg_problem *p);
 size_t fg_iwork_size(const fg_problem *p);
 int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
+
+/* The margin of a stiffness K (n x n, row-major, full; e.g. fg_answer.stiffness) to a critical
+ * load: the smallest eigenvalue of D^-1/2 K D^-1/2, D = diag(p->stiffness) the elastic energy's
+ * Hessian (the generalized eigenvalue of (K, D)): 1 unloaded, 1 - P/P_cr on an axial load below
+ * buckling, 0 at a critical load, < 0 unstable; NAN if some stiffness is not positive. An
+ * eigen-decomposition (LAPACK's dsyev from settings.lapack_min_size coordinates on, else the
+ * built-in Jacobi method) in the solver's workspace (fg_work_size, fg_iwork_size), so it is not
+ * part of fg_solve: O(n^3), asked for when an answer's validity is assessed. */
+double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork);
 
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
  * eigenvalue (major >= minor) and the angle of the major axis from the x axis in (-pi/2, pi/2],
