@@ -420,15 +420,6 @@ class Claim:
         return {"pose": self.pose, "compliance": self.comp}
 
 
-def bend(model, q) -> float:
-    """max |phi(s)| of one flexure at coordinates q (relative to its root frame)."""
-    from flexgen.models.registry import kind_of
-
-    bend_of = kind_of(model).bend
-    assert bend_of is not None
-    return bend_of(model, np.asarray(q, dtype=float))
-
-
 _LOAD_EDGES = [e * (1 + 1e-12) for e in LOAD_BANDS]
 _BEND_EDGES = [e + 1e-12 for e in BANDS]
 
@@ -636,9 +627,7 @@ def assess(
     labels = ctx.labels
     warnings: list[str] = []
     oor = switched = False
-    bends = getattr(result, "bend", None) or {}
-    if len(bends) != len(models):  # an answer the core did not describe
-        bends = {name: bend(m, result.q[name]) for name, m in models.items()}
+    bends = result.bend  # the core's, per flexure
     beta_at = max(bends, key=bends.__getitem__)
     beta = bends[beta_at]
     unclaimed: set[str] = set()  # flexures already warned that nothing is claimed

@@ -133,16 +133,9 @@ def example_scenes() -> list[tuple[str, Scene]]:
 
 
 def max_bend(result, scene: Scene) -> float:
-    """Largest |phi(sigma)| (angle relative to the root frame) over the flexures of a solved scm
-    result (from its curvature coefficients), in rad."""
-    from flexgen.models.scm import angle_basis
-
-    sigma = np.linspace(0.0, 1.0, 65)
-    worst = 0.0
-    for f in scene.flexures:
-        q = np.asarray(result.q[f.name], dtype=float)
-        worst = max(worst, float(np.max(np.abs(angle_basis(len(q), sigma) @ q))))
-    return worst
+    """Largest |phi(sigma)| (angle relative to the root frame) over the flexures of a solved
+    result, in rad: the core's ``Result.bend``."""
+    return max(result.bend[f.name] for f in scene.flexures)
 
 
 def _random_layout(rng: np.random.Generator, index: int) -> dict:

@@ -21,7 +21,6 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from functools import cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -50,25 +49,6 @@ def _fem(flexure: Flexure, cls: Any) -> FlexureModel:
     return cls(float(flexure.length), float(flexure.EI), int(flexure.model.elements))
 
 
-@cache
-def _angle_samples(modes: int) -> np.ndarray:
-    from .scm import angle_basis
-
-    return angle_basis(modes, np.linspace(0.0, 1.0, 65))
-
-
-def _bend_scm(model: Any, q: np.ndarray) -> float:
-    return float(np.max(np.abs(_angle_samples(len(q)) @ q)))
-
-
-def _bend_fem(model: Any, q: np.ndarray) -> float:
-    return float(np.max(np.abs(np.cumsum(q)), initial=0.0))
-
-
-def _bend_prb(model: Any, q: np.ndarray) -> float:
-    return float(np.max(np.abs(q), initial=0.0))
-
-
 @dataclass(frozen=True)
 class ModelKind:
     name: str
@@ -78,7 +58,6 @@ class ModelKind:
     chain: bool  # a chain model: the core solves it (its class fills its fg_flexure)
     info: Callable[[Any], dict[str, Any]]  # the Result's "model" entry of a flexure
     label: Callable[[Any], str]  # "scm3 auto", "cc", "fem16", "prb": validity's CLAIMS rows
-    bend: Callable[[Any, np.ndarray], float] | None  # max |phi(s)| along the flexure at q
 
 
 def _scm_label(m: Any) -> str:
@@ -94,7 +73,6 @@ KINDS: dict[str, ModelKind] = {
         True,
         lambda m: {"kind": "scm", "modes": int(m.n_dof)},
         _scm_label,
-        _bend_scm,
     ),
     "cc": ModelKind(
         "cc",
@@ -104,7 +82,6 @@ KINDS: dict[str, ModelKind] = {
         True,
         lambda m: {"kind": "scm", "modes": int(m.n_dof)},
         _scm_label,
-        _bend_scm,
     ),
     "prb": ModelKind(
         "prb",
@@ -114,7 +91,6 @@ KINDS: dict[str, ModelKind] = {
         True,
         lambda m: {"kind": "prb"},
         lambda m: "prb",
-        _bend_prb,
     ),
     "fem": ModelKind(
         "fem",
@@ -124,10 +100,9 @@ KINDS: dict[str, ModelKind] = {
         True,
         lambda m: {"kind": "fem", "elements": int(m.n_dof)},
         lambda m: f"fem{int(m.n_dof)}",
-        _bend_fem,
     ),
     "exact": ModelKind(
-        "exact", None, None, None, False, lambda m: {"kind": "exact"}, lambda m: "exact", None
+        "exact", None, None, None, False, lambda m: {"kind": "exact"}, lambda m: "exact"
     ),
 }
 MODEL_KINDS = tuple(KINDS)
