@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -169,6 +170,38 @@ class Result:
         for msg in self.warnings:
             lines.append(f"  warning: {msg}")
         return "\n".join(lines)
+
+
+class LazyResult(Result):
+    """A Result whose bulky fields (``LAZY_FIELDS``: the models, q, the points, the stiffness,
+    bends and kernels) are built from a copy of the answer's arrays on first access, so a
+    prepared solver's loop pays only for what it reads. It is a Result in every other way:
+    equal to a Result with the same values, pickled and copied as a plain Result."""
+
+    __slots__ = ("_build",)
+    _build: Callable[[str], Any]
+
+    def __getattr__(self, name: str) -> Any:  # only for a slot not filled yet
+        if name not in LAZY_FIELDS:
+            raise AttributeError(name)
+        value = self._build(name)
+        setattr(self, name, value)
+        return value
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Result):
+            return NotImplemented
+        return all(
+            getattr(self, f.name) == getattr(other, f.name) for f in fields(Result) if f.compare
+        )
+
+    __hash__ = None  # type: ignore[assignment]  # mutable, as Result
+
+    def __reduce__(self) -> tuple:
+        return (Result, tuple(getattr(self, f.name) for f in fields(Result)))
+
+
+LAZY_FIELDS = frozenset({"model", "q", "points", "stiffness", "bend", "kernel"})
 
 
 def _finite(obj):

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import fields, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -28,7 +29,7 @@ from . import core
 from .models.base import FlexureModel
 from .models.registry import build_models, model_info
 from .problem import Problem, Workspace
-from .result import UNSTABLE, Result, point_result
+from .result import UNSTABLE, LazyResult, Result, point_result
 from .scene import Scene
 from .settings import DEFAULT, SolverSettings
 
@@ -244,32 +245,55 @@ class Solver:
         stable = bool(a.stable)
         if not stable:
             warnings.append(UNSTABLE)
-        poses, compliances, ellipses = ws.pose.tolist(), ws.compliance.tolist(), ws.ellipse.tolist()
-        points = {
-            ref: point_result(ref, pose, c3, ell, warnings)
-            for ref, pose, c3, ell in zip(p.outputs, poses, compliances, ellipses)
-        }
-        qs = q.tolist()
-        states = ws.kernel.tolist() if self._kernel_models else ()
-        return Result(
-            scene=self.scene.name,
-            converged=True,
-            stable=stable,
-            iterations=a.iterations,
-            model=info,
-            q={name: qs[sl] for name, sl in self._slices},
-            points=points,
-            warnings=warnings,
-            reason=None,
-            critical_load_factors=critical,
-            load_factor=1.0,
-            energy=a.energy,
-            residual=a.residual,
-            solver="core",
-            stiffness=ws.K.copy(),
-            bend=dict(zip(p.flexure_order, ws.bend.tolist())),
-            kernel={name: KERNEL_STATES[k] for name, k in zip(p.flexure_order, states) if k},
+            # only an indefinite K can leave a compliance undefined (a singular LU); the points
+            # are built later, so the warning is given now
+            for ref, c3 in zip(p.outputs, ws.compliance):
+                if not np.all(np.isfinite(c3)):
+                    warnings.append(
+                        f"compliance of {ref!r} is undefined: the stiffness matrix is singular"
+                    )
+        r = LazyResult.__new__(LazyResult)
+        r.scene, r.converged, r.stable, r.iterations = self.scene.name, True, stable, a.iterations
+        r.warnings, r.reason, r.critical_load_factors, r.load_factor = warnings, None, critical, 1.0
+        r.energy, r.residual, r.tolerance, r.error_estimate = a.energy, a.residual, None, None
+        r.solver, r.stability_margin, r.error_class = "core", None, None
+        snapshot = (
+            ws.q.copy(),
+            ws.pose.copy(),
+            ws.compliance.copy(),
+            ws.ellipse.copy(),
+            ws.K.copy(),
+            ws.bend.copy(),
+            ws.kernel.copy() if self._kernel_models else None,
         )
+        r._build = partial(self._lazy_field, snapshot)
+        return r
+
+    def _lazy_field(self, snapshot: tuple, name: str) -> Any:
+        """One of a LazyResult's fields (``LAZY_FIELDS``) from the answer's arrays."""
+        q, pose, compliance, ellipse, K, bend, kernel = snapshot
+        p = self.problem
+        if name == "q":
+            qs = q.tolist()
+            return {n: qs[sl] for n, sl in self._slices}
+        if name == "points":
+            unused: list[str] = []  # the warning, if any, was given with the answer
+            return {
+                ref: point_result(ref, pose_i, c3, ell, unused)
+                for ref, pose_i, c3, ell in zip(
+                    p.outputs, pose.tolist(), compliance.tolist(), ellipse.tolist()
+                )
+            }
+        if name == "model":
+            return {n: dict(v) for n, v in self._info.items()}
+        if name == "stiffness":
+            return K
+        if name == "bend":
+            return dict(zip(p.flexure_order, bend.tolist()))
+        if name == "kernel":
+            states = kernel.tolist() if kernel is not None else ()
+            return {n: KERNEL_STATES[k] for n, k in zip(p.flexure_order, states) if k}
+        raise AttributeError(name)
 
     def margin(self) -> float:
         """The margin to a critical load of the last solve's answer (``fg_margin``: the

@@ -744,7 +744,7 @@ def check(scene: Scene, result, models: Mapping | None = None, model_factory=Non
     the indicative error class, inf where nothing is claimed; None when a tolerance was
     requested, whose ``error_estimate`` is then the claim). Returns the Claim (None if the
     result did not converge)."""
-    if not result.converged or not result.q:
+    if not result.converged or not scene.flexures:
         result.error_class = None
         return None
     ms = models_of(scene, result, models, model_factory)

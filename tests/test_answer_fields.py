@@ -160,3 +160,27 @@ def test_run_leaves_the_answer_of_solve_in_the_workspace():
         ]
     assert np.concatenate([r.q[n] for n in r.q]).tolist() == ws.q.tolist()
     assert bool(ws.answer.stable) == r.stable and ws.answer.iterations == r.iterations
+
+
+def test_a_prepared_answer_is_a_plain_result_in_every_way_that_shows():
+    """Solver.solve builds the bulky fields on first access (LazyResult); the values, equality,
+    JSON, pickling and copies are those of a plain Result, and the next solve does not change an
+    earlier answer."""
+    import copy
+    import pickle
+    from dataclasses import asdict, fields
+
+    from flexgen.result import Result
+
+    s = flexgen.Solver(EXAMPLES[0].with_name("two_link_finger.toml"))
+    first = s.solve()
+    json_first = first.to_json()
+    s.solve(loads=s.problem.loads * 2.0)  # overwrites the workspace
+    assert first.to_json() == json_first  # built from the answer's own copy
+    plain = Result(**{f.name: getattr(first, f.name) for f in fields(Result)})
+    assert first == plain and plain == first
+    again = pickle.loads(pickle.dumps(first))
+    assert type(again) is Result and again == plain
+    assert copy.deepcopy(first) == plain
+    assert asdict(first)["q"] == first.q and set(first.bend) == {"proximal", "distal"}
+    assert first.stiffness.shape == (6, 6)
