@@ -111,8 +111,9 @@ class Solver:
         self._scene_tensions = self.problem.tensions.copy()
         self._changed_loads = self._changed_tensions = False
         self._slices = list(self.problem.chain.slices.items())
-        # flexures whose model may switch kernels (the others never set the core's flag)
+        # any smooth curvature flexure (the core reports the kernel at equilibrium for those)
         self._kernel_models = any(model_info(m)["kind"] == "scm" for m in self.models.values())
+        # any flexure whose model may switch kernels (no other sets the core's switch flag)
         self._switchable = any(
             getattr(m, "gauss", None) is not None and getattr(m, "poly", None) is not None
             for m in self.models.values()
