@@ -89,10 +89,19 @@ _solvers: OrderedDict[tuple, Solver] = OrderedDict()
 _lock = threading.Lock()
 
 
+def _key(scene: Scene, settings: SolverSettings) -> tuple:
+    # the defaults by identity (no hash of 35 fields on the loop path), other settings by value
+    return (id(scene), None if settings is DEFAULT else settings)
+
+
+def _same(a: SolverSettings, b: SolverSettings) -> bool:
+    return a is b or a == b
+
+
 def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
-    key = (id(scene), id(settings))
+    key = _key(scene, settings)
     solver = _solvers.get(key)
-    if solver is None or solver.scene is not scene or solver.settings is not settings:
+    if solver is None or solver.scene is not scene or not _same(solver.settings, settings):
         solver = Solver(scene, settings=settings)
         _solvers[key] = solver
         if len(_solvers) > CACHE_SIZE:
@@ -123,11 +132,17 @@ def solve_scene(
     (``flexgen.validity.check``: appended to ``warnings``) and, for the Python API,
     ``error_class`` = {"pose", "compliance"}, the indicative error class (None when a tolerance
     chose the models: ``error_estimate`` is then the claim; not part of the JSON contract)."""
-    if models is None and tolerance is None and not options:
+    if (
+        models is None
+        and tolerance is None
+        and not options
+        and (settings is None or isinstance(settings, SolverSettings))
+    ):
         # the same Scene object again (a loop): its prepared solver, if one is kept, says the
         # scene is neither exact nor asking for a tolerance
-        solver = _solvers.get((id(scene), id(DEFAULT if settings is None else settings)))
-        if solver is not None and solver.scene is scene:
+        settings = DEFAULT if settings is None else settings
+        solver = _solvers.get(_key(scene, settings))
+        if solver is not None and solver.scene is scene and _same(solver.settings, settings):
             with _lock:
                 result = _assessed(solver, q0)
             check(scene, result, solver.models)

@@ -1018,3 +1018,18 @@ def test_a_problem_the_core_refuses_is_a_reason_not_a_stale_answer():
     r = s.solve()
     assert not r.converged and "refused the problem as malformed" in r.reason
     assert r.critical_load_factors == [] and r.warnings == [] and r.points == {}
+
+
+def test_solves_with_the_same_settings_reuse_one_prepared_solver():
+    """flexgen.solve keeps one prepared solver per Scene object and settings value: options
+    given by keyword (a new SolverSettings each call) do not fill the cache."""
+    from flexgen import api
+
+    scene = load_scene(EXAMPLES / "two_link_finger.toml")
+    api._solvers.clear()  # other tests may have filled it to its capacity
+    before = len(api._solvers)
+    for _ in range(5):
+        flexgen.solve(scene, tol=1e-10)
+    flexgen.solve(scene)
+    flexgen.solve(scene, settings=SolverSettings(tol=1e-10))
+    assert len(api._solvers) - before == 2
