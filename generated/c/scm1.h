@@ -28,8 +28,16 @@
 #define SCM1_JACOBIAN_ERROR_BOUND 8.309808045007745e-10
 #define SCM1_HESSIAN_ERROR_BOUND 2.296346008465738e-08
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm1_evaluate(const double *q, double *pose, double *J, double *H);
 void scm1_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm1_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM1_H */

@@ -26,8 +26,16 @@
 #define SCM1_GAUSS7_JACOBIAN_ERROR_BOUND 1.517875272383741e-11
 #define SCM1_GAUSS7_HESSIAN_ERROR_BOUND 1.822074981493747e-10
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm1_gauss7_evaluate(const double *q, double *pose, double *J, double *H);
 void scm1_gauss7_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm1_gauss7_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM1_GAUSS7_H */

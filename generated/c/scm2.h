@@ -28,8 +28,16 @@
 #define SCM2_JACOBIAN_ERROR_BOUND 8.309838675903745e-10
 #define SCM2_HESSIAN_ERROR_BOUND 2.2963464896147273e-08
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm2_evaluate(const double *q, double *pose, double *J, double *H);
 void scm2_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm2_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM2_H */

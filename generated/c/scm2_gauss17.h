@@ -26,8 +26,16 @@
 #define SCM2_GAUSS17_JACOBIAN_ERROR_BOUND 3.9974532362305985e-11
 #define SCM2_GAUSS17_HESSIAN_ERROR_BOUND 8.933604288313531e-11
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm2_gauss17_evaluate(const double *q, double *pose, double *J, double *H);
 void scm2_gauss17_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm2_gauss17_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM2_GAUSS17_H */

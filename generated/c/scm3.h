@@ -28,8 +28,16 @@
 #define SCM3_JACOBIAN_ERROR_BOUND 8.309869306799746e-10
 #define SCM3_HESSIAN_ERROR_BOUND 2.2963469707637164e-08
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm3_evaluate(const double *q, double *pose, double *J, double *H);
 void scm3_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm3_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM3_H */

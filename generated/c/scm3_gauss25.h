@@ -26,8 +26,16 @@
 #define SCM3_GAUSS25_JACOBIAN_ERROR_BOUND 3.997653076375031e-11
 #define SCM3_GAUSS25_HESSIAN_ERROR_BOUND 8.933804128457962e-11
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm3_gauss25_evaluate(const double *q, double *pose, double *J, double *H);
 void scm3_gauss25_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm3_gauss25_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM3_GAUSS25_H */

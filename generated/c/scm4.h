@@ -28,8 +28,16 @@
 #define SCM4_JACOBIAN_ERROR_BOUND 8.309899937695746e-10
 #define SCM4_HESSIAN_ERROR_BOUND 2.2963474519127055e-08
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm4_evaluate(const double *q, double *pose, double *J, double *H);
 void scm4_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm4_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM4_H */

@@ -26,8 +26,16 @@
 #define SCM4_GAUSS33_JACOBIAN_ERROR_BOUND 3.9978529165194635e-11
 #define SCM4_GAUSS33_HESSIAN_ERROR_BOUND 8.934003968602394e-11
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm4_gauss33_evaluate(const double *q, double *pose, double *J, double *H);
 void scm4_gauss33_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm4_gauss33_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM4_GAUSS33_H */

@@ -28,8 +28,16 @@
 #define SCM5_JACOBIAN_ERROR_BOUND 8.309930568591747e-10
 #define SCM5_HESSIAN_ERROR_BOUND 2.296347933061695e-08
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm5_evaluate(const double *q, double *pose, double *J, double *H);
 void scm5_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm5_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM5_H */

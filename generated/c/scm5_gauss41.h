@@ -26,8 +26,16 @@
 #define SCM5_GAUSS41_JACOBIAN_ERROR_BOUND 3.9980527566638954e-11
 #define SCM5_GAUSS41_HESSIAN_ERROR_BOUND 8.934203808746827e-11
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm5_gauss41_evaluate(const double *q, double *pose, double *J, double *H);
 void scm5_gauss41_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm5_gauss41_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM5_GAUSS41_H */

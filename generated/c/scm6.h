@@ -28,8 +28,16 @@
 #define SCM6_JACOBIAN_ERROR_BOUND 8.309961199487748e-10
 #define SCM6_HESSIAN_ERROR_BOUND 2.296348414210684e-08
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm6_evaluate(const double *q, double *pose, double *J, double *H);
 void scm6_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm6_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM6_H */

@@ -26,8 +26,16 @@
 #define SCM6_GAUSS49_JACOBIAN_ERROR_BOUND 3.9982525968083286e-11
 #define SCM6_GAUSS49_HESSIAN_ERROR_BOUND 8.93440364889126e-11
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm6_gauss49_evaluate(const double *q, double *pose, double *J, double *H);
 void scm6_gauss49_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm6_gauss49_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM6_GAUSS49_H */

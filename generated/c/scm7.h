@@ -28,8 +28,16 @@
 #define SCM7_JACOBIAN_ERROR_BOUND 8.309991830383748e-10
 #define SCM7_HESSIAN_ERROR_BOUND 2.2963488953596735e-08
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm7_evaluate(const double *q, double *pose, double *J, double *H);
 void scm7_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm7_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM7_H */

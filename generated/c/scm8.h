@@ -28,8 +28,16 @@
 #define SCM8_JACOBIAN_ERROR_BOUND 8.310022461279749e-10
 #define SCM8_HESSIAN_ERROR_BOUND 2.2963493765086626e-08
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 void scm8_evaluate(const double *q, double *pose, double *J, double *H);
 void scm8_evaluate_f(const float *q, float *pose, float *J, float *H);
 int scm8_in_range(const double *q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* FLEXGEN_SCM8_H */
