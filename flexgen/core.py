@@ -13,12 +13,12 @@ routines by address, the status codes. Building a problem is ``flexgen.problem``
 
 from __future__ import annotations
 
-import hashlib
 from functools import cache
 from pathlib import Path
 from typing import Any
 
 from . import kernels
+from .compiled.digest import sources_digest
 
 
 class CoreUnavailable(ImportError):
@@ -42,21 +42,11 @@ MODEL_ERROR: int = lib.FG_MODEL_ERROR  # a malformed fg_problem (flexgen.problem
 SNAP_THROUGH: int = lib.FG_SNAP_THROUGH
 
 
-def built_sources_digest() -> str:
-    """SHA-256 over the C sources the extension is built from, as ``_build_core`` hashes them."""
-    digest = hashlib.sha256()
-    for path in sorted(SOURCES.glob("chain_solver.[ch]")) + sorted(
-        (kernels.GENERATED / "c").glob("scm*.[ch]")
-    ):
-        digest.update(path.name.encode() + b"\0" + path.read_bytes())
-    return digest.hexdigest()
-
-
 def check_fresh() -> None:
     """In a source checkout (an editable install), fail loudly if a C source changed after
     ``flexgen._core`` was built: a stale core would silently solve with the old code."""
     built = ffi.string(lib.fg_sources_digest()).decode()
-    if built != built_sources_digest():
+    if built != sources_digest(SOURCES, kernels.GENERATED / "c"):
         raise CoreUnavailable(
             "flexgen._core is older than its C sources "
             "(flexgen/compiled, generated/c): rebuild it with `make setup`"

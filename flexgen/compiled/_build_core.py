@@ -13,7 +13,7 @@ wants them.
 
 from __future__ import annotations
 
-import hashlib
+import importlib.util
 import re
 from pathlib import Path
 
@@ -49,14 +49,16 @@ def kernel_declarations(names: list[str]) -> str:
 
 
 def sources_digest() -> str:
-    """SHA-256 over the C sources, compiled into the core: ``flexgen.core.check_fresh`` compares
-    it with the sources of a checkout, so a stale build is an error, not an old answer."""
-    digest = hashlib.sha256()
-    for path in sorted((ROOT / SOLVER).glob("chain_solver.[ch]")) + sorted(
-        (ROOT / KERNELS).glob("scm*.[ch]")
-    ):
-        digest.update(path.name.encode() + b"\0" + path.read_bytes())
-    return digest.hexdigest()
+    """The digest of the C sources (digest.py beside this file, loaded by path: flexgen itself
+    cannot be imported before its core is built), compiled into the core so that a stale build
+    is an error, not an old answer."""
+    spec = importlib.util.spec_from_file_location(
+        "flexgen_digest", Path(__file__).with_name("digest.py")
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.sources_digest(ROOT / SOLVER, ROOT / KERNELS)
 
 
 def make_ffi() -> FFI:
