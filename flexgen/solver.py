@@ -45,10 +45,10 @@ BUCKLING_SIDES = (
 
 # fg_answer.kernel (FG_KERNEL_*): the kernel evaluating a smooth curvature flexure at equilibrium
 KERNEL_STATES = {
-    1: "poly",
-    2: "poly past its range",
-    3: "gauss",
-    4: "gauss past its certified range",
+    core.lib.FG_KERNEL_POLY: "poly",
+    core.lib.FG_KERNEL_POLY_PAST: "poly past its range",
+    core.lib.FG_KERNEL_GAUSS: "gauss",
+    core.lib.FG_KERNEL_GAUSS_PAST: "gauss past its certified range",
 }
 
 

@@ -599,16 +599,6 @@ def _context(scene: Scene, models: Mapping, label) -> _Context:
     return ctx
 
 
-def _kernel_state(m, q: np.ndarray) -> str:
-    """The kernel evaluating a smooth curvature model at q (``Result.kernel``'s words), for an
-    answer that does not carry it."""
-    if m.poly is not None and m.poly.in_range(q):
-        return "poly"
-    if m.gauss is None:
-        return "poly past its range"
-    return "gauss" if m.gauss.in_range(q) else "gauss past its certified range"
-
-
 def assess(
     scene: Scene,
     result,
@@ -621,8 +611,8 @@ def assess(
     flexure's model (a str for all, or {flexure: label}; default ``model_label`` of each).
     ``calibrated=False`` (a tolerance was requested: the claim is the error estimate) leaves out
     the warnings that only say the calibration table ends (load level, bands) and claims nothing
-    from the table. The bend, kernel and stability margin at the equilibrium are the core's
-    (``Result.bend``, ``kernel``, ``stability_margin``) where the result carries them."""
+    from the table. The bend and kernel at the equilibrium are the core's (``Result.bend``,
+    ``kernel``), and so is the stability margin where the result carries it."""
     ctx = _context(scene, models, label)
     labels = ctx.labels
     warnings: list[str] = []
@@ -631,10 +621,10 @@ def assess(
     beta_at = max(bends, key=bends.__getitem__)
     beta = bends[beta_at]
     unclaimed: set[str] = set()  # flexures already warned that nothing is claimed
-    kernels = getattr(result, "kernel", None) or {}
+    kernels = result.kernel  # the core's: the kernel evaluating each scm flexure there
     for name in ctx.scm:
         m = models[name]
-        state = kernels.get(name) or _kernel_state(m, np.asarray(result.q[name], dtype=float))
+        state = kernels[name]
         switched |= m.poly is not None and state.startswith("gauss")
         if state == "poly past its range":
             oor = True
