@@ -46,16 +46,11 @@ class PointResult:
         }
 
 
-def point_result(
-    ref: str, pose: list[float], c3: list[list[float]], ell: list[float], warnings: list[str]
-) -> PointResult:
+def point_result(pose: list[float], c3: list[list[float]], ell: list[float]) -> PointResult:
     """The PointResult of an output point from its pose, 3x3 compliance and ellipse (major,
     minor, angle) as plain lists (every chain-model answer is built here; plain floats are
-    cheaper than numpy at this size); a non-finite compliance adds its warning to
-    ``warnings``."""
-    r0, r1, r2 = c3
-    if not math.isfinite(r0[0] + r0[1] + r0[2] + r1[1] + r1[2] + r2[2]):  # symmetric
-        warnings.append(f"compliance of {ref!r} is undefined: the stiffness matrix is singular")
+    cheaper than numpy at this size)."""
+    r0, r1, _ = c3
     major, minor, angle = ell
     return PointResult(pose, [r0[:2], r1[:2]], {"major": major, "minor": minor, "angle": angle}, c3)
 

@@ -18,6 +18,7 @@ object again costs the core call and the Result.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import fields, replace
 from functools import partial
@@ -185,21 +186,29 @@ class Solver:
 
     # ---- the answer -------------------------------------------------------------------------
 
+    def _failed(
+        self, status: int, iterations: int, warnings: list[str], critical: list[float], lam: float
+    ) -> Result:
+        """The Result of a solve without an equilibrium: the reason, and what was met on the way."""
+        return Result(
+            scene=self.scene.name,
+            converged=False,
+            stable=False,
+            iterations=iterations,
+            model={name: dict(v) for name, v in self._info.items()},
+            q={},
+            points={},
+            warnings=warnings,
+            reason=self._reason(status),
+            critical_load_factors=critical,
+            load_factor=lam,
+        )
+
     def _result(self, status: int) -> Result:
         ws, p = self.workspace, self.problem
         a = ws.answer
-        info = {name: dict(v) for name, v in self._info.items()}
         if status == core.MODEL_ERROR:  # the core refused the problem: the answer is not filled
-            return Result(
-                scene=self.scene.name,
-                converged=False,
-                stable=False,
-                iterations=0,
-                model=info,
-                q={},
-                points={},
-                reason=self._reason(status),
-            )
+            return self._failed(status, 0, [], [], 1.0)
         warnings: list[str] = []
         critical: list[float] = []
         ncritical = a.ncritical
@@ -230,26 +239,16 @@ class Solver:
                     if msg:
                         warnings.append(msg)
         if not solved:
-            return Result(
-                scene=self.scene.name,
-                converged=False,
-                stable=False,
-                iterations=int(a.iterations),
-                model=info,
-                q={},
-                points={},
-                warnings=warnings,
-                reason=self._reason(status),
-                critical_load_factors=critical,
-                load_factor=a.failure_load_factor,
-            )
+            return self._failed(status, a.iterations, warnings, critical, a.failure_load_factor)
         stable = bool(a.stable)
         if not stable:
             warnings.append(UNSTABLE)
-            # only an indefinite K can leave a compliance undefined (a singular LU); the points
-            # are built later, so the warning is given now
-            for ref, c3 in zip(p.outputs, ws.compliance):
-                if not np.all(np.isfinite(c3)):
+        compliance = ws.compliance[: len(p.outputs)]
+        # a NaN or inf entry makes the sum non-finite (a cheap gate; the points are built on
+        # access, so the warning is given now)
+        if not math.isfinite(sum(compliance.ravel().tolist())):
+            for ref, c3 in zip(p.outputs, compliance):
+                if not np.isfinite(c3).all():
                     warnings.append(
                         f"compliance of {ref!r} is undefined: the stiffness matrix is singular"
                     )
@@ -278,9 +277,8 @@ class Solver:
             qs = q.tolist()
             return {n: qs[sl] for n, sl in self._slices}
         if name == "points":
-            unused: list[str] = []  # the warning, if any, was given with the answer
             return {
-                ref: point_result(ref, pose_i, c3, ell, unused)
+                ref: point_result(pose_i, c3, ell)
                 for ref, pose_i, c3, ell in zip(
                     p.outputs, pose.tolist(), compliance.tolist(), ellipse.tolist()
                 )
