@@ -15,7 +15,7 @@ wherever the answer is past what the model may claim (prb past 64 deg or outside
 case, a kernel past its range, bent past 180 deg, stiffness within 5 % of singular, load level
 above 30, a band without a class). ``flexgen solve`` and ``flexgen.solve`` give every result the
 same warnings (``flexgen.api.solve_scene`` calls ``validity.check``); here ``solve_assessed``
-solves with a prepared solver (``flexgen.solver.solve_models``) and calls ``validity.assess``
+solves with a prepared solver (``flexgen.solver.Solver``) and calls ``validity.assess``
 with the sweep's model label. Every warning that ``solve`` itself gives
 (buckling, snap-through, unstable equilibrium, kernel switch) and ``converged = False`` count too.
 The classes are calibrated on this module's sweep: ``python -m flexgen_tools.stability
@@ -114,10 +114,13 @@ SCENES = {"cantilever": cantilever, "finger": finger}
 def solve_assessed(scene: Scene, md: ModelDef):
     """A solve with fresh models (a prepared solver, no validity check), and assess() of the
     result with the model's label (None if not converged)."""
-    from flexgen.solver import solve_models
+    from flexgen.solver import Solver
 
     models = md.models(scene)
-    r = solve_models(scene, models)
+    solver = Solver(scene, models)
+    r = solver.solve()
+    if r.converged:  # the core's margin, as flexgen.solve gives it to the validity check
+        r.stability_margin = solver.margin()
     claim = assess(scene, r, models, md.label) if r.converged else None
     return r, claim
 
@@ -143,7 +146,7 @@ class Point:
     claim_comp: float
     beta: float
     reference: bool  # exact converged (stable, no snap) at this point
-    margin: float = math.nan  # margin to a critical load (validity.stiffness_margin)
+    margin: float = math.nan  # margin to a critical load (the core's fg_margin)
     uncalibrated: bool = False  # the only warning may be "no calibrated class" (calibration)
     load: float = math.nan  # load level lambda of the scene
 
