@@ -819,9 +819,25 @@ def test_critical_events_beyond_the_capacity_are_counted_and_said():
     """The caller gives the capacity of the critical arrays (fg_answer.max_critical): a path
     with more critical events than that is still solved; the first ones are listed and a
     warning counts the others."""
-    solver = Solver(column(25.0, 0.0), models(column(25.0, 0.0), "scm3 gauss"))
+    # two independent columns from the base, 10x and 2x their Euler load: two bifurcations
+    scene = scene_from_dict(
+        {
+            "name": "two columns",
+            "flexure": [
+                {"name": "a", "length": 1.0, "EI": 1.0},
+                {"name": "b", "parent": "base", "at": [0.0, 1.0, 0.0], "length": 1.0, "EI": 1.0},
+            ],
+            "load": [
+                {"point": "a.tip", "force": [-25.0, 0.0]},
+                {"point": "b.tip", "force": [-5.0, 0.0]},
+            ],
+        }
+    )
+    solver = Solver(scene)
     full = solver.solve()
     assert full.converged and len(full.critical_load_factors) == 2  # two bifurcations
+    euler = math.pi**2 / 4
+    assert full.critical_load_factors == pytest.approx([euler / 25, euler / 5], rel=1e-3)
     solver.workspace.answer.max_critical = 1
     cut = solver.solve()
     assert cut.converged and cut.critical_load_factors == full.critical_load_factors[:1]

@@ -71,16 +71,18 @@ def identifier(name: str) -> str:
 
 
 def _enum(kind: str, names: list[str]) -> list[tuple[str, str]]:
-    """[(C identifier, scene name)]; a clash of two names is an EmitError."""
+    """[(C identifier, scene name)]: a name given again (two loads on one point) is numbered
+    (``TIP``, ``TIP_2``, ...); two different names that give one identifier are an EmitError."""
     seen: dict[str, str] = {}
+    count: dict[str, int] = {}
     out = []
     for name in names:
-        ident = identifier(name)
+        count[name] = count.get(name, 0) + 1
+        ident = identifier(name) + (f"_{count[name]}" if count[name] > 1 else "")
         if ident in seen:
-            what = "the same" if seen[ident] == name else f"{seen[ident]!r} and"
             raise EmitError(
-                f"{kind}: {what} {name!r} give one C name {ident}; rename one of them "
-                f"({kind} names become enum constants)"
+                f"{kind}: {seen[ident]!r} and {name!r} give one C name {ident}; rename one of "
+                f"them ({kind} names become enum constants)"
             )
         seen[ident] = name
         out.append((ident, name))
@@ -131,7 +133,7 @@ def _prepared_scene(path: Path) -> Scene:
     return scene
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _kernel_addresses() -> dict[int, str]:
     """{address of <kernel>_evaluate in flexgen._core: kernel name}, for every shipped kernel."""
     from flexgen import kernels
@@ -151,7 +153,7 @@ def _kernel_name(pointer: Any) -> str | None:
     return None if address == 0 else _kernel_addresses()[address]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _kernel_block(name: str, single: bool) -> str:
     """The C functions of a shipped kernel, static, in double (or float) precision."""
     from flexgen.codegen.generate import CHECKED_IN, c_context

@@ -44,6 +44,18 @@ class OutputError(OSError):
     """An output folder that cannot be written: one line naming it (nothing was written)."""
 
 
+def check_writable(out_dir: Path) -> None:
+    """OutputError unless out_dir is, or can be created as, a folder this user may write (so
+    that a bad --out fails before any work)."""
+    probe = Path(out_dir)
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise OutputError(f"--out: cannot write {out_dir}: {probe} is not a folder")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise OutputError(f"--out: cannot write {out_dir}: {probe} is not writable")
+
+
 def write_files(files: dict[str, str], out_dir: Path) -> list[str]:
     """Write every file atomically (temp file + rename); returns the paths written.
 

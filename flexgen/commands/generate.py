@@ -115,7 +115,7 @@ def run(args) -> int:
 
 def _run_scene(args) -> int:
     from flexgen.codegen.controller import controller_files, default_prefix
-    from flexgen.codegen.render import stale_files, write_files
+    from flexgen.codegen.render import check_writable, stale_files, write_files
 
     given = [f"--{n}" for n in ("modes", "degree", "nodes") if getattr(args, n) is not None]
     if args.range_deg is not None:
@@ -124,9 +124,13 @@ def _run_scene(args) -> int:
         raise UsageError(f"{', '.join(given)}: not used with --scene (the scene chooses models)")
     prefix = args.prefix or default_prefix(args.scene)
     out = args.out if args.out is not None else Path(prefix)
+    if not args.check:
+        check_writable(out)
     start = time.perf_counter()
     files = controller_files(args.scene, prefix, args.single)
-    print(f"{args.scene}: {len(files)} files ({time.perf_counter() - start:.1f} s)", file=sys.stderr)
+    print(
+        f"{args.scene}: {len(files)} files ({time.perf_counter() - start:.1f} s)", file=sys.stderr
+    )
     if args.check:
         stale = stale_files(files, out)
         if stale:
@@ -140,9 +144,11 @@ def _run_scene(args) -> int:
 
 def _run_kernels(args) -> int:
     from flexgen.codegen.generate import CHECKED_IN, generate_files
-    from flexgen.codegen.render import stale_files, write_files
+    from flexgen.codegen.render import check_writable, stale_files, write_files
 
     out = args.out if args.out is not None else Path("generated")
+    if not args.check:
+        check_writable(out)
     if args.modes is None:
         if args.degree or args.nodes or args.range_deg is not None:
             raise UsageError("--degree, --nodes and --range need --modes")

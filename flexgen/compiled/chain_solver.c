@@ -1673,7 +1673,12 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
                 continue;
             for (i = 0; i < n; ++i)
                 w->vec2[i] = a->q[i] - path->q[i];
-            found = norm_inf(w->vec2, n) <= set->max_dq;
+            /* a jump: a coordinate changed by more than max_dq, or (from a stable state) the
+             * step went against the path's tangent: near a critical load the tangent points
+             * along the branch the path is on (the side an imperfection chose), and Newton from
+             * the predictor may land on the other branch of the near-bifurcation */
+            found = norm_inf(w->vec2, n) <= set->max_dq
+                    && !(stable_before && dot(w->vec2, w->t0, n) < 0.0);
             if (!found)
                 set_error(w, FG_ERR_JUMP, lam_n, 0.0);
         }

@@ -1,0 +1,416 @@
+"""`flexgen generate --scene`: the emitted C solver of a scene against the library.
+
+Every example scene and 24 random chains and trees (scm of 1..6 modes, fem, prb; links, tendons,
+forces and moments) is emitted, compiled with the strict flags as C, and linked together into one
+C++ program that includes every header: all of the mechanisms in one program, which is what the
+NAME_ prefixes are for. Each answer is compared with ``flexgen.solve`` (poses to 1e-12 of the
+longest flexure, compliances to 1e-10 relative), and the example scenes also with the exact
+elastica through the library. The example program's JSON is compared with `flexgen solve --json`,
+warm starts with cold solves along slowly changing loads (across a buckling load), and bad input
+to the emitter gives one line, exit 2 and no files.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexgen
+from flexgen.codegen.controller import controller_files
+from flexgen.codegen.render import write_files
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = sorted(ROOT.glob("examples/*.toml"))
+STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2"]
+NEEDS_GCC = pytest.mark.skipif(
+    shutil.which("gcc") is None or shutil.which("g++") is None, reason="needs gcc and g++"
+)
+RANDOM = 24
+
+
+def random_scene(seed: int) -> str:
+    """A random chain or tree as TOML: 1..4 flexures, each on the base, a flexure or a link;
+    links with points; forces, moments and tendons of moderate size (units EI/L^2, EI/L)."""
+    rng = np.random.default_rng(seed)
+    kind = ["scm", "scm", "fem", "prb"][seed % 4]
+    lines = [f'name = "random {seed}"', "", "[model]", f'kind = "{kind}"']
+    if kind == "scm":
+        lines.append(f"modes = {int(rng.integers(1, 7))}")
+    if kind == "fem":
+        lines.append(f"elements = {int(rng.integers(3, 9))}")
+    lines += ["", "[base]", "points = { r0 = [-0.2, 0.3] }"]
+    bodies = ["base"]
+    points = ["base.r0"]
+    for k in range(int(rng.integers(1, 5))):
+        name = f"f{k}"
+        parent = bodies[int(rng.integers(0, len(bodies)))]
+        at = [0.0, 0.0, 0.0] if parent == "base" else [*map(float, rng.uniform(-0.3, 0.6, 2)), 0.0]
+        at[2] = float(rng.uniform(-0.8, 0.8))
+        length, EI = float(rng.uniform(0.5, 1.5)), float(rng.uniform(0.5, 2.0))
+        lines += ["", "[[flexure]]", f'name = "{name}"', f'parent = "{parent}"']
+        lines += [f"at = [{at[0]!r}, {at[1]!r}, {at[2]!r}]", f"length = {length!r}", f"EI = {EI!r}"]
+        bodies.append(name)
+        points.append(f"{name}.tip")
+        if rng.random() < 0.6:
+            link = f"l{k}"
+            pa, pb = rng.uniform(-0.2, 0.5, 2).tolist(), rng.uniform(-0.2, 0.5, 2).tolist()
+            lines += ["", "[[link]]", f'name = "{link}"', f'parent = "{name}"']
+            lines.append(f"points = {{ a = [{pa[0]!r}, {pa[1]!r}], b = [{pb[0]!r}, {pb[1]!r}] }}")
+            bodies.append(link)
+            points += [f"{link}.a", f"{link}.b"]
+    movable = points[1:]
+    for _ in range(int(rng.integers(1, 3))):
+        f = rng.uniform(-1.0, 1.0, 2).tolist()
+        point = movable[int(rng.integers(0, len(movable)))]
+        lines += ["", "[[load]]", f'point = "{point}"', f"force = [{f[0]!r}, {f[1]!r}]"]
+        if rng.random() < 0.5:
+            lines.append(f"moment = {float(rng.uniform(-0.5, 0.5))!r}")
+    if rng.random() < 0.5:
+        route = ["base.r0", movable[int(rng.integers(0, len(movable)))]]
+        tension = float(rng.uniform(0.1, 1.0))
+        lines += ["", "[[tendon]]", f"tension = {tension!r}", f"route = {json.dumps(route)}"]
+    outputs = list(dict.fromkeys(movable[int(i)] for i in rng.integers(0, len(movable), 3)))
+    lines += ["", "[output]", f"points = {json.dumps(outputs)}"]
+    return "\n".join(lines) + "\n"
+
+
+def _driver(prefixes: list[str]) -> str:
+    """A C++ program that includes every emitted header and prints, per mechanism, one JSON
+    line with its answer at the scene's loads."""
+    head = ["#include <cstdio>", "#include <cstring>"]
+    head += [f'#include "{p}.h"' for p in prefixes]
+    body = [
+        'static void vec(const double *x, int n) { std::printf("[");',
+        '  for (int i = 0; i < n; ++i) std::printf("%s%.17g", i ? ", " : "", x[i]);',
+        '  std::printf("]"); }',
+        "int main() {",
+    ]
+    for p in prefixes:
+        P = p.upper()
+        body += [
+            "  {",
+            f"    {p}_inputs in; {p}_state st; {p}_outputs out;",
+            "    std::memset(&st, 0, sizeof st); std::memset(&out, 0, sizeof out);",
+            f"    {p}_inputs_default(&in);",
+            f"    int s = {p}_solve(&in, &st, &out);",
+            f'    std::printf("{{\\"name\\": \\"{p}\\", \\"status\\": %d, \\"flags\\": %d, '
+            f'\\"stable\\": %d, \\"q\\": ", s, out.flags, out.stable);',
+            f"    vec(out.q, {P}_NDOF);",
+            '    std::printf(", \\"pose\\": ");',
+            f"    vec(&out.pose[0][0], 3 * {P}_NOUTPUTS);",
+            '    std::printf(", \\"compliance\\": ");',
+            f"    vec(&out.compliance[0][0][0], 9 * {P}_NOUTPUTS);",
+            '    std::printf("}\\n");',
+            "  }",
+        ]
+    return "\n".join(head + body + ["  return 0;", "}"]) + "\n"
+
+
+def _compile(c_file: Path, flags: list[str]) -> Path:
+    obj = c_file.with_suffix(".o")
+    subprocess.run(["gcc", *flags, "-c", str(c_file), "-o", str(obj)], check=True)
+    return obj
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """{prefix: (scene path, its answer line)} for every scene, all in one C++ program."""
+    if shutil.which("gcc") is None or shutil.which("g++") is None:
+        pytest.skip("needs gcc and g++")
+    folder = tmp_path_factory.mktemp("controllers")
+    scenes: dict[str, Path] = {}
+    for path in EXAMPLES:
+        scenes[f"ex_{path.stem}"] = path
+    for seed in range(RANDOM):
+        path = folder / f"random_{seed}.toml"
+        path.write_text(random_scene(seed))
+        scenes[f"r{seed}"] = path
+    for prefix, path in scenes.items():
+        write_files(controller_files(path, prefix), folder)
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:
+        objects = list(pool.map(lambda p: _compile(folder / f"{p}.c", STRICT), scenes))
+    driver = folder / "driver.cpp"
+    driver.write_text(_driver(list(scenes)))
+    exe = folder / "driver"
+    cmd = ["g++", "-Wall", "-Wextra", "-Werror", "-O2", f"-I{folder}", str(driver)]
+    subprocess.run([*cmd, *map(str, objects), "-lm", "-o", str(exe)], check=True)
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
+    lines = {d["name"]: d for d in map(json.loads, out.splitlines())}
+    return {prefix: (path, lines[prefix]) for prefix, path in scenes.items()}
+
+
+SCENE_IDS = [f"ex_{p.stem}" for p in EXAMPLES] + [f"r{s}" for s in range(RANDOM)]
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize("prefix", SCENE_IDS)
+def test_emitted_solver_answers_as_the_library(built, prefix):
+    path, got = built[prefix]
+    scene = flexgen.load_scene(path)
+    r = flexgen.solve(scene)
+    assert (got["status"] == 0) == r.converged, (r.reason, got)
+    if not r.converged:
+        return
+    scale = max(f.length for f in scene.flexures)
+    q = np.concatenate([np.asarray(r.q[f.name]) for f in scene.flexures])
+    np.testing.assert_allclose(got["q"], q, rtol=0, atol=1e-12)
+    poses = np.array(got["pose"]).reshape(-1, 3)
+    comps = np.array(got["compliance"]).reshape(-1, 3, 3)
+    for (name, point), pose, c3 in zip(r.points.items(), poses, comps):
+        np.testing.assert_allclose(pose[:2], point.pose[:2], rtol=0, atol=1e-12 * scale)
+        assert abs(pose[2] - point.pose[2]) < 1e-12, name
+        ref = np.asarray(point.compliance)
+        np.testing.assert_allclose(c3[:2, :2], ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    assert got["stable"] == int(r.stable)
+    # a warning in the library is a flag in C (and no flag where the library is silent about
+    # the kernel range, the bend and stability)
+    warned = " ".join(r.warnings)
+    assert bool(got["flags"] & 1) == ("critical load" in warned or "snap" in warned), warned
+    past = "wrong by any amount" in warned or "error bound does not hold" in warned
+    assert bool(got["flags"] & 2) == past, warned
+
+
+def test_random_scenes_cover_what_the_issue_names():
+    texts = [random_scene(s) for s in range(RANDOM)]
+    assert sum("[[tendon]]" in t for t in texts) >= 5
+    assert sum("moment =" in t for t in texts) >= 5
+    assert sum('parent = "l' in t for t in texts) >= 5  # on links
+    # trees: some body carries two flexures
+    trees = 0
+    for t in texts:
+        parents = [line for line in t.splitlines() if line.startswith("parent = ")]
+        flex_parents = parents[: t.count("[[flexure]]")]
+        trees += len(flex_parents) != len(set(flex_parents))
+    assert trees >= 3
+    assert {k for t in texts for k in ("scm", "fem", "prb") if f'kind = "{k}"' in t} == {
+        "scm",
+        "fem",
+        "prb",
+    }
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_scenes_against_the_exact_elastica(built, path):
+    """The emitted scm3 answer against the library's exact elastica: the model's own error
+    (scm3 on these scenes: below 2e-3 of the flexure length; the elastica's own tolerance is
+    far below that)."""
+    _, got = built[f"ex_{path.stem}"]
+    exact = flexgen.solve(path, model="exact")
+    assert got["status"] == 0 and exact.converged
+    scale = max(f.length for f in flexgen.load_scene(path).flexures)
+    poses = np.array(got["pose"]).reshape(-1, 3)
+    for pose, point in zip(poses, exact.points.values()):
+        assert np.abs(pose[:2] - np.asarray(point.pose[:2])).max() < 2e-3 * scale
+
+
+@NEEDS_GCC
+def test_example_program_prints_the_json_of_flexgen_solve(tmp_path):
+    scene = ROOT / "examples" / "two_link_finger.toml"
+    write_files(controller_files(scene, "finger"), tmp_path)
+    exe = tmp_path / "finger_example"
+    sources = [str(tmp_path / "finger.c"), str(tmp_path / "finger_example.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    got = json.loads(
+        subprocess.run([str(exe), "--no-timing"], check=True, capture_output=True).stdout
+    )
+    ref = json.loads(
+        subprocess.run(
+            [sys.executable, "-m", "flexgen", "solve", str(scene), "--json"],
+            check=True,
+            capture_output=True,
+        ).stdout
+    )
+    assert got.keys() <= ref.keys() | {"reason"}
+    for key in ("scene", "converged", "stable", "iterations", "warnings"):
+        assert got[key] == ref[key], key
+    assert got["q"].keys() == ref["q"].keys()
+    for name in ref["q"]:
+        np.testing.assert_allclose(got["q"][name], ref["q"][name], rtol=0, atol=1e-12)
+    assert list(got["points"]) == list(ref["points"])
+    for name, point in ref["points"].items():
+        mine = got["points"][name]
+        np.testing.assert_allclose(mine["pose"], point["pose"], rtol=0, atol=1e-14)
+        np.testing.assert_allclose(mine["compliance"], point["compliance"], rtol=1e-10)
+        for key in ("major", "minor", "angle"):
+            assert mine["ellipse"][key] == pytest.approx(point["ellipse"][key], rel=1e-9)
+    # the timing part runs and says what it timed
+    timed = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stderr
+    assert "us cold" in timed and "us warm" in timed
+
+
+@pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
+@NEEDS_GCC
+def test_cmake_and_makefile_build_the_example(tmp_path):
+    scene = ROOT / "examples" / "cantilever_tip_load.toml"
+    src = tmp_path / "src"
+    write_files(controller_files(scene), src)
+    build = tmp_path / "build"
+    subprocess.run(["cmake", "-S", str(src), "-B", str(build)], check=True, capture_output=True)
+    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
+    out = subprocess.run(
+        [str(build / "cantilever_tip_load_example"), "--no-timing"], capture_output=True
+    )
+    assert out.returncode == 0 and json.loads(out.stdout)["converged"] is True
+    made = subprocess.run(
+        ["make", "-f", "cantilever_tip_load.mk", "cantilever_tip_load_example"],
+        cwd=src,
+        capture_output=True,
+        text=True,
+    )
+    assert made.returncode == 0, made.stderr
+    out = subprocess.run(
+        [str(src / "cantilever_tip_load_example"), "--no-timing"], capture_output=True
+    )
+    assert json.loads(out.stdout)["points"]["beam.tip"]["pose"][1] == pytest.approx(
+        -0.49346, abs=2e-4
+    )  # Bisshopp & Drucker, alpha = 2: deflection / L = 0.49346
+
+
+def test_emission_is_reproducible_and_names_no_machine_path(tmp_path):
+    scene = ROOT / "examples" / "two_link_finger.toml"
+    first = controller_files(scene, "finger")
+    again = controller_files(scene, "finger")
+    assert first == again
+    text = "".join(first.values())
+    assert str(ROOT) not in text and os.path.expanduser("~") not in text
+
+
+# -- warm starts --------------------------------------------------------------------------------
+
+WARM = r"""
+#include <stdio.h>
+#include <string.h>
+#include "col.h"
+/* the load ramps from 0.5 to 1.6 times the scene's, in small steps: warm (state kept) and cold
+ * (state cleared) solves side by side; one line per step */
+int main(void) {
+    col_inputs base, in; col_state warm, cold; col_outputs w, c;
+    int k, sw, sc;
+    memset(&warm, 0, sizeof warm);
+    col_inputs_default(&base);
+    for (k = 0; k <= 110; ++k) {
+        double f = 0.5 + 0.01 * k;
+        in = base;
+        in.load[0][0] *= f;
+        in.load[0][1] *= f;
+        sw = col_solve(&in, &warm, &w);
+        memset(&cold, 0, sizeof cold);
+        sc = col_solve(&in, &cold, &c);
+        printf("%.17g %d %d %d %d %.17g %.17g %.17g %.17g %d %d\n", f, sw, sc, w.warm, c.warm,
+               w.pose[0][0], w.pose[0][1], c.pose[0][0], c.pose[0][1], w.flags, c.flags);
+    }
+    return 0;
+}
+"""
+
+
+@NEEDS_GCC
+def test_warm_starts_follow_the_cold_answers_across_buckling(tmp_path):
+    """An imperfect column (1.5x the Euler load at the scene's load, with a tiny push toward
+    +y), loaded from 0.75x to 2.4x the Euler load: warm and cold answers agree at every step,
+    before the buckling load (straight) and after it (bent toward +y), and the warm solves are
+    accepted warm starts on most steps."""
+    euler = math.pi**2 / 4
+    scene = tmp_path / "col.toml"
+    scene.write_text(
+        'name = "column"\n[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'
+        f'[[load]]\npoint = "beam.tip"\nforce = [{-1.5 * euler!r}, 1e-4]\n'
+        '[output]\npoints = ["beam.tip"]\n'
+    )
+    write_files(controller_files(scene, "col"), tmp_path)
+    (tmp_path / "warm.c").write_text(WARM)
+    exe = tmp_path / "warm"
+    sources = [str(tmp_path / "col.c"), str(tmp_path / "warm.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    rows = [line.split() for line in subprocess.check_output([str(exe)], text=True).splitlines()]
+    warm_used = 0
+    for row in rows:
+        f = float(row[0])
+        assert row[1] == row[2] == "0", row
+        warm_used += row[3] == "1"
+        assert row[4] == "0"
+        wx, wy, cx, cy = map(float, row[5:9])
+        assert abs(wx - cx) < 1e-9 and abs(wy - cy) < 1e-9, row
+        if f * 1.5 > 1.05:  # past the buckling load: bent toward the push
+            assert cy > 0.05, row
+        if f * 1.5 < 0.95:
+            assert abs(cy) < 0.05, row
+    assert warm_used > len(rows) // 2
+
+
+# -- bad input ----------------------------------------------------------------------------------
+
+
+def _emit(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "flexgen", "generate", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+    )
+
+
+BAD_SCENES = {
+    "exact": (
+        '[model]\nkind = "exact"\n[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1.0\n'
+        '[output]\npoints = ["b.tip"]\n',
+        "exact",
+    ),
+    "no outputs": ('[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1.0\n', "output.points"),
+    "clash": (
+        '[[flexure]]\nname = "a_b"\nlength = 1.0\nEI = 1.0\n[[link]]\nname = "a"\n'
+        'parent = "a_b"\npoints = { b_tip = [0.1, 0.0] }\n'
+        '[output]\npoints = ["a_b.tip", "a.b_tip"]\n',
+        "A_B_TIP",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_SCENES))
+def test_bad_scenes_are_one_line_exit_2_nothing_written(tmp_path, case):
+    text, named = BAD_SCENES[case]
+    (tmp_path / "s.toml").write_text(text)
+    r = _emit(["--scene", "s.toml", "--out", "out"], tmp_path)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.count("\n") == 1 and r.stderr.startswith("flexgen: error:"), r.stderr
+    assert named in r.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_bad_prefix_and_unwritable_folder(tmp_path):
+    scene = str(ROOT / "examples" / "cantilever_tip_load.toml")
+    r = _emit(["--scene", scene, "--prefix", "9lives", "--out", "out"], tmp_path)
+    assert r.returncode == 2 and "--prefix" in r.stderr and r.stderr.count("\n") == 1
+    (tmp_path / "file").write_text("")
+    r = _emit(["--scene", scene, "--out", "file/sub"], tmp_path)
+    assert r.returncode == 2 and "--out" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        r = _emit(["--scene", scene, "--out", "locked/x"], tmp_path)
+        if os.geteuid() != 0:  # root writes anyway
+            assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+            assert not (locked / "x").exists()
+    finally:
+        locked.chmod(0o700)
+    assert not (tmp_path / "out").exists()
+
+
+def test_kernel_prefix_links_beside_the_shipped_kernel(tmp_path):
+    r = _emit(["--modes", "2", "--lang", "c", "--prefix", "mine", "--out", "k"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    text = (tmp_path / "k" / "c" / "mine_scm2.c").read_text()
+    assert "void mine_scm2_evaluate(" in text and "int mine_scm2_in_range(" in text
+    header = (tmp_path / "k" / "c" / "mine_scm2.h").read_text()
+    assert "#define MINE_SCM2_PHI_MAX" in header
