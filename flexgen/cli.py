@@ -12,6 +12,7 @@ import importlib
 import os
 import sys
 
+from flexgen.codegen.render import OutputError
 from flexgen.codegen.spec import SpecError
 from flexgen.commands.common import UsageError
 
@@ -19,7 +20,7 @@ from flexgen.commands.common import UsageError
 COMMANDS = ("generate", "solve", "plot", "select", "bench", "stability")
 
 # exceptions whose message is a complete one-line answer to the user (exit 2)
-USER_ERRORS: tuple[type[Exception], ...] = (UsageError, SpecError)
+USER_ERRORS: tuple[type[Exception], ...] = (UsageError, SpecError, OutputError)
 
 
 class _Parser(argparse.ArgumentParser):

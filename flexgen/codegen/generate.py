@@ -86,7 +86,7 @@ def trig_coefficients(kernel: FlexureKernel) -> tuple[list[list[float]], list[bo
     return [[0.0] * (width - len(r)) + r for r in rows], odd
 
 
-def numpy_files(kernel: FlexureKernel) -> dict[str, str]:
+def numpy_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
     N, G = kernel.modes, kernel.nodes
     with mpmath.workdps(40):
         w, b = kernel.weights, kernel.node_basis
@@ -124,10 +124,14 @@ def numpy_files(kernel: FlexureKernel) -> dict[str, str]:
             "horner_steps": len(coeffs[0]) - 1,
         }
     folder = BACKENDS["numpy"].folder
-    return {f"{folder}/{kernel.name}.py": render("numpy/kernel.py.jinja", context)}
+    name = f"{prefix}_{kernel.name}" if prefix else kernel.name
+    return {f"{folder}/{name}.py": render("numpy/kernel.py.jinja", context)}
 
 
-def c_files(kernel: FlexureKernel) -> dict[str, str]:
+def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dict:
+    """The template context of one C kernel: its functions are named ``<prefix>_<kernel>_*``
+    (``<kernel>_*`` without a prefix) and declared with ``linkage`` ("static " where a
+    controller embeds them)."""
     lowered = lower(kernel)
     variants = []
     for ctype, suffix in (("double", ""), ("float", "_f")):
@@ -154,29 +158,37 @@ def c_files(kernel: FlexureKernel) -> dict[str, str]:
     margin_terms = [
         f"{printer.doprint(sp.Float(mn, 17))}*fabs(q[{n}])" for n, mn in enumerate(m) if mn
     ]
-    prefix = kernel.name
-    context = _common(kernel) | {
-        "prefix": prefix,
-        "macro": prefix.upper(),
-        "guard": f"FLEXGEN_{prefix.upper()}_H",
+    name = f"{prefix}_{kernel.name}" if prefix else kernel.name
+    return _common(kernel) | {
+        "prefix": name,
+        "macro": name.upper(),
+        "guard": f"FLEXGEN_{name.upper()}_H",
+        "linkage": linkage,
         "ops": str(lowered.ops),
         "variants": variants,
         "range_lines": range_lines,
         "margin_line": " + ".join(margin_terms) if margin_terms else "0.0",
     }
-    folder = BACKENDS["c"].folder
+
+
+def c_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
+    context = c_context(kernel, prefix)
+    name, folder = context["prefix"], BACKENDS["c"].folder
     return {
-        f"{folder}/{prefix}.h": render("c/kernel.h.jinja", context),
-        f"{folder}/{prefix}.c": render("c/kernel.c.jinja", context),
+        f"{folder}/{name}.h": render("c/kernel.h.jinja", context),
+        f"{folder}/{name}.c": render("c/kernel.c.jinja", context),
     }
 
 
 EMITTERS = {"numpy": numpy_files, "c": c_files}
 
 
-def generate_files(spec: KernelSpec, langs=("numpy", "c")) -> dict[str, str]:
+def generate_files(spec: KernelSpec, langs=("numpy", "c"), prefix: str = "") -> dict[str, str]:
+    """{relative path: text} of one kernel in each of ``langs``; ``prefix``: its files and
+    functions are named ``<prefix>_<kernel>`` (so that a custom kernel links beside a shipped
+    one)."""
     kernel = FlexureKernel(spec)
     files: dict[str, str] = {}
     for lang in langs:
-        files |= EMITTERS[lang](kernel)
+        files |= EMITTERS[lang](kernel, prefix)
     return files

@@ -40,19 +40,35 @@ def stale_files(files: dict[str, str], out_dir: Path) -> list[str]:
     return stale
 
 
+class OutputError(OSError):
+    """An output folder that cannot be written: one line naming it (nothing was written)."""
+
+
 def write_files(files: dict[str, str], out_dir: Path) -> list[str]:
     """Write every file atomically (temp file + rename); returns the paths written.
 
-    All texts are rendered before this is called, so a failure leaves nothing half-written.
+    All texts are rendered before this is called, and a folder or file that cannot be written
+    is an OutputError after the files this call created are removed again, so a failure leaves
+    nothing half-written.
     """
-    written = []
-    for rel, text in sorted(files.items()):
-        path = out_dir / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-        with os.fdopen(fd, "w", newline="\n") as handle:
-            handle.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-        written.append(str(path))
+    written: list[str] = []
+    created: list[Path] = []
+    try:
+        for rel, text in sorted(files.items()):
+            path = out_dir / rel
+            path.parent.mkdir(parents=True, exist_ok=True)
+            existed = path.exists()
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+            with os.fdopen(fd, "w", newline="\n") as handle:
+                handle.write(text)
+            os.chmod(tmp, 0o644)
+            os.replace(tmp, path)
+            if not existed:
+                created.append(path)
+            written.append(str(path))
+    except OSError as exc:
+        for path in created:
+            path.unlink(missing_ok=True)
+        where = exc.filename or out_dir
+        raise OutputError(f"--out: cannot write {where}: {exc.strerror or exc}") from None
     return written

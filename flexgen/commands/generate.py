@@ -1,4 +1,5 @@
-"""`flexgen generate`: emit flexure kernels (NumPy modules, C99 sources) into generated/."""
+"""`flexgen generate`: emit flexure kernels (NumPy modules, C99 sources), or with --scene a
+self-contained C solver of one mechanism for a controller."""
 
 from __future__ import annotations
 
@@ -26,14 +27,35 @@ def _langs(text: str) -> tuple[str, ...]:
 def register(sub) -> None:
     gen = sub.add_parser(
         "generate",
-        help="emit flexure kernels (NumPy modules, C99 sources)",
+        help="emit flexure kernels (NumPy, C99), or a scene's C solver (--scene)",
         description=(
             "Emit the kernel of one flexure: tip pose, Jacobian and Hessian in closed form. "
             "Without "
             "--modes, regenerates the checked-in set (scm1..scm8 polynomial at 90 degrees, Gauss "
             "kernels for 1..6 modes). With --check, writes nothing and exits 1 naming the files in "
-            "--out that differ from a fresh generation."
+            "--out that differ from a fresh generation. With --scene, emits instead a "
+            "self-contained C99 solver of that mechanism for a controller: NAME.h, NAME.c, "
+            "NAME_example.c, CMakeLists.txt and NAME.mk (docs/controller.md)."
         ),
+    )
+    gen.add_argument(
+        "--scene",
+        type=Path,
+        metavar="SCENE.toml",
+        help="emit the C solver of this scene (its loads and tensions become inputs; geometry, "
+        "stiffness, models and solver settings constants) into --out",
+    )
+    gen.add_argument(
+        "--prefix",
+        metavar="NAME",
+        help="prefix of every emitted file and external C symbol (--scene: default the scene "
+        "file's stem; kernels: NAME_scmN_evaluate, so that they link beside the shipped ones)",
+    )
+    gen.add_argument(
+        "--float",
+        dest="single",
+        action="store_true",
+        help="--scene: the single-precision twin (its accuracy is stated in NAME.h)",
     )
     gen.add_argument("--modes", type=integer(), help="Legendre curvature modes N (1..8)")
     gen.add_argument(
@@ -72,9 +94,8 @@ def register(sub) -> None:
     gen.add_argument(
         "--out",
         type=Path,
-        default=Path("generated"),
-        help="output folder (default: ./generated under the current folder; the "
-        "kernels shipped inside the package are never overwritten)",
+        help="output folder (default: ./generated for kernels, ./NAME for --scene, under the "
+        "current folder; the kernels shipped inside the package are never overwritten)",
     )
     gen.add_argument(
         "--check",
@@ -85,9 +106,43 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    if args.scene is not None:
+        return _run_scene(args)
+    if args.single:
+        raise UsageError("--float needs --scene (the kernels always have a float variant)")
+    return _run_kernels(args)
+
+
+def _run_scene(args) -> int:
+    from flexgen.codegen.controller import controller_files, default_prefix
+    from flexgen.codegen.render import stale_files, write_files
+
+    given = [f"--{n}" for n in ("modes", "degree", "nodes") if getattr(args, n) is not None]
+    if args.range_deg is not None:
+        given.append("--range")
+    if given:
+        raise UsageError(f"{', '.join(given)}: not used with --scene (the scene chooses models)")
+    prefix = args.prefix or default_prefix(args.scene)
+    out = args.out if args.out is not None else Path(prefix)
+    start = time.perf_counter()
+    files = controller_files(args.scene, prefix, args.single)
+    print(f"{args.scene}: {len(files)} files ({time.perf_counter() - start:.1f} s)", file=sys.stderr)
+    if args.check:
+        stale = stale_files(files, out)
+        if stale:
+            print(f"flexgen: stale in {out}: {' '.join(stale)}", file=sys.stderr)
+            return 1
+        return 0
+    for path in write_files(files, out):
+        print(path)
+    return 0
+
+
+def _run_kernels(args) -> int:
     from flexgen.codegen.generate import CHECKED_IN, generate_files
     from flexgen.codegen.render import stale_files, write_files
 
+    out = args.out if args.out is not None else Path("generated")
     if args.modes is None:
         if args.degree or args.nodes or args.range_deg is not None:
             raise UsageError("--degree, --nodes and --range need --modes")
@@ -99,22 +154,30 @@ def run(args) -> int:
     files: dict[str, str] = {}
     for i, spec in enumerate(specs, 1):
         start = time.perf_counter()
-        new = generate_files(spec, args.lang)
+        new = generate_files(spec, args.lang, _kernel_prefix(args.prefix))
         files |= new
         print(
             f"[{i}/{len(specs)}] {', '.join(sorted(new))} ({time.perf_counter() - start:.1f} s)",
             file=sys.stderr,
         )
     if args.check:
-        stale = stale_files(files, args.out)
+        stale = stale_files(files, out)
         if stale:
             print(
-                f"flexgen: stale in {args.out}: {' '.join(stale)} (run `make regen`)",
+                f"flexgen: stale in {out}: {' '.join(stale)} (run `make regen`)",
                 file=sys.stderr,
             )
             return 1
-        print(f"{len(files)} files in {args.out} are up to date", file=sys.stderr)
+        print(f"{len(files)} files in {out} are up to date", file=sys.stderr)
         return 0
-    for path in write_files(files, args.out):
+    for path in write_files(files, out):
         print(path)
     return 0
+
+
+def _kernel_prefix(prefix: str | None) -> str:
+    if prefix is None:
+        return ""
+    from flexgen.codegen.controller import check_prefix
+
+    return check_prefix(prefix)

@@ -34,9 +34,11 @@ def kernel_names() -> list[str]:
 
 
 def solver_declarations() -> str:
-    """chain_solver.h without its preprocessor lines and C++ guards (cffi's cdef syntax)."""
+    """chain_solver.h without its preprocessor lines, C++ guards and linkage macro (cffi's cdef
+    syntax)."""
     text = (ROOT / SOLVER / "chain_solver.h").read_text()
     text = re.sub(r"#ifdef __cplusplus.*?#endif", "", text, flags=re.S)
+    text = text.replace("FG_API ", "")  # the linkage macro: external in the core
     return "\n".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
 
 

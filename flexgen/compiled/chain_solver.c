@@ -144,7 +144,7 @@ static size_t tip_size(const fg_problem *p)
     return (size_t)p->nflex * (3 + tip_stride(p));
 }
 
-size_t fg_work_size(const fg_problem *p)
+FG_API size_t fg_work_size(const fg_problem *p)
 {
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
     size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
@@ -153,7 +153,7 @@ size_t fg_work_size(const fg_problem *p)
         + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
 }
 
-size_t fg_iwork_size(const fg_problem *p)
+FG_API size_t fg_iwork_size(const fg_problem *p)
 {
     return (size_t)p->ndof + 1 + 2 * (size_t)p->nflex;    /* pivots, kernel-switch flags (2) */
 }
@@ -1795,7 +1795,7 @@ static void clear_switched(fg_ws *w)
 }
 
 /* the compliance ellipse of a 2 x 2 compliance (chain_solver.h) */
-void fg_ellipse(const double *C, double circle_tol, double *out)
+FG_API void fg_ellipse(const double *C, double circle_tol, double *out)
 {
     double a = C[0], b = 0.5 * (C[1] + C[2]), d = C[3], half, mean, major, minor, big;
     if (!isfinite(a + b + d)) {
@@ -1882,7 +1882,7 @@ static void describe_answer(fg_ws *w, fg_answer *out)
     }
 }
 
-double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork)
+FG_API double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork)
 {
     fg_ws ws, *w = &ws;
     int n = p->ndof, i, j;
@@ -1913,7 +1913,7 @@ double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork)
     return min_eig(w, A);
 }
 
-int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
+FG_API int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
                    double *scratch)
 {
     int switched = 0;
@@ -1923,7 +1923,7 @@ int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J
 /* Solve: the warm start, else the unloaded state, the direct solve, else the continuation;
  * always to an answer (FG_SOLVED) or to the reason there is none (FG_NO_EQUILIBRIUM:
  * out->failure, last_error*, model_error*). */
-int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
+FG_API int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
 {
     fg_ws ws, *w = &ws;
     fg_state *st0, *cur, *spare, *smp;
@@ -1943,6 +1943,7 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
     out->ncritical = 0;
     out->failure = FG_FAIL_NONE;
     out->failure_load_factor = 0.0;
+    out->warm = 0;
 
     clear_switched(w);
     if (p->q0 != NULL) {
@@ -1959,6 +1960,7 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
         }
         if (warm) {
             factor = w->lb;
+            out->warm = 1;
             goto answer;
         }
         clear_model_error(w);

@@ -10,6 +10,13 @@
 
 #include <stddef.h>
 
+/* the linkage of the functions below: external by default; `flexgen generate --scene` defines it
+ * as `static` before pasting this core into a controller's one translation unit, so that two
+ * emitted mechanisms link into one program */
+#ifndef FG_API
+#define FG_API
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -204,6 +211,8 @@ typedef struct {
                            * (FG_KERNEL_*); NULL: not wanted */
     double *ellipse;      /* 3 noutputs: each output's compliance ellipse (fg_ellipse of the
                            * position rows of its compliance); NULL: not wanted */
+    int warm;             /* 1: the warm start from fg_problem.q0 was accepted (the answer is
+                           * Newton's from q0, no load path was followed) */
 } fg_answer;
 
 /* fg_answer.kernel: which kernel evaluates a FG_MODEL_KERNEL flexure at the equilibrium */
@@ -215,9 +224,9 @@ enum {
     FG_KERNEL_GAUSS_PAST = 4    /* the Gauss kernel past its certified range */
 };
 
-size_t fg_work_size(const fg_problem *p);
-size_t fg_iwork_size(const fg_problem *p);
-int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
+FG_API size_t fg_work_size(const fg_problem *p);
+FG_API size_t fg_iwork_size(const fg_problem *p);
+FG_API int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
 
 /* The margin of a stiffness K (n x n, row-major, full; e.g. fg_answer.stiffness) to a critical
  * load: the smallest eigenvalue of D^-1/2 K D^-1/2, D = diag(p->stiffness) the elastic energy's
@@ -226,20 +235,20 @@ int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
  * eigen-decomposition (LAPACK's dsyev from settings.lapack_min_size coordinates on, else the
  * built-in Jacobi method) in the solver's workspace (fg_work_size, fg_iwork_size), so it is not
  * part of fg_solve: O(n^3), asked for when an answer's validity is assessed. */
-double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork);
+FG_API double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork);
 
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
  * eigenvalue (major >= minor) and the angle of the major axis from the x axis in (-pi/2, pi/2],
  * 0 when major - minor <= circle_tol max(|major|, |minor|) (a circle); NAN if C is not finite.
  * Closed form: major = (a + d)/2 + hypot((a - d)/2, b), minor = det C / major (no cancellation
  * on a thin ellipse), angle = atan2(2 b, a - d) / 2. */
-void fg_ellipse(const double *C, double circle_tol, double *out);
+FG_API void fg_ellipse(const double *C, double circle_tol, double *out);
 
 /* One flexure's tip pose (3), J (3 x k) and H (3 x k x k) in its root frame, physical units, at
  * its coordinates q, as the solver evaluates it (the one implementation of the n-element chain
  * and the pseudo-rigid body; flexgen.models.fem and .prb call it); scratch: 4 (k + 1) doubles.
  * 0 if the model cannot be evaluated at q (a polynomial-only kernel past its range). */
-int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
+FG_API int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
                    double *scratch);
 
 #ifdef __cplusplus

@@ -1,0 +1,337 @@
+"""The controller emitter: one scene as a self-contained C99 solver (``flexgen generate --scene``).
+
+derive -> print -> render, as for a kernel: the scene is prepared exactly as the library
+prepares it (``flexgen.problem.Problem``: the flexures in body order, the points, the stiffness,
+the kernels each model uses), that problem is printed as constant C initializers, and the
+templates under ``templates/controller`` render ``NAME.h`` (the interface), ``NAME.c`` (the
+solver core of ``flexgen/compiled/chain_solver.c`` and the kernels, every function ``static``,
+then the scene's tables and ``NAME_solve``), ``NAME_example.c``, ``CMakeLists.txt`` and
+``NAME.mk``. ``controller_files`` returns {file name: text}; nothing touches the disk until
+``render.write_files``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import re
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+
+from flexgen.scene import Scene, SceneError, load_scene
+from flexgen.settings import DEFAULT, SolverSettings
+
+from .render import render
+
+# the compiled core's sources, pasted into every controller (installed with the package)
+CORE = Path(__file__).resolve().parents[1] / "compiled"
+
+
+class EmitError(SceneError):
+    """A scene, prefix or option the controller emitter refuses: one line naming it."""
+
+
+@dataclass(frozen=True)
+class Options:
+    """What `flexgen generate --scene` was asked for (the emitted files quote it)."""
+
+    scene_file: str  # the scene's file name as given on the command line (no folder)
+    prefix: str
+    single: bool = False  # --float: the single-precision twin
+
+
+C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+# names C99 reserves or the emitted code uses itself, which a prefix must not take
+RESERVED = frozenset(
+    "auto break case char const continue default do double else enum extern float for goto if "
+    "inline int long register restrict return short signed sizeof static struct switch typedef "
+    "union unsigned void volatile while fg main".split()
+)
+
+
+def default_prefix(path: Path) -> str:
+    """The scene file's stem as a C identifier (``two-link finger.toml`` -> ``two_link_finger``)."""
+    stem = re.sub(r"[^A-Za-z0-9_]", "_", path.stem)
+    return stem if re.match(r"^[A-Za-z_]", stem) else f"scene_{stem}"
+
+
+def check_prefix(prefix: str) -> str:
+    if not C_IDENTIFIER.match(prefix) or prefix.lower() in RESERVED or prefix.startswith("_"):
+        raise EmitError(
+            f"--prefix: {prefix!r} is not usable as a C identifier prefix (letters, digits and "
+            "_, not starting with a digit or _, not a C keyword)"
+        )
+    return prefix
+
+
+def identifier(name: str) -> str:
+    """A point or flexure name as the tail of a C enum name: ``fingertip.pad`` -> ``FINGERTIP_PAD``."""
+    return re.sub(r"[^A-Za-z0-9]", "_", name).upper()
+
+
+def _enum(kind: str, names: list[str]) -> list[tuple[str, str]]:
+    """[(C identifier, scene name)]; a clash of two names is an EmitError."""
+    seen: dict[str, str] = {}
+    out = []
+    for name in names:
+        ident = identifier(name)
+        if ident in seen:
+            what = "the same" if seen[ident] == name else f"{seen[ident]!r} and"
+            raise EmitError(
+                f"{kind}: {what} {name!r} give one C name {ident}; rename one of them "
+                f"({kind} names become enum constants)"
+            )
+        seen[ident] = name
+        out.append((ident, name))
+    return out
+
+
+def c_double(x: float) -> str:
+    """A double literal that reads back exactly (repr: the shortest round trip)."""
+    if not math.isfinite(x):
+        raise EmitError(f"a constant of the scene is not finite: {x!r}")
+    text = repr(float(x))
+    return text if any(c in text for c in ".en") else text + ".0"
+
+
+def c_float(x: float) -> str:
+    """A float literal of the double x (9 significant digits: one float exactly)."""
+    if not math.isfinite(x):
+        raise EmitError(f"a constant of the scene is not finite: {x!r}")
+    text = f"{x:.9g}"
+    return (text if any(c in text for c in ".e") else text + ".0") + "f"
+
+
+def _prepared_scene(path: Path) -> Scene:
+    """The scene as the controller solves it: a `tolerance` resolved into modes per flexure
+    (flexgen.select, as `flexgen solve` does), the exact model refused."""
+    from flexgen.api import uses_exact
+    from flexgen.select import scene_tolerance, select_models
+
+    scene = load_scene(path)
+    if uses_exact(scene):
+        raise EmitError(
+            'model.kind: "exact" (the reference elastica) has no C solver; choose "scm", "fem" '
+            'or "prb" for a controller (`flexgen select` says which is accurate enough)'
+        )
+    if not scene.outputs:
+        raise EmitError(
+            "output.points: a controller reports the points named there, and the scene names "
+            'none (add [output] points = ["<body>.<point>", ...])'
+        )
+    tol = scene_tolerance(scene)
+    if tol is not None:
+        modes = select_models(scene, tol).modes
+        flexures = tuple(
+            replace(f, model=replace(f.model, modes=modes[f.name], tolerance=None))
+            for f in scene.flexures
+        )
+        scene = replace(scene, model=replace(scene.model, tolerance=None), flexures=flexures)
+    return scene
+
+
+@functools.lru_cache(maxsize=None)
+def _kernel_addresses() -> dict[int, str]:
+    """{address of <kernel>_evaluate in flexgen._core: kernel name}, for every shipped kernel."""
+    from flexgen import kernels
+    from flexgen.core import ffi, kernel_functions
+
+    out = {}
+    for name in kernels.available():
+        evaluate, _ = kernel_functions(name)
+        out[int(ffi.cast("uintptr_t", evaluate))] = name
+    return out
+
+
+def _kernel_name(pointer: Any) -> str | None:
+    from flexgen.core import ffi
+
+    address = int(ffi.cast("uintptr_t", pointer))
+    return None if address == 0 else _kernel_addresses()[address]
+
+
+@functools.lru_cache(maxsize=None)
+def _kernel_block(name: str, single: bool) -> str:
+    """The C functions of a shipped kernel, static, in double (or float) precision."""
+    from flexgen.codegen.generate import CHECKED_IN, c_context
+    from flexgen.symbolic.flexure import FlexureKernel
+
+    for spec in CHECKED_IN:
+        kernel = FlexureKernel(spec)
+        if kernel.name == name:
+            break
+    else:  # pragma: no cover - every kernel of flexgen._core is in CHECKED_IN
+        raise EmitError(f"kernel {name!r} is not one flexgen ships")
+    context = c_context(kernel, linkage="static ")
+    suffix = "_f" if single else ""
+    context["variants"] = [v for v in context["variants"] if v["suffix"] == suffix]
+    return render("controller/kernel_block.c.jinja", context)
+
+
+def _core_text() -> str:
+    """chain_solver.h and chain_solver.c as one block (the header pasted where the source
+    includes it)."""
+    header = (CORE / "chain_solver.h").read_text()
+    source = (CORE / "chain_solver.c").read_text()
+    include = '#include "chain_solver.h"\n'
+    assert source.count(include) == 1, "chain_solver.c includes its header once"
+    return source.replace(include, header)
+
+
+def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict]:
+    from flexgen.core import lib
+    from flexgen.models.registry import model_info
+
+    kinds = {lib.FG_MODEL_KERNEL: "FG_MODEL_KERNEL", lib.FG_MODEL_FEM: "FG_MODEL_FEM"}
+    kinds[lib.FG_MODEL_PRB] = "FG_MODEL_PRB"
+    by_name = {f.name: f for f in scene.flexures}
+    rows = []
+    p = problem.struct
+    for i, name in enumerate(problem.flexure_order):
+        f, fl = p.flex[i], by_name[name]
+        poly, gauss = _kernel_name(f.poly), _kernel_name(f.gauss)
+        info = model_info(models[name])
+        model = ", ".join(f"{k} {v}" for k, v in info.items() if k != "kind")
+        rows.append(
+            {
+                "name": name,
+                "scene_index": [g.name for g in scene.flexures].index(name),
+                "comment": f'[[flexure]] "{name}": {info["kind"]}'
+                + (f" ({model})" if model else "")
+                + f", length {fl.length:g}, EI {fl.EI:g}, parent {fl.parent!r}",
+                "kind": kinds[f.kind],
+                "ndof": f.ndof,
+                "offset": f.offset,
+                "parent": f.parent,
+                "at": [number(float(v)) for v in f.at],
+                "length": float(f.length),
+                "gamma": float(f.gamma),
+                "poly": poly,
+                "gauss": gauss,
+            }
+        )
+    return rows
+
+
+def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
+    """The bend of each flexure (body order) past which flexgen/validity.py claims no accuracy:
+    the last error-class band; for prb, its pin-rotation validity, or -1 (never claimed) in a
+    scene its constants are not fitted for."""
+    from flexgen.models.registry import model_info
+    from flexgen.validity import BANDS, PRB_LIMIT, _context
+
+    prb_problem = _context(scene, models, None).prb_problem
+    limits = []
+    for name in order:
+        limit = BANDS[-1]
+        if model_info(models[name])["kind"] == "prb":
+            limit = -1.0 if prb_problem is not None else min(limit, PRB_LIMIT)
+        limits.append(float(limit))
+    return limits
+
+
+def _settings_rows(settings: SolverSettings, number) -> list[tuple[str, str]]:
+    rows = []
+    for f in fields(settings):
+        value = getattr(settings, f.name)
+        rows.append((f.name, str(value) if isinstance(value, int) else number(value)))
+    return rows
+
+
+def controller_context(path: Path, options: Options) -> dict[str, Any]:
+    """Everything the controller templates print, from the scene at ``path``."""
+    from flexgen.core import lib
+    from flexgen.models.registry import build_models
+    from flexgen.problem import Problem
+
+    scene = _prepared_scene(path)
+    models = build_models(scene)
+    settings = DEFAULT
+    problem = Problem(scene, models, settings)
+    p = problem.struct
+    number = c_float if options.single else c_double
+    loads = _enum("load.point", [ld.point for ld in scene.loads])
+    outputs = _enum("output.points", list(problem.outputs))
+    flex_names = _enum("flexure.name", [f.name for f in scene.flexures])
+    rows = _flexure_rows(scene, problem, models, number)
+    kernel_names = sorted({k for r in rows for k in (r["poly"], r["gauss"]) if k})
+    points = [
+        {"frame": int(p.points[i].frame), "x": float(p.points[i].x), "y": float(p.points[i].y)}
+        for i in range(max(int(p.npoints), 0))
+    ]
+    ints = lambda ptr, n: [int(ptr[i]) for i in range(n)]  # noqa: E731
+    nroute = sum(ints(p.route_len, int(p.ntendons)))
+    slices = problem.chain.slices
+    return {
+        "name": options.prefix,
+        "NAME": options.prefix.upper(),
+        "scene_file": options.scene_file,
+        "scene_name": scene.name,
+        "command": f"flexgen generate --scene {options.scene_file} --prefix {options.prefix}"
+        + (" --float" if options.single else ""),
+        "real": "float" if options.single else "double",
+        "single": options.single,
+        "number": number,
+        "ndof": int(p.ndof),
+        "nflex": int(p.nflex),
+        "npoints": int(p.npoints),
+        "nloads": int(p.nloads),
+        "ntendons": int(p.ntendons),
+        "noutputs": int(p.noutputs),
+        "nroute": nroute,
+        "nwork": max(int(lib.fg_work_size(p)), 1),
+        "niwork": max(int(lib.fg_iwork_size(p)), 1),
+        "loads": [
+            {"ident": ident, "point": point, "value": [*ld.force, ld.moment]}
+            for (ident, point), ld in zip(loads, scene.loads)
+        ],
+        "tensions": [t.tension for t in scene.tendons],
+        "tendon_routes": [" -> ".join(t.route) for t in scene.tendons],
+        "outputs": outputs,
+        "flexure_enum": flex_names,
+        "flexure_slices": [(name, slices[name].start, slices[name].stop) for name in slices],
+        "flexures": rows,
+        "points": points,
+        "point_names": list(
+            dict.fromkeys(
+                [ld.point for ld in scene.loads]
+                + [r for t in scene.tendons for r in t.route]
+                + list(problem.outputs)
+            )
+        ),
+        "load_point": ints(p.load_point, int(p.nloads)),
+        "route_start": ints(p.route_start, int(p.ntendons)),
+        "route_len": ints(p.route_len, int(p.ntendons)),
+        "route": ints(p.route, nroute),
+        "output_index": ints(p.outputs, int(p.noutputs)),
+        "stiffness": [number(float(v)) for v in problem.stiffness],
+        "claim_limits": [number(v) for v in _claim_limits(scene, models, problem.flexure_order)],
+        "settings": _settings_rows(settings, number),
+        "kernels": kernel_names,
+        "kernel_blocks": [_kernel_block(k, options.single) for k in kernel_names],
+        "core": _core_text(),
+    }
+
+
+TEMPLATES = {
+    "{name}.h": "controller/controller.h.jinja",
+    "{name}.c": "controller/controller.c.jinja",
+    "{name}_example.c": "controller/example.c.jinja",
+    "{name}.mk": "controller/controller.mk.jinja",
+    "CMakeLists.txt": "controller/CMakeLists.txt.jinja",
+}
+
+
+def controller_files(path: Path, prefix: str | None = None, single: bool = False) -> dict[str, str]:
+    """{file name: text} of the controller of the scene file ``path`` (see the module doc)."""
+    options = Options(
+        Path(path).name, check_prefix(prefix or default_prefix(Path(path))), bool(single)
+    )
+    if options.single:
+        raise EmitError("--float: not built yet")
+    context = controller_context(Path(path), options)
+    return {
+        out.format(name=options.prefix): render(template, context)
+        for out, template in TEMPLATES.items()
+    }
