@@ -1,5 +1,7 @@
 /* flexgen's scene controller as a contender: NAME_solve of `flexgen generate --scene SCENE
- * --prefix NAME` (compiled with -DPEER_PREFIX=NAME '-DPEER_HEADER="NAME.h"'). Cold: a zeroed
+ * --prefix NAME` (compiled with -DPEER_PREFIX=NAME -DPEER_UPPER=<NAME in capitals>
+ * '-DPEER_HEADER="NAME.h"', and -DPEER_CALLS=<the outputs' field counting evaluations> if
+ * there is one). Cold: a zeroed
  * NAME_state before each call; warm: the state kept from the previous call. Input 0 is
  * NAME_inputs_default, input 1 every load and tension of it times 1.01. */
 #include <string.h>
@@ -10,7 +12,8 @@
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 #define NAME(x) CAT(PEER_PREFIX, x)
-#define NOUT NAME(_NOUTPUTS)
+#define UPPER(x) CAT(PEER_UPPER, x)
+#define NOUT UPPER(_NOUTPUTS)
 
 static NAME(_inputs) inputs[2];
 static NAME(_state) state;
@@ -21,10 +24,10 @@ int peer_setup(void)
     int i, j;
     NAME(_inputs_default)(&inputs[0]);
     inputs[1] = inputs[0];
-    for (i = 0; i < NAME(_NLOADS); ++i)
+    for (i = 0; i < UPPER(_NLOADS); ++i)
         for (j = 0; j < 3; ++j)
             inputs[1].load[i][j] *= 1.01;
-    for (i = 0; i < NAME(_NTENDONS); ++i)
+    for (i = 0; i < UPPER(_NTENDONS); ++i)
         inputs[1].tension[i] *= 1.01;
     memset(&state, 0, sizeof state);
     return NOUT <= PEER_MAX_OUT ? 0 : 1;
