@@ -1,7 +1,7 @@
 # flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
 PYTHON ?= python3
 
-.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver bench-chain demo
+.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver bench-chain bench-controller demo
 
 # Installs flexgen editable with its test and lint tools; builds the compiled core (flexgen._core)
 # from flexgen/compiled and generated/c. Run it again after editing any C source.
@@ -40,6 +40,11 @@ bench-solver:
 # time per solve of a chain of n = 1..32 flexures, and the evaluations per solve
 bench-chain:
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/chain_scaling.py --out docs/chain-scaling.md
+
+# time per solve of flexgen's controller against an expert's CasADi Newton solve (issue 9; needs
+# casadi: pip install -e ".[bench]"), the answers checked against flexgen.solve first
+bench-controller:
+	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/casadi_peer.py --out docs/controller-speed.md
 
 bench-kernels:
 	$(PYTHON) benchmarks/kernels.py --out docs/benchmarks.md
