@@ -41,6 +41,22 @@ class Options:
     single: bool = False  # --float: the single-precision twin
 
 
+# The single-precision twin's settings: the tolerances of DEFAULT that are relative to double
+# rounding (1e-12 .. 1e-14) raised to what float arithmetic (eps 1.2e-7) can meet; the rest as
+# DEFAULT. Its accuracy is measured, not derived: tests/test_scene_controller.py.
+SINGLE = replace(
+    DEFAULT,
+    tol=2e-5,
+    polish_target=1e-6,
+    eigenvalue_floor=1e-5,
+    roundoff_tol=1e-5,
+    bifurcation_threshold=1e-3,
+    bracket_tol=1e-5,
+    tie_tol=1e-4,
+    circle_tol=1e-6,
+    descent_eps=1e-2,
+)
+
 C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # names C99 reserves or the emitted code uses itself, which a prefix must not take
 RESERVED = frozenset(
@@ -168,6 +184,7 @@ def _kernel_block(name: str, single: bool) -> str:
     context = c_context(kernel, linkage="static ")
     suffix = "_f" if single else ""
     context["variants"] = [v for v in context["variants"] if v["suffix"] == suffix]
+    context["range_type"] = "float" if single else "double"
     return render("controller/kernel_block.c.jinja", context)
 
 
@@ -249,8 +266,8 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
 
     scene = _prepared_scene(path)
     models = build_models(scene)
-    settings = DEFAULT
-    problem = Problem(scene, models, settings)
+    problem = Problem(scene, models, DEFAULT)
+    settings = SINGLE if options.single else DEFAULT
     p = problem.struct
     number = c_float if options.single else c_double
     loads = _enum("load.point", [ld.point for ld in scene.loads])
@@ -273,6 +290,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "command": f"flexgen generate --scene {options.scene_file} --prefix {options.prefix}"
         + (" --float" if options.single else ""),
         "real": "float" if options.single else "double",
+        "kernel_suffix": "_f" if options.single else "",
         "single": options.single,
         "number": number,
         "ndof": int(p.ndof),
@@ -309,7 +327,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "output_index": ints(p.outputs, int(p.noutputs)),
         "stiffness": [number(float(v)) for v in problem.stiffness],
         "claim_limits": [number(v) for v in _claim_limits(scene, models, problem.flexure_order)],
-        "settings": _settings_rows(settings, number),
+        "settings": _settings_rows(settings, c_double),
         "kernels": kernel_names,
         "kernel_blocks": [_kernel_block(k, options.single) for k in kernel_names],
         "core": _core_text(),
@@ -330,8 +348,6 @@ def controller_files(path: Path, prefix: str | None = None, single: bool = False
     options = Options(
         Path(path).name, check_prefix(prefix or default_prefix(Path(path))), bool(single)
     )
-    if options.single:
-        raise EmitError("--float: not built yet")
     context = controller_context(Path(path), options)
     return {
         out.format(name=options.prefix): render(template, context)

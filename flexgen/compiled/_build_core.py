@@ -39,6 +39,7 @@ def solver_declarations() -> str:
     text = (ROOT / SOLVER / "chain_solver.h").read_text()
     text = re.sub(r"#ifdef __cplusplus.*?#endif", "", text, flags=re.S)
     text = text.replace("FG_API ", "")  # the linkage macro: external in the core
+    text = text.replace("typedef FG_REAL fg_real;", "typedef double fg_real;")
     return "\n".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
 
 

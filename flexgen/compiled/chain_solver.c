@@ -65,6 +65,15 @@
 
 #include "chain_solver.h"
 
+/* the largest finite value and a floor for divisors, of fg_real */
+#ifdef FG_SINGLE
+#define FG_REAL_MAX FLT_MAX
+#define FG_TINY 1e-30f
+#else
+#define FG_REAL_MAX DBL_MAX
+#define FG_TINY 1e-300
+#endif
+
 /* ---- workspace ------------------------------------------------------------------------- */
 
 #define FG_NSTATES 6        /* states held at once (the bifurcation crossing needs five) */
@@ -79,10 +88,10 @@
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
 
 typedef struct {
-    double *q, *gU, *QL, *QT, *S;   /* load-independent parts (S: load Hessian at lam = 1) */
-    double *r, *K, *Q;              /* at the state's load factor */
-    double *out;                    /* per output point: pose (3), J (3 x n), at q */
-    double U, W, V, gmax, rmax, Pi, scale, rel, lam;
+    fg_real *q, *gU, *QL, *QT, *S;   /* load-independent parts (S: load Hessian at lam = 1) */
+    fg_real *r, *K, *Q;              /* at the state's load factor */
+    fg_real *out;                    /* per output point: pose (3), J (3 x n), at q */
+    fg_real U, W, V, gmax, rmax, Pi, scale, rel, lam;
     int sfinite, kfinite;           /* every entry of S, K is finite */
 } fg_state;
 
@@ -92,30 +101,30 @@ typedef struct {
     int n;
     size_t tstride;         /* doubles per flexure tip block (tip_block) */
     /* kinematics at the last evaluated q */
-    double *fpose, *fJ;     /* per flexure tip frame: pose (3), J (3 x n) */
-    double *fdata;          /* per flexure (FG_FDATA): moving_parent, awx, awy, c, s (root frame
+    fg_real *fpose, *fJ;     /* per flexure tip frame: pose (3), J (3 x n) */
+    fg_real *fdata;          /* per flexure (FG_FDATA): moving_parent, awx, awy, c, s (root frame
                              * rotation), wx, wy, moving, ct, st (tip frame rotation), lo, hi
                              * (the tip frame's J is zero outside the coordinates [lo, hi): those
                              * of the flexure and its ancestors lie in it) */
-    double *dk;             /* per flexure: the rank-one coefficients summed over its subtree */
-    double *kq;             /* the q of the last kinematics (kin_ok: they succeeded) */
+    fg_real *dk;             /* per flexure: the rank-one coefficients summed over its subtree */
+    fg_real *kq;             /* the q of the last kinematics (kin_ok: they succeeded) */
     int kin_ok;
     int evaluations;        /* kinematics evaluated in this solve */
     /* the last error and the last model error (fg_answer.last_error*, model_error*) */
     int err, err_flex, err_route, err_iterations;
-    double err_lam, err_rel;
+    fg_real err_lam, err_rel;
     int merr, merr_flex, merr_route;
     int fail_flex, fail_route;      /* where the last failed evaluation failed */
-    double *tpose, *tJ, *tH, *RJ;   /* per flexure tip kinematics (root frame), R dv rows */
-    double *ppose, *pJ;     /* per point: pose (3), J (3 x n) */
-    double *acc;            /* per flexure: Hessian accumulators (4) */
-    double *scratch;        /* fem tip: 4 (kmax + 1) */
-    double *reach;          /* n */
-    double *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
-    double *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
-    double *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
-    double hist[FG_MAX_LAG + 1];    /* Newton's last stagnation_lag + 1 relative residuals */
-    double *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
+    fg_real *tpose, *tJ, *tH, *RJ;   /* per flexure tip kinematics (root frame), R dv rows */
+    fg_real *ppose, *pJ;     /* per point: pose (3), J (3 x n) */
+    fg_real *acc;            /* per flexure: Hessian accumulators (4) */
+    fg_real *scratch;        /* fem tip: 4 (kmax + 1) */
+    fg_real *reach;          /* n */
+    fg_real *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
+    fg_real *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
+    fg_real *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
+    fg_real hist[FG_MAX_LAG + 1];    /* Newton's last stagnation_lag + 1 relative residuals */
+    fg_real *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
     int *switched;          /* per flexure: an "auto" flexure used its Gauss kernel since the
                              * flags were last cleared (fg_answer.switched) */
@@ -158,10 +167,10 @@ FG_API size_t fg_iwork_size(const fg_problem *p)
     return (size_t)p->ndof + 1 + 2 * (size_t)p->nflex;    /* pivots, kernel-switch flags (2) */
 }
 
-static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
+static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
 {
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
-    double *x = work;
+    fg_real *x = work;
     int i;
     w->p = p;
     w->set = &p->settings;
@@ -225,7 +234,7 @@ static void bind(fg_ws *w, const fg_problem *p, double *work, int *iwork)
 }
 
 /* the tip block of flexure i: J (3 k), H (3 k k), RJ (2 k), after the F tip poses */
-static double *tip_block(const fg_ws *w, int i)
+static fg_real *tip_block(const fg_ws *w, int i)
 {
     return w->tJ + (size_t)i * w->tstride;
 }
@@ -234,13 +243,13 @@ static double *tip_block(const fg_ws *w, int i)
 
 /* pose (3), J (3 x k), H (3 x k x k) of the tip in the root frame, physical units; 0 if the
  * model cannot be evaluated at q (a polynomial-only kernel past its range) */
-static int flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
-                       double *scratch, int *switched)
+static int flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
+                       fg_real *scratch, int *switched)
 {
     int k = f->ndof, i, j;
     if (f->kind == FG_MODEL_KERNEL) {
         fg_kernel kernel;
-        double L = f->length;
+        fg_real L = f->length;
         if (f->poly != NULL && (f->gauss == NULL || f->in_range(q)))
             kernel = f->poly;
         else if (f->gauss != NULL) {
@@ -262,12 +271,12 @@ static int flexure_tip(const fg_flexure *f, const double *q, double *pose, doubl
     }
     if (f->kind == FG_MODEL_FEM) {
         /* segments h/2, h, ..., h, h/2; phi_k = q_0 + ... + q_{k-1} */
-        double h = f->length / k;
-        double *lc = scratch, *ls = scratch + (k + 1), *tc = scratch + 2 * (k + 1),
+        fg_real h = f->length / k;
+        fg_real *lc = scratch, *ls = scratch + (k + 1), *tc = scratch + 2 * (k + 1),
                *ts = scratch + 3 * (k + 1);
-        double phi = 0.0, sc = 0.0, ss = 0.0;
+        fg_real phi = 0.0, sc = 0.0, ss = 0.0;
         for (i = 0; i <= k; ++i) {
-            double seg = (i == 0 || i == k) ? 0.5 * h : h;
+            fg_real seg = (i == 0 || i == k) ? 0.5 * h : h;
             if (i > 0)
                 phi += q[i - 1];
             lc[i] = seg * cos(phi);
@@ -299,7 +308,7 @@ static int flexure_tip(const fg_flexure *f, const double *q, double *pose, doubl
         return 1;
     }
     {   /* FG_MODEL_PRB: rigid (1 - gamma) L, pin, rigid gamma L */
-        double a = q[0], r = f->gamma * f->length, c = cos(a), s = sin(a);
+        fg_real a = q[0], r = f->gamma * f->length, c = cos(a), s = sin(a);
         pose[0] = (1.0 - f->gamma) * f->length + r * c;
         pose[1] = r * s;
         pose[2] = a;
@@ -315,7 +324,7 @@ static int flexure_tip(const fg_flexure *f, const double *q, double *pose, doubl
 
 /* ---- kinematics: every frame's and point's pose and Jacobian ---------------------------- */
 
-static int kinematics(fg_ws *w, const double *q)
+static int kinematics(fg_ws *w, const fg_real *q)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, a, j;
@@ -324,16 +333,16 @@ static int kinematics(fg_ws *w, const double *q)
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
         int k = f->ndof, off = f->offset;
-        double *pose = w->fpose + 3 * i, *J = w->fJ + (size_t)3 * n * i;
-        double *d = w->fdata + FG_FDATA * i;
-        double *tp = w->tpose + 3 * i, *blk = tip_block(w, i);
-        double *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
-        double pp[3] = {0.0, 0.0, 0.0};
-        const double *PJ = NULL;
+        fg_real *pose = w->fpose + 3 * i, *J = w->fJ + (size_t)3 * n * i;
+        fg_real *d = w->fdata + FG_FDATA * i;
+        fg_real *tp = w->tpose + 3 * i, *blk = tip_block(w, i);
+        fg_real *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
+        fg_real pp[3] = {0.0, 0.0, 0.0};
+        const fg_real *PJ = NULL;
         int moving = 0, tmoving = 0, lo, hi;
-        double th, c = 1.0, s = 0.0, awx, awy, rp[3], wx, wy;
+        fg_real th, c = 1.0, s = 0.0, awx, awy, rp[3], wx, wy;
         if (f->parent >= 0) {
-            const double *pd = w->fdata + FG_FDATA * f->parent;
+            const fg_real *pd = w->fdata + FG_FDATA * f->parent;
             memcpy(pp, w->fpose + 3 * f->parent, sizeof pp);
             PJ = w->fJ + (size_t)3 * n * f->parent;
             moving = pd[7] != 0.0;
@@ -365,25 +374,25 @@ static int kinematics(fg_ws *w, const double *q)
         lo = off;
         hi = off + k;
         if (PJ == NULL)
-            memset(J, 0, sizeof(double) * 3 * (size_t)n);
+            memset(J, 0, sizeof(fg_real) * 3 * (size_t)n);
         else if (!moving)
-            memcpy(J, PJ, sizeof(double) * 3 * (size_t)n);
+            memcpy(J, PJ, sizeof(fg_real) * 3 * (size_t)n);
         else {
             int plo = (int)w->fdata[FG_FDATA * f->parent + 10];
             int phi = (int)w->fdata[FG_FDATA * f->parent + 11];
             for (a = 0; a < 3; ++a) {   /* the parent's J is zero outside [plo, phi) */
-                memset(J + a * n, 0, sizeof(double) * (size_t)plo);
-                memset(J + a * n + phi, 0, sizeof(double) * (size_t)(n - phi));
+                memset(J + a * n, 0, sizeof(fg_real) * (size_t)plo);
+                memset(J + a * n + phi, 0, sizeof(fg_real) * (size_t)(n - phi));
             }
             for (j = plo; j < phi; ++j) {
-                double jt = PJ[2 * n + j];
+                fg_real jt = PJ[2 * n + j];
                 J[j] = (PJ[j] - awy * jt) - wy * jt;
                 J[n + j] = (PJ[n + j] + awx * jt) + wx * jt;
                 J[2 * n + j] = jt;
             }
         }
         if (f->parent >= 0) {
-            const double *pd = w->fdata + FG_FDATA * f->parent;
+            const fg_real *pd = w->fdata + FG_FDATA * f->parent;
             lo = (int)pd[10] < lo ? (int)pd[10] : lo;
             hi = (int)pd[11] > hi ? (int)pd[11] : hi;
         }
@@ -411,23 +420,23 @@ static int kinematics(fg_ws *w, const double *q)
     }
     for (i = 0; i < p->npoints; ++i) {
         const fg_point *pt = &p->points[i];
-        double *pose = w->ppose + 3 * i, *J = w->pJ + (size_t)3 * n * i;
+        fg_real *pose = w->ppose + 3 * i, *J = w->pJ + (size_t)3 * n * i;
         if (pt->frame < 0) {
             pose[0] = pt->x;
             pose[1] = pt->y;
             pose[2] = 0.0;
-            memset(J, 0, sizeof(double) * 3 * (size_t)n);
+            memset(J, 0, sizeof(fg_real) * 3 * (size_t)n);
             continue;
         }
         {
-            const double *fp = w->fpose + 3 * pt->frame, *FJ = w->fJ + (size_t)3 * n * pt->frame;
-            const double *fd = w->fdata + FG_FDATA * pt->frame;
-            double c = fd[8], s = fd[9];
-            double wx = c * pt->x - s * pt->y, wy = s * pt->x + c * pt->y;
+            const fg_real *fp = w->fpose + 3 * pt->frame, *FJ = w->fJ + (size_t)3 * n * pt->frame;
+            const fg_real *fd = w->fdata + FG_FDATA * pt->frame;
+            fg_real c = fd[8], s = fd[9];
+            fg_real wx = c * pt->x - s * pt->y, wy = s * pt->x + c * pt->y;
             pose[0] = fp[0] + wx;
             pose[1] = fp[1] + wy;
             pose[2] = fp[2];
-            memcpy(J, FJ, sizeof(double) * 3 * (size_t)n);
+            memcpy(J, FJ, sizeof(fg_real) * 3 * (size_t)n);
             if (fd[7] != 0.0)
                 for (j = 0; j < n; ++j) {
                     J[j] -= wy * FJ[2 * n + j];
@@ -436,16 +445,16 @@ static int kinematics(fg_ws *w, const double *q)
         }
     }
     if (q != w->kq)
-        memcpy(w->kq, q, sizeof(double) * (size_t)n);
+        memcpy(w->kq, q, sizeof(fg_real) * (size_t)n);
     w->kin_ok = 1;
     return 1;
 }
 
 /* a point's coefficients c_p into its frame's accumulators (w->acc) of G += sum_p c_p . H_p */
-static void add_coefficient(fg_ws *w, int point, double c0, double c1, double c2)
+static void add_coefficient(fg_ws *w, int point, fg_real c0, fg_real c1, fg_real c2)
 {
     const fg_point *pt = &w->p->points[point];
-    double *a;
+    fg_real *a;
     if (pt->frame < 0 || (c0 == 0.0 && c1 == 0.0 && c2 == 0.0))
         return;
     a = w->acc + 4 * pt->frame;
@@ -453,9 +462,9 @@ static void add_coefficient(fg_ws *w, int point, double c0, double c1, double c2
     a[1] += c1;
     a[2] += c2;
     if (pt->x != 0.0 || pt->y != 0.0) {
-        const double *fd = w->fdata + FG_FDATA * pt->frame;
-        double c = fd[8], s = fd[9];
-        double wx = c * pt->x - s * pt->y, wy = s * pt->x + c * pt->y;
+        const fg_real *fd = w->fdata + FG_FDATA * pt->frame;
+        fg_real c = fd[8], s = fd[9];
+        fg_real wx = c * pt->x - s * pt->y, wy = s * pt->x + c * pt->y;
         a[2] += c1 * wx - c0 * wy;
         a[3] += c0 * wx + c1 * wy;
     }
@@ -476,36 +485,36 @@ static void add_coefficient(fg_ws *w, int point, double c0, double c1, double c2
  * G is symmetric and only its upper triangle (row-major: column >= row; LAPACK's column-major
  * lower triangle) is built, everywhere in this file: an off-diagonal pair of equal terms goes to
  * the upper one of its two places. The lower triangle of S and K is never read (sym_copy). */
-static void hessian_sum(fg_ws *w, double *G)
+static void hessian_sum(fg_ws *w, fg_real *G)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, a, b, j;
     for (i = p->nflex - 1; i >= 0; --i) {
         const fg_flexure *f = &p->flex[i];
         int k = f->ndof, off = f->offset, h;
-        double *acc = w->acc + 4 * i, *d = w->fdata + FG_FDATA * i, *blk = tip_block(w, i);
-        double *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
-        double c0 = acc[0], c1 = acc[1], c2 = acc[2], kk = acc[3];
-        double c = d[3], s = d[4], e0, e1;
+        fg_real *acc = w->acc + 4 * i, *d = w->fdata + FG_FDATA * i, *blk = tip_block(w, i);
+        fg_real *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
+        fg_real c0 = acc[0], c1 = acc[1], c2 = acc[2], kk = acc[3];
+        fg_real c = d[3], s = d[4], e0, e1;
         /* dk: kk summed over the subtree (the children, later in the list, added theirs) */
         w->dk[i] += kk;
         if (w->dk[i] != 0.0) {
-            double dki = w->dk[i];
-            const double *ag = tJ + 2 * k;
+            fg_real dki = w->dk[i];
+            const fg_real *ag = tJ + 2 * k;
             for (h = i; h >= 0; h = p->flex[h].parent) {
                 const fg_flexure *fh = &p->flex[h];
                 int kh = fh->ndof, oh = fh->offset;
-                const double *ah = tip_block(w, h) + 2 * kh;
+                const fg_real *ah = tip_block(w, h) + 2 * kh;
                 if (h == i || oh < off)     /* the block (h, i) lies in the upper triangle */
                     for (a = 0; a < kh; ++a) {
-                        double m = dki * ah[a];
+                        fg_real m = dki * ah[a];
                         if (m != 0.0)
                             for (b = 0; b < k; ++b)
                                 G[(oh + a) * n + off + b] -= m * ag[b];
                     }
                 else                        /* its transpose (i, h) does */
                     for (b = 0; b < k; ++b) {
-                        double *row = G + (size_t)(off + b) * n + oh;
+                        fg_real *row = G + (size_t)(off + b) * n + oh;
                         for (a = 0; a < kh; ++a)
                             row[a] -= (dki * ah[a]) * ag[b];
                     }
@@ -522,27 +531,27 @@ static void hessian_sum(fg_ws *w, double *G)
         if (f->parent < 0 || (c0 == 0.0 && c1 == 0.0 && c2 == 0.0))
             continue;
         {
-            double wx = d[5], wy = d[6], awx = d[1], awy = d[2];
-            double r2 = c2 + c1 * wx - c0 * wy, kr = c0 * wx + c1 * wy;
-            double *pa = w->acc + 4 * f->parent;
+            fg_real wx = d[5], wy = d[6], awx = d[1], awy = d[2];
+            fg_real r2 = c2 + c1 * wx - c0 * wy, kr = c0 * wx + c1 * wy;
+            fg_real *pa = w->acc + 4 * f->parent;
             if (d[0] != 0.0) {   /* the parent frame moves: cross terms with its angle */
-                const double *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
+                const fg_real *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
                 /* the parent's angle row is zero outside [lo, hi) (kinematics) and on this
                  * flexure's own coordinates; each term with its transpose, in the upper
                  * triangle: rows j < off (k entries each), row off + a right of it */
                 int lo = (int)w->fdata[FG_FDATA * f->parent + 10];
                 int hi = (int)w->fdata[FG_FDATA * f->parent + 11];
                 int left = hi < off ? hi : off, right = lo > off + k ? lo : off + k;
-                double *m = w->scratch;     /* k entries (the fem scratch, free here) */
+                fg_real *m = w->scratch;     /* k entries (the fem scratch, free here) */
                 for (a = 0; a < k; ++a)
                     m[a] = c1 * RJ[a] - c0 * RJ[k + a];
                 for (j = lo; j < left; ++j) {
-                    double *row = G + (size_t)j * n + off, jr = Jr[j];
+                    fg_real *row = G + (size_t)j * n + off, jr = Jr[j];
                     for (a = 0; a < k; ++a)
                         row[a] += m[a] * jr;
                 }
                 for (a = 0; a < k; ++a) {
-                    double *row = G + (size_t)(off + a) * n;
+                    fg_real *row = G + (size_t)(off + a) * n;
                     for (j = right; j < hi; ++j)
                         row[j] += m[a] * Jr[j];
                 }
@@ -556,9 +565,9 @@ static void hessian_sum(fg_ws *w, double *G)
 }
 
 /* ---- the potential: parts at q, then the state at a load factor -------------------------- */
-static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st);
+static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st);
 
-static int finite_all(const double *x, size_t m)
+static int finite_all(const fg_real *x, size_t m)
 {
     size_t i;
     for (i = 0; i < m; ++i)
@@ -574,11 +583,11 @@ static size_t out_size(const fg_ws *w)
 
 /* The state at load factor lam from its load-independent parts (fresh: S was just built);
  * S: NULL (st's own), or the S to use instead (st's own is then not read) */
-static void at_lambda(const fg_ws *w, fg_state *st, const double *S, double lam, int fresh)
+static void at_lambda(const fg_ws *w, fg_state *st, const fg_real *S, fg_real lam, int fresh)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, j;
-    double rn = 0.0;
+    fg_real rn = 0.0;
     int bad = 0;
     st->lam = lam;
     for (i = 0; i < n; ++i) {
@@ -595,29 +604,29 @@ static void at_lambda(const fg_ws *w, fg_state *st, const double *S, double lam,
     if (fresh) {
         int sbad = 0;
         for (i = 0; i < n; ++i) {
-            const double *Si = S + (size_t)i * (size_t)n;
-            double *Ki = st->K + (size_t)i * (size_t)n;
+            const fg_real *Si = S + (size_t)i * (size_t)n;
+            fg_real *Ki = st->K + (size_t)i * (size_t)n;
             for (j = i; j < n; ++j) {
                 Ki[j] = lam * Si[j];
-                sbad |= !(fabs(Si[j]) <= DBL_MAX);
+                sbad |= !(fabs(Si[j]) <= FG_REAL_MAX);
             }
             Ki[i] += p->stiffness[i];
-            bad |= !(fabs(Ki[i]) <= DBL_MAX);
+            bad |= !(fabs(Ki[i]) <= FG_REAL_MAX);
         }
         st->sfinite = !sbad;
     } else
         for (i = 0; i < n; ++i) {
-            const double *Si = S + (size_t)i * (size_t)n;
-            double *Ki = st->K + (size_t)i * (size_t)n;
+            const fg_real *Si = S + (size_t)i * (size_t)n;
+            fg_real *Ki = st->K + (size_t)i * (size_t)n;
             for (j = i; j < n; ++j)
                 Ki[j] = lam * Si[j];
             Ki[i] += p->stiffness[i];
-            bad |= !(fabs(Ki[i]) <= DBL_MAX);
+            bad |= !(fabs(Ki[i]) <= FG_REAL_MAX);
         }
     if (!(fabs(lam) <= 1.0))
         for (i = 0; i < n; ++i)
             for (j = i + 1; j < n; ++j)
-                bad |= !(fabs(st->K[(size_t)i * (size_t)n + j]) <= DBL_MAX);
+                bad |= !(fabs(st->K[(size_t)i * (size_t)n + j]) <= FG_REAL_MAX);
     st->kfinite = st->sfinite && !bad;
     st->Pi = st->U - lam * st->W + lam * st->V;
     st->scale = st->gmax > fabs(lam) * st->rmax ? st->gmax : fabs(lam) * st->rmax;
@@ -629,7 +638,7 @@ static void at_lambda(const fg_ws *w, fg_state *st, const double *S, double lam,
 
 /* ---- the last error and the last model error (fg_answer.last_error*, model_error*) ------ */
 
-static void set_error(fg_ws *w, int code, double lam, double rel)
+static void set_error(fg_ws *w, int code, fg_real lam, fg_real rel)
 {
     w->err = code;
     w->err_lam = lam;
@@ -656,7 +665,7 @@ static void clear_model_error(fg_ws *w)
 
 typedef struct {
     int err, err_flex, err_route, err_iterations, merr, merr_flex, merr_route;
-    double err_lam, err_rel;
+    fg_real err_lam, err_rel;
 } fg_errors;
 
 static void save_errors(const fg_ws *w, fg_errors *e)
@@ -697,7 +706,7 @@ static int state_finite(fg_ws *w, const fg_state *st)
 
 /* the state at (q, lam); 0 if a model cannot be evaluated or a value is not finite (the last
  * error, and for a model, the model error, say which) */
-static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
+static int evaluate(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
 {
     if (!evaluate_parts(w, q, lam, st)) {
         set_model_error(w);
@@ -708,19 +717,19 @@ static int evaluate(fg_ws *w, const double *q, double lam, fg_state *st)
 
 /* the state at (q, lam), its values unchecked; 0 if a model cannot be evaluated (fail_flex) or
  * a tendon segment has zero length (fail_route) */
-static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
+static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
 {
     const fg_problem *p = w->p;
     int n = w->n, i, j, t, a, b;
     if (st->q != q)
-        memcpy(st->q, q, sizeof(double) * (size_t)n);
+        memcpy(st->q, q, sizeof(fg_real) * (size_t)n);
     if (!kinematics(w, st->q))
         return 0;
     for (i = 0; i < p->noutputs; ++i) {
         int pt = p->outputs[i];
-        double *o = st->out + (size_t)i * (3 + 3 * (size_t)n);
-        memcpy(o, w->ppose + 3 * pt, sizeof(double) * 3);
-        memcpy(o + 3, w->pJ + (size_t)3 * n * pt, sizeof(double) * 3 * (size_t)n);
+        fg_real *o = st->out + (size_t)i * (3 + 3 * (size_t)n);
+        memcpy(o, w->ppose + 3 * pt, sizeof(fg_real) * 3);
+        memcpy(o + 3, w->pJ + (size_t)3 * n * pt, sizeof(fg_real) * 3 * (size_t)n);
     }
     st->U = 0.0;
     st->gmax = 0.0;
@@ -732,15 +741,15 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
         st->QL[i] = st->QT[i] = w->reach[i] = 0.0;
     }
     for (i = 0; i < n; ++i)       /* the upper triangle only */
-        memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(double) * (size_t)(n - i));
-    memset(w->acc, 0, sizeof(double) * 4 * (size_t)p->nflex);
-    memset(w->dk, 0, sizeof(double) * (size_t)p->nflex);
+        memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(fg_real) * (size_t)(n - i));
+    memset(w->acc, 0, sizeof(fg_real) * 4 * (size_t)p->nflex);
+    memset(w->dk, 0, sizeof(fg_real) * (size_t)p->nflex);
     st->W = st->V = 0.0;
     for (t = 0; t < p->nloads; ++t) {
         int pt = p->load_point[t];
-        const double *F = p->load + 3 * t;
-        const double *pose = w->ppose + 3 * pt, *J = w->pJ + (size_t)3 * n * pt;
-        double hf = hypot(F[0], F[1]), mf = fabs(F[2]);
+        const fg_real *F = p->load + 3 * t;
+        const fg_real *pose = w->ppose + 3 * pt, *J = w->pJ + (size_t)3 * n * pt;
+        fg_real hf = hypot(F[0], F[1]), mf = fabs(F[2]);
         st->W += F[0] * pose[0] + F[1] * pose[1] + F[2] * pose[2];
         for (i = 0; i < n; ++i) {
             st->QL[i] += F[0] * J[i] + F[1] * J[n + i] + F[2] * J[2 * n + i];
@@ -749,17 +758,17 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
         add_coefficient(w, pt, -F[0], -F[1], -F[2]);
     }
     for (t = 0; t < p->ntendons; ++t) {
-        double T = p->tension[t], l = 0.0;
+        fg_real T = p->tension[t], l = 0.0;
         const int *route = p->route + p->route_start[t];
-        double *gl = w->vec1, *m = w->vec2;
+        fg_real *gl = w->vec1, *m = w->vec2;
         if (T == 0.0)
             continue;
-        memset(gl, 0, sizeof(double) * (size_t)n);
+        memset(gl, 0, sizeof(fg_real) * (size_t)n);
         for (j = 0; j + 1 < p->route_len[t]; ++j) {
             int pa = route[j], pb = route[j + 1];
-            const double *A = w->ppose + 3 * pa, *B = w->ppose + 3 * pb;
-            const double *JA = w->pJ + (size_t)3 * n * pa, *JB = w->pJ + (size_t)3 * n * pb;
-            double dx = B[0] - A[0], dy = B[1] - A[1], rho = hypot(dx, dy), ux, uy;
+            const fg_real *A = w->ppose + 3 * pa, *B = w->ppose + 3 * pb;
+            const fg_real *JA = w->pJ + (size_t)3 * n * pa, *JB = w->pJ + (size_t)3 * n * pb;
+            fg_real dx = B[0] - A[0], dy = B[1] - A[1], rho = hypot(dx, dy), ux, uy;
             if (rho == 0.0) {
                 w->fail_flex = -1;
                 w->fail_route = p->route_start[t] + j;
@@ -769,7 +778,7 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
             uy = dy / rho;
             l += rho;
             for (i = 0; i < n; ++i) {
-                double Jx = JB[i] - JA[i], Jy = JB[n + i] - JA[n + i];
+                fg_real Jx = JB[i] - JA[i], Jy = JB[n + i] - JA[n + i];
                 gl[i] += ux * Jx + uy * Jy;
                 m[i] = ux * Jy - uy * Jx;
                 w->reach[i] += fabs(T) * sqrt(Jx * Jx + Jy * Jy);
@@ -798,12 +807,12 @@ static int evaluate_parts(fg_ws *w, const double *q, double lam, fg_state *st)
 
 /* F = the symmetric matrix whose upper triangle is A's (S and K hold only their upper
  * triangles), for the routines that read a full matrix */
-static void sym_copy(double *F, const double *A, int n)
+static void sym_copy(fg_real *F, const fg_real *A, int n)
 {
     int i, j;
     for (i = 0; i < n; ++i) {
-        const double *Ai = A + (size_t)i * (size_t)n;
-        double *Fi = F + (size_t)i * (size_t)n;
+        const fg_real *Ai = A + (size_t)i * (size_t)n;
+        fg_real *Fi = F + (size_t)i * (size_t)n;
         for (j = i; j < n; ++j) {
             Fi[j] = Ai[j];
             F[(size_t)j * (size_t)n + i] = Ai[j];
@@ -814,14 +823,14 @@ static void sym_copy(double *F, const double *A, int n)
 /* The Cholesky factor U (A = U^T U, row-major upper: dpotrf's column-major lower L = U^T, the
  * same array) of the symmetric A (its upper triangle) in F, by rows: each pivot row scaled,
  * then subtracted from the trailing rows (an axpy along each); 0 if A is not positive definite */
-static int cholesky_builtin(const double *A, double *F, int n)
+static int cholesky_builtin(const fg_real *A, fg_real *F, int n)
 {
     int i, j, k;
     for (i = 0; i < n; ++i)
         memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
-               sizeof(double) * (size_t)(n - i));
+               sizeof(fg_real) * (size_t)(n - i));
     for (k = 0; k < n; ++k) {
-        double *Fk = F + (size_t)k * (size_t)n, d = Fk[k];
+        fg_real *Fk = F + (size_t)k * (size_t)n, d = Fk[k];
         if (!(d > 0.0))
             return 0;
         d = sqrt(d);
@@ -829,7 +838,7 @@ static int cholesky_builtin(const double *A, double *F, int n)
         for (j = k + 1; j < n; ++j)
             Fk[j] /= d;
         for (i = k + 1; i < n; ++i) {
-            double u = Fk[i], *Fi = F + (size_t)i * (size_t)n;
+            fg_real u = Fk[i], *Fi = F + (size_t)i * (size_t)n;
             if (u != 0.0)
                 for (j = i; j < n; ++j)
                     Fi[j] -= u * Fk[j];
@@ -841,20 +850,20 @@ static int cholesky_builtin(const double *A, double *F, int n)
 /* x = A^-1 b with A = U^T U, U in F (cholesky's factor, built-in or dpotrf's): U^T y = b by an
  * axpy along each row of U, U x = y by a dot product along each row (four partial sums). For
  * one right-hand side these loops cost less than dpotrs's blocked dtrsm. */
-static void cholesky_solve_builtin(const double *F, int n, const double *b, double *x)
+static void cholesky_solve_builtin(const fg_real *F, int n, const fg_real *b, fg_real *x)
 {
     int i, j;
-    memcpy(x, b, sizeof(double) * (size_t)n);
+    memcpy(x, b, sizeof(fg_real) * (size_t)n);
     for (j = 0; j < n; ++j) {
-        const double *Fj = F + (size_t)j * (size_t)n;
-        double yj = x[j] / Fj[j];
+        const fg_real *Fj = F + (size_t)j * (size_t)n;
+        fg_real yj = x[j] / Fj[j];
         x[j] = yj;
         for (i = j + 1; i < n; ++i)
             x[i] -= Fj[i] * yj;
     }
     for (j = n - 1; j >= 0; --j) {
-        const double *Fj = F + (size_t)j * (size_t)n;
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        const fg_real *Fj = F + (size_t)j * (size_t)n;
+        fg_real s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
         for (i = j + 1; i + 3 < n; i += 4) {
             s0 += Fj[i] * x[i];
             s1 += Fj[i + 1] * x[i + 1];
@@ -869,14 +878,14 @@ static void cholesky_solve_builtin(const double *F, int n, const double *b, doub
 
 /* x = A^-1 b by LU with partial pivoting (the symmetric A, its lower triangle, copied into F);
  * 0 if A is singular */
-static int lu_solve_builtin(const double *A, double *F, int *piv, int n, const double *b,
-                            double *x)
+static int lu_solve_builtin(const fg_real *A, fg_real *F, int *piv, int n, const fg_real *b,
+                            fg_real *x)
 {
     int i, j, k;
     sym_copy(F, A, n);
     for (k = 0; k < n; ++k) {
         int pk = k;
-        double big = fabs(F[k * n + k]);
+        fg_real big = fabs(F[k * n + k]);
         for (i = k + 1; i < n; ++i)
             if (fabs(F[i * n + k]) > big) {
                 big = fabs(F[i * n + k]);
@@ -887,21 +896,21 @@ static int lu_solve_builtin(const double *A, double *F, int *piv, int n, const d
         piv[k] = pk;
         if (pk != k)
             for (j = 0; j < n; ++j) {
-                double t = F[k * n + j];
+                fg_real t = F[k * n + j];
                 F[k * n + j] = F[pk * n + j];
                 F[pk * n + j] = t;
             }
         for (i = k + 1; i < n; ++i) {
-            double m = F[i * n + k] / F[k * n + k];
+            fg_real m = F[i * n + k] / F[k * n + k];
             F[i * n + k] = m;
             if (m != 0.0)
                 for (j = k + 1; j < n; ++j)
                     F[i * n + j] -= m * F[k * n + j];
         }
     }
-    memcpy(x, b, sizeof(double) * (size_t)n);
+    memcpy(x, b, sizeof(fg_real) * (size_t)n);
     for (k = 0; k < n; ++k) {
-        double t = x[piv[k]];
+        fg_real t = x[piv[k]];
         x[piv[k]] = x[k];
         x[k] = t;
     }
@@ -918,36 +927,43 @@ static int lu_solve_builtin(const double *A, double *F, int *piv, int n, const d
 
 /* The factorizations the solver uses: LAPACK's when given and n is large enough, else the
  * built-in ones. K is symmetric, so its row-major storage is also its column-major storage. */
+#ifndef FG_SINGLE
 static int use_lapack(const fg_problem *p, int n)
 {
     return p->lapack.potrf != NULL && n >= p->settings.lapack_min_size;
 }
+#endif
 
-static int cholesky(const fg_problem *p, const double *A, double *F, int n)
+static int cholesky(const fg_problem *p, const fg_real *A, fg_real *F, int n)
 {
+    (void)p;                  /* (single precision: no LAPACK) */
+#ifndef FG_SINGLE   /* LAPACK takes doubles */
     if (use_lapack(p, n)) {
         char uplo = 'L';          /* column-major lower: the row-major upper triangle */
         int info = 0, lda = n, i;
         for (i = 0; i < n; ++i)   /* that triangle is all dpotrf reads */
             memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
-                   sizeof(double) * (size_t)(n - i));
+                   sizeof(fg_real) * (size_t)(n - i));
         p->lapack.potrf(&uplo, &n, F, &lda, &info);
         return info == 0;
     }
+#endif
     return cholesky_builtin(A, F, n);
 }
 
-static void cholesky_solve(const fg_problem *p, const double *F, int n, const double *b,
-                           double *x)
+static void cholesky_solve(const fg_problem *p, const fg_real *F, int n, const fg_real *b,
+                           fg_real *x)
 {
     (void)p;                  /* both factors have the same layout (cholesky_solve_builtin);
                                * dpotrs's blocked dtrsm costs more for one right-hand side */
     cholesky_solve_builtin(F, n, b, x);
 }
 
-static int lu_solve(const fg_problem *p, const double *A, double *F, int *piv, int n,
-                    const double *b, double *x)
+static int lu_solve(const fg_problem *p, const fg_real *A, fg_real *F, int *piv, int n,
+                    const fg_real *b, fg_real *x)
 {
+    (void)p;
+#ifndef FG_SINGLE   /* LAPACK takes doubles */
     if (use_lapack(p, n)) {
         char trans = 'N';
         int info = 0, lda = n, nrhs = 1;
@@ -955,25 +971,26 @@ static int lu_solve(const fg_problem *p, const double *A, double *F, int *piv, i
         p->lapack.getrf(&n, &n, F, &lda, piv, &info);
         if (info != 0)
             return 0;
-        memcpy(x, b, sizeof(double) * (size_t)n);
+        memcpy(x, b, sizeof(fg_real) * (size_t)n);
         p->lapack.getrs(&trans, &n, &nrhs, F, &lda, piv, x, &lda, &info);
         return info == 0;
     }
+#endif
     return lu_solve_builtin(A, F, piv, n, b, x);
 }
 
-static double norm2(const double *x, int n)
+static fg_real norm2(const fg_real *x, int n)
 {
-    double s = 0.0;
+    fg_real s = 0.0;
     int i;
     for (i = 0; i < n; ++i)
         s += x[i] * x[i];
     return sqrt(s);
 }
 
-static double norm_inf(const double *x, int n)
+static fg_real norm_inf(const fg_real *x, int n)
 {
-    double s = 0.0;
+    fg_real s = 0.0;
     int i;
     for (i = 0; i < n; ++i)
         if (fabs(x[i]) > s)
@@ -981,9 +998,9 @@ static double norm_inf(const double *x, int n)
     return s;
 }
 
-static double dot(const double *x, const double *y, int n)
+static fg_real dot(const fg_real *x, const fg_real *y, int n)
 {
-    double s = 0.0;
+    fg_real s = 0.0;
     int i;
     for (i = 0; i < n; ++i)
         s += x[i] * y[i];
@@ -995,9 +1012,9 @@ static double dot(const double *x, const double *y, int n)
 /* The cyclic Jacobi method: the eigenvalues of the symmetric A ascending in ev, the eigenvector
  * of ev[j] in row j of V; scratch: 2 n n. Rotations stop when every off-diagonal entry is below
  * 1e-18 of |A| (the eigenvalues are then as accurate as LAPACK's, to a few ulps of |A|). */
-static void jacobi_builtin(const double *A, int n, double *ev, double *V, double *scratch)
+static void jacobi_builtin(const fg_real *A, int n, fg_real *ev, fg_real *V, fg_real *scratch)
 {
-    double *a = scratch, *u = scratch + (size_t)n * (size_t)n, fro = 0.0, small;
+    fg_real *a = scratch, *u = scratch + (size_t)n * (size_t)n, fro = 0.0, small;
     int i, j, k, sweep, rotated = 1;
     sym_copy(a, A, n);
     for (i = 0; i < n; ++i)
@@ -1010,7 +1027,7 @@ static void jacobi_builtin(const double *A, int n, double *ev, double *V, double
         rotated = 0;
         for (i = 0; i + 1 < n; ++i)
             for (j = i + 1; j < n; ++j) {
-                double aij = a[i * n + j], theta, t, c, s;
+                fg_real aij = a[i * n + j], theta, t, c, s;
                 if (aij == 0.0)
                     continue;
                 if (fabs(aij) <= small) {
@@ -1029,7 +1046,7 @@ static void jacobi_builtin(const double *A, int n, double *ev, double *V, double
                 a[j * n + j] += t * aij;
                 a[i * n + j] = a[j * n + i] = 0.0;
                 for (k = 0; k < n; ++k) {
-                    double x, y;
+                    fg_real x, y;
                     if (k != i && k != j) {
                         x = a[k * n + i];
                         y = a[k * n + j];
@@ -1048,7 +1065,7 @@ static void jacobi_builtin(const double *A, int n, double *ev, double *V, double
         ev[j] = a[j * n + j];
     for (j = 0; j < n; ++j) {
         int m = j;
-        double tmp;
+        fg_real tmp;
         for (k = j + 1; k < n; ++k)
             if (ev[k] < ev[m])
                 m = k;
@@ -1069,23 +1086,26 @@ static void jacobi_builtin(const double *A, int n, double *ev, double *V, double
 /* eigenvalues of the symmetric A ascending in w->ew, the eigenvector of ew[j] in row j of w->eV:
  * LAPACK's dsyev when given and n is large enough (its column-major eigenvectors are the rows of
  * the row-major V), else the built-in Jacobi method */
-static void eigen(fg_ws *w, const double *A)
+static void eigen(fg_ws *w, const fg_real *A)
 {
     const fg_problem *p = w->p;
     int n = w->n;
+    (void)p;                  /* (single precision: no LAPACK) */
+#ifndef FG_SINGLE   /* LAPACK takes doubles */
     if (p->lapack.syev != NULL && n >= p->settings.lapack_min_size) {
         char jobz = 'V', uplo = 'L';   /* column-major lower: the row-major upper triangle */
         int info = 0, lda = n, lwork = FG_LWORK(n);
-        memcpy(w->eV, A, sizeof(double) * (size_t)n * (size_t)n);
+        memcpy(w->eV, A, sizeof(fg_real) * (size_t)n * (size_t)n);
         p->lapack.syev(&jobz, &uplo, &n, w->eV, &lda, w->ew, w->ework, &lwork, &info);
         if (info == 0)
             return;
     }
+#endif
     jacobi_builtin(A, n, w->ew, w->eV, w->ework);
 }
 
 /* the smallest eigenvalue of A; its eigenvector is row 0 of w->eV */
-static double min_eig(fg_ws *w, const double *A)
+static fg_real min_eig(fg_ws *w, const fg_real *A)
 {
     eigen(w, A);
     return w->n > 0 ? w->ew[0] : 0.0;
@@ -1096,7 +1116,7 @@ static double min_eig(fg_ws *w, const double *A)
 /* d = K^-1 r: by Cholesky into w->la when K is positive definite (the usual case, half the work
  * of LU), else by LU (partial pivoting); 0 if K is singular. factored: w->la already holds
  * K's Cholesky factor. The two agree to rounding. */
-static int newton_step(fg_ws *w, const fg_state *st, int factored, double *d)
+static int newton_step(fg_ws *w, const fg_state *st, int factored, fg_real *d)
 {
     const fg_problem *p = w->p;
     int n = w->n;
@@ -1122,11 +1142,11 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
     const fg_settings *set = w->set;
     int n = w->n, k, i, tries, descent = extra != NULL;
     int lag = set->stagnation_lag, ring = lag + 1;
-    double *history = w->hist;      /* the relative residuals of the last lag + 1 iterations */
+    fg_real *history = w->hist;      /* the relative residuals of the last lag + 1 iterations */
     for (k = 0; k <= max_it; ++k) {
         fg_state *st = *cur;
-        double rn, slope = 0.0, top = 0.0, *d = w->vec3, *qt = w->vec4, alpha = 1.0;
-        double floor_;
+        fg_real rn, slope = 0.0, top = 0.0, *d = w->vec3, *qt = w->vec4, alpha = 1.0;
+        fg_real floor_;
         int accepted = 0, indefinite = 0;
         if (st->rel <= set->tol)
             return 1;
@@ -1142,22 +1162,22 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
         rn = norm2(st->r, n);
         if (descent) {
             /* d = -V diag(1 / max(|w|, floor top)) V^T r */
-            double *ew = w->ew, *V = w->eV, *c = w->cvec;
+            fg_real *ew = w->ew, *V = w->eV, *c = w->cvec;
             int j;
             eigen(w, st->K);
             for (j = 0; j < n; ++j)
                 if (fabs(ew[j]) > top)
                     top = fabs(ew[j]);
-            if (top < 1e-300)
-                top = 1e-300;
+            if (top < FG_TINY)
+                top = FG_TINY;
             floor_ = set->eigenvalue_floor * top;
             indefinite = n > 0 && ew[0] <= floor_;
             for (j = 0; j < n; ++j) {
-                double wm = fabs(ew[j]) > floor_ ? fabs(ew[j]) : floor_;
+                fg_real wm = fabs(ew[j]) > floor_ ? fabs(ew[j]) : floor_;
                 c[j] = dot(V + (size_t)j * (size_t)n, st->r, n) / wm;
             }
             for (i = 0; i < n; ++i) {
-                double s = 0.0;
+                fg_real s = 0.0;
                 for (j = 0; j < n; ++j)
                     s += V[(size_t)j * (size_t)n + i] * c[j];
                 d[i] = -s;
@@ -1196,7 +1216,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
                     continue;
                 if (ok && indefinite && alpha >= 1.0) {
                     /* negative curvature: expand while the potential keeps falling */
-                    double a = alpha;
+                    fg_real a = alpha;
                     int e;
                     for (e = 0; e < set->expansion_doublings; ++e) {
                         a *= 2.0;
@@ -1230,7 +1250,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
 
 /* every smooth curvature flexure within its range: the polynomial kernel's when it has one
  * (an "auto" flexure past it would switch kernels), else the Gauss kernel's certified range */
-static int in_kernel_range(const fg_problem *p, const double *q)
+static int in_kernel_range(const fg_problem *p, const fg_real *q)
 {
     int i;
     for (i = 0; i < p->nflex; ++i) {
@@ -1247,19 +1267,19 @@ static int in_kernel_range(const fg_problem *p, const double *q)
 /* polish the equilibrium *cur, then the answer: q, the output points' poses and compliances.
  * factor: NULL, or the Cholesky factor of cur->K (n x n, not in w->la), used by the first
  * polishing step and, if no step is taken, for the stability and the compliance. */
-static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor,
+static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const fg_real *factor,
                   int iterations, fg_answer *out)
 {
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
     int n = w->n, i, j, a;
-    const double *F = NULL;       /* cur->K's Cholesky factor, when known */
+    const fg_real *F = NULL;       /* cur->K's Cholesky factor, when known */
     /* polish: plain Newton steps while they lower the relative residual below polish_target
      * (K^-1 r by Cholesky where K is positive definite, else by LU: the two agree to rounding) */
     if (factor != NULL)
         F = factor;
     for (j = 0; j < set->polish_steps && cur->rel > set->polish_target; ++j) {
-        double *d = w->vec3, *qt = w->vec4;
+        fg_real *d = w->vec3, *qt = w->vec4;
         if (F != NULL)
             cholesky_solve(p, F, n, cur->r, d);
         else if (!newton_step(w, cur, 0, d))
@@ -1282,21 +1302,21 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor
     if (F != NULL) {
         out->stable = 1;
         if (F != w->la)
-            memcpy(w->la, F, sizeof(double) * (size_t)n * (size_t)n);
+            memcpy(w->la, F, sizeof(fg_real) * (size_t)n * (size_t)n);
     } else {
         out->stable = cholesky(p, cur->K, w->la, n);
     }
     out->iterations = iterations;
     out->energy = cur->U;
     out->residual = cur->rel;
-    memcpy(out->q, cur->q, sizeof(double) * (size_t)n);
+    memcpy(out->q, cur->q, sizeof(fg_real) * (size_t)n);
     if (out->stiffness != NULL)
         sym_copy(out->stiffness, cur->K, n);
     for (j = 0; j < p->noutputs; ++j) {
-        const double *J = cur->out + (size_t)j * (3 + 3 * (size_t)n) + 3;
-        double *C = out->compliance + 9 * j, *X = w->lc;   /* X = K^-1 J^T, 3 columns */
+        const fg_real *J = cur->out + (size_t)j * (3 + 3 * (size_t)n) + 3;
+        fg_real *C = out->compliance + 9 * j, *X = w->lc;   /* X = K^-1 J^T, 3 columns */
         int ok = 1;
-        memcpy(out->pose + 3 * j, J - 3, sizeof(double) * 3);
+        memcpy(out->pose + 3 * j, J - 3, sizeof(fg_real) * 3);
         for (a = 0; a < 3 && ok; ++a) {
             if (out->stable)
                 cholesky_solve(p, w->la, n, J + a * n, X + a * n);
@@ -1305,7 +1325,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor
         }
         for (a = 0; a < 3; ++a)
             for (i = 0; i < 3; ++i) {
-                double sum = 0.0;
+                fg_real sum = 0.0;
                 int m;
                 for (m = 0; m < n; ++m)
                     sum += J[a * n + m] * X[i * n + m];
@@ -1313,11 +1333,11 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const double *factor
             }
         for (a = 0; a < 3; ++a)
             for (i = 0; i < a; ++i) {
-                double s = 0.5 * (C[a * 3 + i] + C[i * 3 + a]);
+                fg_real s = 0.5 * (C[a * 3 + i] + C[i * 3 + a]);
                 C[a * 3 + i] = C[i * 3 + a] = s;
             }
         if (out->ellipse != NULL) {
-            double C2[4];
+            fg_real C2[4];
             C2[0] = C[0];
             C2[1] = C[1];
             C2[2] = C[3];
@@ -1379,14 +1399,14 @@ static int linear_path(const fg_problem *p)
  * path), and under a force S(q) changes along the path, so no sample follows from the ends.
  * Fewer would take a weaker check: direct_samples = 1 (one sample, t = 1/2) gives 7. */
 static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state **spare,
-                        fg_state *smp, double *end_factor, int *iterations)
+                        fg_state *smp, fg_real *end_factor, int *iterations)
 {
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
     int n = w->n, i, j, ok = 0, linear;
     int max_it = set->max_iterations < set->direct_max_iterations ? set->max_iterations
                                                                    : set->direct_max_iterations;
-    double *t0 = w->t0, *t1 = w->t1;     /* path tangents dq/dlam at the two ends */
+    fg_real *t0 = w->t0, *t1 = w->t1;     /* path tangents dq/dlam at the two ends */
     fg_state *c = *cur;
     fg_errors saved;
 
@@ -1394,11 +1414,11 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)p->nflex);
     for (i = 0; i < n; ++i)                       /* K(q0, 0) is diagonal (the caller) */
         t0[i] = st0->Q[i] / st0->K[(size_t)i * (size_t)n + i];
-    memcpy(c->q, st0->q, sizeof(double) * (size_t)n);
-    memcpy(c->gU, st0->gU, sizeof(double) * (size_t)n);
-    memcpy(c->QL, st0->QL, sizeof(double) * (size_t)n);
-    memcpy(c->QT, st0->QT, sizeof(double) * (size_t)n);
-    memcpy(c->out, st0->out, sizeof(double) * out_size(w));
+    memcpy(c->q, st0->q, sizeof(fg_real) * (size_t)n);
+    memcpy(c->gU, st0->gU, sizeof(fg_real) * (size_t)n);
+    memcpy(c->QL, st0->QL, sizeof(fg_real) * (size_t)n);
+    memcpy(c->QT, st0->QT, sizeof(fg_real) * (size_t)n);
+    memcpy(c->out, st0->out, sizeof(fg_real) * out_size(w));
     c->U = st0->U;
     c->W = st0->W;
     c->V = st0->V;
@@ -1419,16 +1439,16 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
     linear = linear_path(p);
     for (j = 1; j <= set->direct_samples; ++j) {
-        double t = (double)j / (set->direct_samples + 1), *qt = w->vec4, *corr = w->vec3;
-        double h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
-        double h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
+        fg_real t = (fg_real)j / (set->direct_samples + 1), *qt = w->vec4, *corr = w->vec3;
+        fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
+        fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
         for (i = 0; i < n; ++i)
             qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
         if (!in_kernel_range(p, qt))
             goto done;
         if (linear) {             /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0) */
             for (i = 0; i < n; ++i) {
-                double k = st0->K[(size_t)i * (size_t)n + i];
+                fg_real k = st0->K[(size_t)i * (size_t)n + i];
                 corr[i] = (k * qt[i] - t * st0->Q[i]) / k;
             }
         } else {
@@ -1463,7 +1483,7 @@ static fg_state *free_state(fg_ws *w, const fg_state *x0, const fg_state *x1,
 }
 
 /* a critical load factor of this kind, in order: counted always, stored while there is room */
-static void record_critical(fg_answer *out, double lam, int kind)
+static void record_critical(fg_answer *out, fg_real lam, int kind)
 {
     if (out->critical != NULL && out->critical_kind != NULL
         && out->ncritical < out->max_critical) {
@@ -1476,7 +1496,7 @@ static void record_critical(fg_answer *out, double lam, int kind)
 /* Newton with descent from q at load factor lam, up to descent_iteration_factor max_iterations
  * (a snap-through, and the leaving of an unstable branch past a bifurcation); the stable
  * equilibrium it ends at, or NULL. The states keep and keep2 are not touched. */
-static fg_state *descend(fg_ws *w, const double *q, double lam, const fg_state *keep,
+static fg_state *descend(fg_ws *w, const fg_real *q, fg_real lam, const fg_state *keep,
                          const fg_state *keep2, int *iterations)
 {
     fg_state *a = free_state(w, keep, keep2, NULL, NULL);
@@ -1496,12 +1516,12 @@ static fg_state *descend(fg_ws *w, const double *q, double lam, const fg_state *
 static int is_bifurcation(fg_ws *w, const fg_state *b)
 {
     int n = w->n, i;
-    double kg = 0.0, scale;
+    fg_real kg = 0.0, scale;
     min_eig(w, b->K);
     for (i = 0; i < n; ++i) {     /* S's upper triangle: the strict part counts twice */
         int j;
         for (j = i; j < n; ++j) {
-            double g = b->lam * b->S[(size_t)i * (size_t)n + j];
+            fg_real g = b->lam * b->S[(size_t)i * (size_t)n + j];
             kg += j > i ? 2.0 * (g * g) : g * g;
         }
     }
@@ -1510,7 +1530,7 @@ static int is_bifurcation(fg_ws *w, const fg_state *b)
 }
 
 /* the mean world y and angle of the output points at s (saved with the state) */
-static void mean_output(fg_ws *w, const fg_state *s, double *y, double *angle)
+static void mean_output(fg_ws *w, const fg_state *s, fg_real *y, fg_real *angle)
 {
     const fg_problem *p = w->p;
     int j;
@@ -1538,11 +1558,11 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
     const fg_settings *set = w->set;
     int n = w->n, i, it, side = 0, why;
     fg_state *lo = a, *hi = b, *s1, *s2, *choice;
-    double mu_lo = min_eig(w, a->K), mu_hi = min_eig(w, b->K);
-    double e_lo = mu_lo, e_hi = mu_hi;       /* the eigenvalues themselves (no Illinois halving) */
-    double lam_c, eps, lam_b = b->lam, *qm = w->t1, *v = w->vmin;
+    fg_real mu_lo = min_eig(w, a->K), mu_hi = min_eig(w, b->K);
+    fg_real e_lo = mu_lo, e_hi = mu_hi;       /* the eigenvalues themselves (no Illinois halving) */
+    fg_real lam_c, eps, lam_b = b->lam, *qm = w->t1, *v = w->vmin;
     for (it = 0; it < set->bracket_iterations; ++it) {
-        double t, lam_m, mu_m, kmax = 1.0;
+        fg_real t, lam_m, mu_m, kmax = 1.0;
         fg_state *m, *m2;
         if (hi->lam - lo->lam <= set->bracket_tol * (hi->lam > 1.0 ? hi->lam : 1.0))
             break;
@@ -1589,7 +1609,7 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
 
     /* leave the unstable branch at b's load factor: descend from b +- eps v */
     min_eig(w, b->K);
-    memcpy(v, w->eV, sizeof(double) * (size_t)n);
+    memcpy(v, w->eV, sizeof(fg_real) * (size_t)n);
     eps = set->descent_eps * (norm2(b->q, n) > 1.0 ? norm2(b->q, n) : 1.0);
     for (i = 0; i < n; ++i) {
         w->qplus[i] = b->q[i] + eps * v[i];
@@ -1603,7 +1623,7 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
         choice = s1 != NULL ? s1 : s2;
         why = FG_BUCKLING_ONLY_SIDE;
     } else {
-        double scale = 1e-300, y1, y2, th1, th2, ys;
+        fg_real scale = FG_TINY, y1, y2, th1, th2, ys;
         if (fabs(s1->Pi) > scale)
             scale = fabs(s1->Pi);
         if (fabs(s2->Pi) > scale)
@@ -1619,7 +1639,7 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
             mean_output(w, s1, &y1, &th1);
             mean_output(w, s2, &y2, &th2);
             ys = fabs(y1) > fabs(y2) ? fabs(y1) : fabs(y2);
-            if (fabs(y1 - y2) > set->tie_tol * (ys > 1e-300 ? ys : 1e-300)) {
+            if (fabs(y1 - y2) > set->tie_tol * (ys > FG_TINY ? ys : FG_TINY)) {
                 choice = y1 > y2 ? s1 : s2;
                 why = FG_BUCKLING_LARGER_Y;
             } else {
@@ -1645,9 +1665,9 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
     int n = w->n, i, steps = 0;
-    double lam = 0.0, dlam = set->initial_step;
+    fg_real lam = 0.0, dlam = set->initial_step;
     while (lam < 1.0) {
-        double lam_n = lam + dlam < 1.0 ? lam + dlam : 1.0;
+        fg_real lam_n = lam + dlam < 1.0 ? lam + dlam : 1.0;
         int it0 = *iterations, used, found = 0, attempt, stable_before;
         fg_state *a = free_state(w, path, NULL, NULL, NULL);
         fg_state *b = free_state(w, path, a, NULL, NULL);
@@ -1658,7 +1678,7 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
         }
         stable_before = cholesky(p, path->K, w->la, n);
         for (attempt = 0; attempt < 2 && !found; ++attempt) {
-            double *start = w->vec1;
+            fg_real *start = w->vec1;
             if (attempt == 0) {            /* the tangent predictor */
                 if (!stable_before)
                     continue;
@@ -1666,7 +1686,7 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
                 for (i = 0; i < n; ++i)
                     start[i] = path->q[i] + (lam_n - lam) * w->t0[i];
             } else {
-                memcpy(start, path->q, sizeof(double) * (size_t)n);
+                memcpy(start, path->q, sizeof(fg_real) * (size_t)n);
             }
             if (!evaluate(w, start, lam_n, a)
                 || !newton(w, &a, &b, NULL, set->max_iterations, 0, iterations))
@@ -1785,7 +1805,7 @@ static int well_formed(const fg_problem *p, const fg_answer *out)
 
 /* K at lam = 0 is the diagonal elastic stiffness (at_lambda: 0 S + diag): positive definite
  * exactly when its diagonal is positive, no factorization needed */
-static int diagonal_positive(const double *K, int n)
+static int diagonal_positive(const fg_real *K, int n)
 {
     int i;
     for (i = 0; i < n; ++i)
@@ -1800,9 +1820,9 @@ static void clear_switched(fg_ws *w)
 }
 
 /* the compliance ellipse of a 2 x 2 compliance (chain_solver.h) */
-FG_API void fg_ellipse(const double *C, double circle_tol, double *out)
+FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out)
 {
-    double a = C[0], b = 0.5 * (C[1] + C[2]), d = C[3], half, mean, major, minor, big;
+    fg_real a = C[0], b = 0.5 * (C[1] + C[2]), d = C[3], half, mean, major, minor, big;
     if (!isfinite(a + b + d)) {
         out[0] = out[1] = out[2] = NAN;
         return;
@@ -1814,7 +1834,7 @@ FG_API void fg_ellipse(const double *C, double circle_tol, double *out)
     big = fabs(major) > fabs(minor) ? fabs(major) : fabs(minor);
     out[0] = major;
     out[1] = minor;
-    if (major - minor <= circle_tol * (big > 1e-300 ? big : 1e-300)) {
+    if (major - minor <= circle_tol * (big > FG_TINY ? big : FG_TINY)) {
         out[2] = 0.0;
     } else {
         out[2] = 0.5 * atan2(2.0 * b, a - d);
@@ -1828,14 +1848,14 @@ FG_API void fg_ellipse(const double *C, double circle_tol, double *out)
  * B_0 = s/L and B_n = (P_{n+1}(x) - P_{n-1}(x)) / (2 (2n + 1)), x = 2 s/L - 1 (the integral of
  * the shifted Legendre polynomial), the Legendre values by their three-term recurrence; for the
  * n-element chain the joint angles q_0 + ... + q_k; for the pseudo-rigid body |q_0| */
-static double flexure_bend(const fg_flexure *f, const double *q, int samples, double *P)
+static fg_real flexure_bend(const fg_flexure *f, const fg_real *q, int samples, fg_real *P)
 {
     int k = f->ndof, i, m;
-    double most = 0.0;
+    fg_real most = 0.0;
     if (f->kind == FG_MODEL_KERNEL) {
         for (i = 0; i < samples; ++i) {
-            double sigma = samples > 1 ? (double)i / (double)(samples - 1) : 1.0;
-            double x = 2.0 * sigma - 1.0, phi = q[0] * sigma;
+            fg_real sigma = samples > 1 ? (fg_real)i / (fg_real)(samples - 1) : 1.0;
+            fg_real x = 2.0 * sigma - 1.0, phi = q[0] * sigma;
             P[0] = 1.0;
             P[1] = x;
             for (m = 1; m < k; ++m)
@@ -1848,7 +1868,7 @@ static double flexure_bend(const fg_flexure *f, const double *q, int samples, do
         return most;
     }
     if (f->kind == FG_MODEL_FEM) {
-        double phi = 0.0;
+        fg_real phi = 0.0;
         for (i = 0; i < k; ++i) {
             phi += q[i];
             if (fabs(phi) > most)
@@ -1866,10 +1886,10 @@ static void describe_answer(fg_ws *w, fg_answer *out)
 {
     const fg_problem *p = w->p;
     int i;
-    const double *q = out->q;
+    const fg_real *q = out->q;
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
-        const double *qf = q + f->offset;
+        const fg_real *qf = q + f->offset;
         if (out->bend != NULL)
             out->bend[i] = flexure_bend(f, qf, p->settings.bend_samples, w->scratch);
         if (out->kernel != NULL) {
@@ -1887,11 +1907,11 @@ static void describe_answer(fg_ws *w, fg_answer *out)
     }
 }
 
-FG_API double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork)
+FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork)
 {
     fg_ws ws, *w = &ws;
     int n = p->ndof, i, j;
-    double *A;
+    fg_real *A;
     for (i = 0; i < n; ++i)
         if (!(p->stiffness[i] > 0.0))
             return NAN;
@@ -1903,6 +1923,7 @@ FG_API double fg_margin(const fg_problem *p, const double *K, double *work, int 
         for (j = i; j < n; ++j)
             A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j]
                                            / sqrt(p->stiffness[i] * p->stiffness[j]);
+#ifndef FG_SINGLE   /* LAPACK takes doubles */
     if (p->lapack.syev != NULL && n >= p->settings.lapack_min_size) {
         /* eigenvalues only: LAPACK skips the eigenvectors (a third of the work or less) */
         char jobz = 'N', uplo = 'L';
@@ -1915,11 +1936,12 @@ FG_API double fg_margin(const fg_problem *p, const double *K, double *work, int 
                 A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j]
                                                / sqrt(p->stiffness[i] * p->stiffness[j]);
     }
+#endif
     return min_eig(w, A);
 }
 
-FG_API int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
-                   double *scratch)
+FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
+                   fg_real *scratch)
 {
     int switched = 0;
     return flexure_tip(f, q, pose, J, H, scratch, &switched);
@@ -1928,11 +1950,11 @@ FG_API int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, do
 /* Solve: the warm start, else the unloaded state, the direct solve, else the continuation;
  * always to an answer (FG_SOLVED) or to the reason there is none (FG_NO_EQUILIBRIUM:
  * out->failure, last_error*, model_error*). */
-FG_API int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out)
+FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *out)
 {
     fg_ws ws, *w = &ws;
     fg_state *st0, *cur, *spare, *smp;
-    const double *factor = NULL;
+    const fg_real *factor = NULL;
     int n, i, j, iterations = 0, status;
 
     if (p == NULL || !well_formed(p, out))
@@ -1974,7 +1996,7 @@ FG_API int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *ou
     }
     /* the unloaded state (q = 0, lam = 0: an equilibrium, when it can be evaluated), then the
      * full load at once, else the continuation from it */
-    memset(w->vec1, 0, sizeof(double) * (size_t)n);
+    memset(w->vec1, 0, sizeof(fg_real) * (size_t)n);
     if (!evaluate(w, w->vec1, 0.0, st0)) {
         out->failure = FG_FAIL_UNLOADED;
         out->failure_load_factor = 0.0;

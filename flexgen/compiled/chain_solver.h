@@ -17,13 +17,21 @@
 #define FG_API
 #endif
 
+/* the floating-point type of every quantity but the settings: double; `flexgen generate --scene
+ * --float` defines FG_REAL as float (with <tgmath.h>, so that the math functions follow it) for
+ * its single-precision twin */
+#ifndef FG_REAL
+#define FG_REAL double
+#endif
+typedef FG_REAL fg_real;
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 /* a generated kernel: pose (3), J (3 x k), H (3 x k x k) of the tip in units of L */
-typedef void (*fg_kernel)(const double *q, double *pose, double *J, double *H);
-typedef int (*fg_range)(const double *q);
+typedef void (*fg_kernel)(const fg_real *q, fg_real *pose, fg_real *J, fg_real *H);
+typedef int (*fg_range)(const fg_real *q);
 
 enum { FG_MODEL_KERNEL = 0, FG_MODEL_FEM = 1, FG_MODEL_PRB = 2 };
 
@@ -70,9 +78,9 @@ typedef struct {
     int ndof;             /* its coordinates are q[offset .. offset + ndof) */
     int offset;
     int parent;           /* flexure whose tip frame carries this root (listed earlier), -1: base */
-    double at[3];         /* root frame in the parent frame: x, y, angle */
-    double length;
-    double gamma;         /* FG_MODEL_PRB: pin position */
+    fg_real at[3];         /* root frame in the parent frame: x, y, angle */
+    fg_real length;
+    fg_real gamma;         /* FG_MODEL_PRB: pin position */
     fg_kernel poly;       /* FG_MODEL_KERNEL: polynomial kernel (NULL: none) */
     fg_range in_range;    /* its range check */
     fg_kernel gauss;      /* Gauss kernel (NULL: none) */
@@ -151,7 +159,7 @@ typedef struct {
 
 typedef struct {
     int frame;            /* flexure whose tip frame carries the point, -1: base */
-    double x, y;          /* in that frame */
+    fg_real x, y;          /* in that frame */
 } fg_point;
 
 typedef struct {
@@ -159,26 +167,26 @@ typedef struct {
     const fg_flexure *flex;      /* nflex, every parent before its children */
     const fg_point *points;      /* npoints */
     const int *load_point;       /* nloads */
-    const double *load;          /* 3 nloads: fx, fy, moment */
-    const double *tension;       /* ntendons */
+    const fg_real *load;          /* 3 nloads: fx, fy, moment */
+    const fg_real *tension;       /* ntendons */
     const int *route_start;      /* ntendons: first entry in route */
     const int *route_len;        /* ntendons */
     const int *route;            /* point indices */
     const int *outputs;          /* noutputs point indices */
-    const double *stiffness;     /* ndof: diagonal of the elastic energy's Hessian */
+    const fg_real *stiffness;     /* ndof: diagonal of the elastic energy's Hessian */
     fg_settings settings;
     fg_lapack lapack;
-    const double *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
+    const fg_real *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
 } fg_problem;
 
 typedef struct {
-    double *q;            /* ndof: the equilibrium */
-    double *pose;         /* 3 noutputs: world x, y, angle */
-    double *compliance;   /* 9 noutputs: 3 x 3 d(x, y, angle)/d(fx, fy, moment) */
-    double *stiffness;    /* ndof x ndof: the stiffness K at the equilibrium (NULL: not wanted) */
-    double energy, residual;
+    fg_real *q;            /* ndof: the equilibrium */
+    fg_real *pose;         /* 3 noutputs: world x, y, angle */
+    fg_real *compliance;   /* 9 noutputs: 3 x 3 d(x, y, angle)/d(fx, fy, moment) */
+    fg_real *stiffness;    /* ndof x ndof: the stiffness K at the equilibrium (NULL: not wanted) */
+    fg_real energy, residual;
     int iterations, stable;
-    double *critical;     /* max_critical: the critical load factors met on the way, in order */
+    fg_real *critical;     /* max_critical: the critical load factors met on the way, in order */
     int *critical_kind;   /* max_critical: FG_SNAP_THROUGH or FG_BUCKLING_* of each */
     int max_critical;     /* their capacity: only the first max_critical events are stored */
     int ncritical;        /* how many were met (every one, also those beyond max_critical) */
@@ -186,11 +194,11 @@ typedef struct {
                            * used its Gauss kernel during the solve; NULL: not reported */
     /* FG_NO_EQUILIBRIUM: why (FG_FAIL_*) and at which load factor (the reason's lam) */
     int failure;
-    double failure_load_factor;
+    fg_real failure_load_factor;
     /* the last error of the solve, what its message prints (flexgen/reasons.py) */
     int last_error;                 /* FG_ERR_* */
-    double last_error_load_factor;  /* STAGNATION, LINE_SEARCH, JUMP */
-    double last_error_residual;     /* STAGNATION, NOT_CONVERGED, LINE_SEARCH: relative */
+    fg_real last_error_load_factor;  /* STAGNATION, LINE_SEARCH, JUMP */
+    fg_real last_error_residual;     /* STAGNATION, NOT_CONVERGED, LINE_SEARCH: relative */
     int last_error_iterations;      /* NOT_CONVERGED: the iteration limit */
     int last_error_flexure;         /* KERNEL_RANGE: the flexure (index in fg_problem.flex) */
     int last_error_route;           /* TENDON: index in fg_problem.route of the zero-length
@@ -204,12 +212,12 @@ typedef struct {
     int evaluations;      /* chain evaluations (kinematics and kernels) in the solve */
     /* FG_SOLVED: what the validity of the answer depends on, at the equilibrium (and
      * fg_margin, on request) */
-    double *bend;         /* nflex (fg_problem.flex order): max |phi(s)| of each flexure relative
+    fg_real *bend;         /* nflex (fg_problem.flex order): max |phi(s)| of each flexure relative
                            * to its root frame, rad, on settings.bend_samples points; NULL: not
                            * wanted */
     int *kernel;          /* nflex: the kernel evaluating each flexure at the equilibrium
                            * (FG_KERNEL_*); NULL: not wanted */
-    double *ellipse;      /* 3 noutputs: each output's compliance ellipse (fg_ellipse of the
+    fg_real *ellipse;      /* 3 noutputs: each output's compliance ellipse (fg_ellipse of the
                            * position rows of its compliance); NULL: not wanted */
     int warm;             /* 1: the warm start from fg_problem.q0 was accepted (the answer is
                            * Newton's from q0, no load path was followed) */
@@ -226,7 +234,7 @@ enum {
 
 FG_API size_t fg_work_size(const fg_problem *p);
 FG_API size_t fg_iwork_size(const fg_problem *p);
-FG_API int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *out);
+FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *out);
 
 /* The margin of a stiffness K (n x n, row-major, full; e.g. fg_answer.stiffness) to a critical
  * load: the smallest eigenvalue of D^-1/2 K D^-1/2, D = diag(p->stiffness) the elastic energy's
@@ -235,21 +243,21 @@ FG_API int fg_solve(const fg_problem *p, double *work, int *iwork, fg_answer *ou
  * eigen-decomposition (LAPACK's dsyev from settings.lapack_min_size coordinates on, else the
  * built-in Jacobi method) in the solver's workspace (fg_work_size, fg_iwork_size), so it is not
  * part of fg_solve: O(n^3), asked for when an answer's validity is assessed. */
-FG_API double fg_margin(const fg_problem *p, const double *K, double *work, int *iwork);
+FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork);
 
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
  * eigenvalue (major >= minor) and the angle of the major axis from the x axis in (-pi/2, pi/2],
  * 0 when major - minor <= circle_tol max(|major|, |minor|) (a circle); NAN if C is not finite.
  * Closed form: major = (a + d)/2 + hypot((a - d)/2, b), minor = det C / major (no cancellation
  * on a thin ellipse), angle = atan2(2 b, a - d) / 2. */
-FG_API void fg_ellipse(const double *C, double circle_tol, double *out);
+FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out);
 
 /* One flexure's tip pose (3), J (3 x k) and H (3 x k x k) in its root frame, physical units, at
  * its coordinates q, as the solver evaluates it (the one implementation of the n-element chain
  * and the pseudo-rigid body; flexgen.models.fem and .prb call it); scratch: 4 (k + 1) doubles.
  * 0 if the model cannot be evaluated at q (a polynomial-only kernel past its range). */
-FG_API int fg_flexure_tip(const fg_flexure *f, const double *q, double *pose, double *J, double *H,
-                   double *scratch);
+FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
+                   fg_real *scratch);
 
 #ifdef __cplusplus
 }
