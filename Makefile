@@ -17,15 +17,19 @@ lint:
 test:
 	$(PYTHON) -m pytest -q
 
-# Rewrite generated/ on purpose (the golden test compares it to a fresh generation).
+# Rewrite generated/ and the generated finger controller on purpose (the golden tests compare
+# them to a fresh generation; the controller embeds the solver core, so regenerate it after
+# editing flexgen/compiled/chain_solver.c).
 regen:
 	$(PYTHON) -m flexgen generate --out generated
+	$(PYTHON) -m flexgen generate --scene examples/two_link_finger.toml --out examples/controller/two_link_finger
 
 check-generated:
 	$(PYTHON) -m flexgen generate --out generated --check
+	$(PYTHON) -m flexgen generate --scene examples/two_link_finger.toml --out examples/controller/two_link_finger --check
 
-# Every benchmark page under docs/ (about 8 minutes on 2 cores).
-bench: bench-kernels bench-growth bench-models bench-solver bench-chain
+# Every benchmark page under docs/ (about 9 minutes on 2 cores).
+bench: bench-kernels bench-growth bench-models bench-solver bench-chain bench-controller
 
 # flexgen bench (accuracy vs speed) and flexgen stability (where models fail) into docs/
 # (flexgen_tools/bench.py, flexgen_tools/stability.py; need this checkout's examples/)
@@ -42,8 +46,9 @@ bench-chain:
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/chain_scaling.py --out docs/chain-scaling.md
 
 # time per solve of flexgen's controller against an expert's CasADi Newton solve (issue 9; needs
-# casadi: pip install -e ".[bench]"), the answers checked against flexgen.solve first
+# casadi, the `bench` extra, installed here), the answers checked against flexgen.solve first
 bench-controller:
+	$(PYTHON) -m pip install --quiet "casadi>=3.6"
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/casadi_peer.py --out docs/controller-speed.md
 
 bench-kernels:

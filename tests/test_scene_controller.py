@@ -414,3 +414,50 @@ def test_kernel_prefix_links_beside_the_shipped_kernel(tmp_path):
     assert "void mine_scm2_evaluate(" in text and "int mine_scm2_in_range(" in text
     header = (tmp_path / "k" / "c" / "mine_scm2.h").read_text()
     assert "#define MINE_SCM2_PHI_MAX" in header
+
+
+# -- the single-precision twin ------------------------------------------------------------------
+
+FLOAT_SCENES = [f"ex_{p.stem}" for p in EXAMPLES] + [f"r{s}" for s in range(8)]
+
+
+@pytest.fixture(scope="module")
+def built_float(tmp_path_factory, built):
+    """{prefix: answer line} of the --float twins of the example scenes and 8 random ones, all
+    in one C++ program."""
+    folder = tmp_path_factory.mktemp("float")
+    for prefix in FLOAT_SCENES:
+        write_files(controller_files(built[prefix][0], prefix, single=True), folder)
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:
+        objects = list(pool.map(lambda p: _compile(folder / f"{p}.c", STRICT), FLOAT_SCENES))
+    driver = folder / "driver.cpp"
+    text = _driver(FLOAT_SCENES).replace("const double *x", "const float *x")
+    driver.write_text(text.replace('"%s%.17g"', '"%s%.9g"'))
+    exe = folder / "driver"
+    cmd = ["g++", "-Wall", "-Wextra", "-Werror", "-O2", f"-I{folder}", str(driver)]
+    subprocess.run([*cmd, *map(str, objects), "-lm", "-o", str(exe)], check=True)
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
+    return {d["name"]: d for d in map(json.loads, out.splitlines())}
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize("prefix", FLOAT_SCENES)
+def test_float_twin_is_within_its_stated_accuracy(built, built_float, prefix):
+    path, _ = built[prefix]
+    got = built_float[prefix]
+    header = (ROOT / "templates" / "controller" / "controller.h.jinja").read_text()
+    assert "_POSE_ACCURACY 1e-4 " in header and "_COMPLIANCE_ACCURACY 1e-4 " in header
+    scene = flexgen.load_scene(path)
+    r = flexgen.solve(scene)
+    assert (got["status"] == 0) == r.converged
+    if not r.converged:
+        return
+    scale = max(f.length for f in scene.flexures)
+    poses = np.array(got["pose"]).reshape(-1, 3)
+    comps = np.array(got["compliance"]).reshape(-1, 3, 3)
+    for pose, point in zip(poses, r.points.values()):
+        assert np.abs(pose[:2] - np.asarray(point.pose[:2])).max() <= 1e-4 * scale
+        assert np.abs(pose[2] - point.pose[2]) <= 1e-4
+    for c3, point in zip(comps, r.points.values()):
+        ref = np.asarray(point.compliance)
+        assert np.abs(c3[:2, :2] - ref).max() <= 1e-4 * np.abs(ref).max()

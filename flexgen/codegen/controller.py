@@ -291,6 +291,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         + (" --float" if options.single else ""),
         "real": "float" if options.single else "double",
         "kernel_suffix": "_f" if options.single else "",
+        "tol": f"{settings.tol:g}",
         "single": options.single,
         "number": number,
         "ndof": int(p.ndof),
