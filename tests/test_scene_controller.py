@@ -4,8 +4,8 @@ Every example scene and 24 random chains and trees (scm of 1..6 modes, fem, prb;
 forces and moments) is emitted, compiled with the strict flags as C, and linked together into one
 C++ program that includes every header: all of the mechanisms in one program, which is what the
 NAME_ prefixes are for. Each answer is compared with ``flexgen.solve`` (poses to 1e-12 of the
-longest flexure, compliances to 1e-10 relative), and the example scenes also with the exact
-elastica through the library. The example program's JSON is compared with `flexgen solve --json`,
+longest flexure, compliances to 1e-10 relative), and the example scenes and the random scm and
+fem scenes also with the exact elastica through the library. The example program's JSON is compared with `flexgen solve --json`,
 warm starts with cold solves along slowly changing loads (across a buckling load), and bad input
 to the emitter gives one line, exit 2 and no files.
 """
@@ -211,6 +211,27 @@ def test_example_scenes_against_the_exact_elastica(built, path):
     poses = np.array(got["pose"]).reshape(-1, 3)
     for pose, point in zip(poses, exact.points.values()):
         assert np.abs(pose[:2] - np.asarray(point.pose[:2])).max() < 2e-3 * scale
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize("seed", range(RANDOM))
+def test_random_scenes_against_the_exact_elastica(built, seed):
+    """The emitted answers of the random scm and fem scenes against the library's exact
+    elastica, within each model's own error on such mild scenes: scm (2..6 modes) 1e-3 of the
+    longest flexure, the n-element chain 0.3 / n^2 (its error falls as 1/n^2). prb is not
+    compared: it claims no accuracy off a single tip-loaded flexure."""
+    path, got = built[f"r{seed}"]
+    scene = flexgen.load_scene(path)
+    spec = scene.flexures[0].model
+    if spec.kind == "prb" or got["status"] != 0:
+        pytest.skip("prb, or no equilibrium")
+    exact = flexgen.solve(scene, model="exact")
+    assert exact.converged, exact.reason
+    tol = 1e-3 if spec.kind == "scm" else 0.3 / spec.elements**2
+    scale = max(f.length for f in scene.flexures)
+    poses = np.array(got["pose"]).reshape(-1, 3)
+    for pose, point in zip(poses, exact.points.values()):
+        assert np.abs(pose[:2] - np.asarray(point.pose[:2])).max() < tol * scale
 
 
 @NEEDS_GCC
@@ -461,3 +482,15 @@ def test_float_twin_is_within_its_stated_accuracy(built, built_float, prefix):
     for c3, point in zip(comps, r.points.values()):
         ref = np.asarray(point.compliance)
         assert np.abs(c3[:2, :2] - ref).max() <= 1e-4 * np.abs(ref).max()
+
+
+@pytest.mark.skipif(shutil.which("clang") is None, reason="needs clang")
+@pytest.mark.parametrize("single", [False, True], ids=["double", "float"])
+def test_clang_compiles_the_emitted_solver_strictly(tmp_path, single):
+    scene = ROOT / "examples" / "two_link_finger.toml"
+    write_files(controller_files(scene, "finger", single=single), tmp_path)
+    exe = tmp_path / "finger_example"
+    sources = [str(tmp_path / "finger.c"), str(tmp_path / "finger_example.c")]
+    subprocess.run(["clang", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    out = subprocess.run([str(exe), "--no-timing"], check=True, capture_output=True).stdout
+    assert json.loads(out)["converged"] is True
