@@ -45,4 +45,4 @@ def test_auto_switches_to_gauss_past_range_where_one_exists():
     np.testing.assert_allclose(
         r.points["b.tip"].pose, [math.sin(t) / t, (1 - math.cos(t)) / t, t], atol=1e-9
     )
-    assert any("switched to the Gauss kernel" in w for w in r.warnings)
+    assert any("switched to the Gauss kernel" in w for w in r.notes)

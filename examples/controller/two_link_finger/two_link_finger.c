@@ -2906,7 +2906,7 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     fg_problem p = two_link_finger_problem;
     fg_answer a;
     fg_real bend[2], critical[1];
-    int kernel[2], critical_kind[1], status, j, k;
+    int kernel[2], switched[2], critical_kind[1], status, j, k;
 
     /* the core's entry points this controller does not call */
     (void)fg_margin;
@@ -2923,6 +2923,7 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     a.ellipse = &out->ellipse[0][0];
     a.bend = bend;
     a.kernel = kernel;
+    a.switched = switched;
     a.critical = critical;
     a.critical_kind = critical_kind;
     a.max_critical = 1;
@@ -2939,12 +2940,13 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
      * answer's critical events; a cold one has its own */
     out->warm = a.warm;
     out->flags = 0;
+    out->notes = 0;
     if (!a.warm) {
         state->critical = a.ncritical > 0;
         state->critical_load_factor = a.ncritical > 0 ? critical[0] : 0.0;
     }
     if (state->critical) {
-        out->flags |= TWO_LINK_FINGER_FLAG_CRITICAL;
+        out->notes |= TWO_LINK_FINGER_NOTE_CRITICAL;
         out->critical_load_factor = state->critical_load_factor;
     } else {
         out->critical_load_factor = 0.0;
@@ -2955,6 +2957,8 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
         out->kernel[s] = kernel[j];
         if (kernel[j] == FG_KERNEL_POLY_PAST || kernel[j] == FG_KERNEL_GAUSS_PAST)
             out->flags |= TWO_LINK_FINGER_FLAG_PAST_RANGE;
+        if (switched[j])
+            out->notes |= TWO_LINK_FINGER_NOTE_GAUSS;
         if (!(bend[j] <= two_link_finger_claim_limit[j]))
             out->flags |= TWO_LINK_FINGER_FLAG_NO_CLAIM;
     }
