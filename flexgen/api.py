@@ -12,16 +12,20 @@ tolerance=None, **options)``:
   ``max_steps``, ...), checked; ignored by the exact solver;
 - ``q0``: a warm start ({flexure: coordinates});
 - ``tolerance`` (or ``[model] tolerance``): choose the fewest modes per flexure that meet it
-  (``flexgen.select``).
+  (``flexgen.select``);
+- ``estimate`` (default True): give every chain-model answer its error estimate
+  (``flexgen.estimate``: the richer model solved from the answer); False skips it, for
+  speed-critical loops.
 
 Kind ``"exact"`` must apply to every flexure (the elastica solver solves the whole scene at once);
 it runs ``models.exact.solve_exact`` and converts its answer (``flexgen.exact_result``). Every
 other scene is solved by the compiled core (``flexgen.solver.Solver``); the last prepared solvers
 are kept per Scene object, so solving the same scene again costs the core call and the Result.
 
-Every converged chain-model answer is checked against what its models may claim
-(``flexgen.validity``): the validity warnings are appended to ``Result.warnings`` and the
-indicative error class is ``Result.error_class`` (Python API only).
+Every chain-model answer states its estimated error (``Result.error_estimate``, each point's
+``error_estimate``; ``flexgen.estimate``) and every converged one is checked for what makes a
+model invalid (``flexgen.validity``: prb past its range, a kernel past its certified range, a
+load near a critical one); those warnings are appended to ``Result.warnings``.
 """
 
 from __future__ import annotations
@@ -109,10 +113,11 @@ def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
     return solver
 
 
-def _assessed(solver: Solver, q0: Mapping[str, Any] | None) -> Result:
-    """``solver.solve(q0=q0)`` with the margin to a critical load the validity check needs (the
-    core's ``fg_margin``, while the workspace holds this answer's stiffness)."""
-    result = solver.solve(q0=q0)
+def _assessed(solver: Solver, q0: Mapping[str, Any] | None, estimate: bool = True) -> Result:
+    """``solver.solve(q0=q0, estimate=estimate)`` with the margin to a critical load the
+    validity check needs (the core's ``fg_margin``, while the workspace holds this answer's
+    stiffness)."""
+    result = solver.solve(q0=q0, estimate=estimate)
     if result.converged:
         result.stability_margin = solver.margin()
     return result
@@ -124,14 +129,14 @@ def solve_scene(
     settings: SolverSettings | None = None,
     q0: Mapping[str, Any] | None = None,
     tolerance: float | None = None,
+    estimate: bool = True,
     **options: Any,
 ):
     """``(Result, exact SceneSolution or None)`` for an already overridden scene; see ``solve``.
 
-    A converged chain-model result also carries the validity warnings of its models
-    (``flexgen.validity.check``: appended to ``warnings``) and, for the Python API,
-    ``error_class`` = {"pose", "compliance"}, the indicative error class (None when a tolerance
-    chose the models: ``error_estimate`` is then the claim; not part of the JSON contract)."""
+    A chain-model result carries its error estimate (``estimate=True``; with a tolerance, the
+    selection's) and, when converged, the validity warnings of its models
+    (``flexgen.validity.check``: appended to ``warnings``)."""
     if (
         models is None
         and tolerance is None
@@ -144,7 +149,7 @@ def solve_scene(
         solver = _solvers.get(_key(scene, settings))
         if solver is not None and solver.scene is scene and _same(solver.settings, settings):
             with _lock:
-                result = _assessed(solver, q0)
+                result = _assessed(solver, q0, estimate)
             check(scene, result, solver.models)
             return result, None
     if uses_exact(scene):
@@ -166,11 +171,11 @@ def solve_scene(
         return result, None
     if models is not None:
         solver = Solver(scene, models, settings)
-        result = _assessed(solver, q0)
+        result = _assessed(solver, q0, estimate)
     else:
         with _lock:
             solver = _cached_solver(scene, settings)
-            result = _assessed(solver, q0)
+            result = _assessed(solver, q0, estimate)
     check(scene, result, solver.models)
     return result, None
 

@@ -37,22 +37,40 @@ class PointResult:
     compliance: list[list[float]]  # 2x2 d(position)/d(force at the point)
     ellipse: dict[str, float]  # major, minor, angle
     compliance3: list[list[float]]  # 3x3 d(x, y, angle)/d(fx, fy, moment)
+    # the estimated error {"pose": ..., "compliance": ...} (flexgen.estimate; pose relative to
+    # the summed flexure length from the base to the point, angle in rad; compliance relative,
+    # spectral norm); None for the exact solver and when no estimate was asked for
+    error_estimate: dict[str, float] | None = None
 
     def contract(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "pose": list(self.pose),
             "compliance": [list(r) for r in self.compliance],
             "ellipse": dict(self.ellipse),
         }
+        if self.error_estimate is not None:
+            out["error_estimate"] = {k: float(v) for k, v in self.error_estimate.items()}
+        return out
 
 
-def point_result(pose: list[float], c3: list[list[float]], ell: list[float]) -> PointResult:
+def point_result(
+    pose: list[float],
+    c3: list[list[float]],
+    ell: list[float],
+    error_estimate: dict[str, float] | None = None,
+) -> PointResult:
     """The PointResult of an output point from its pose, 3x3 compliance and ellipse (major,
     minor, angle) as plain lists (every chain-model answer is built here; plain floats are
-    cheaper than numpy at this size)."""
+    cheaper than numpy at this size), and its error estimate if there is one."""
     r0, r1, _ = c3
     major, minor, angle = ell
-    return PointResult(pose, [r0[:2], r1[:2]], {"major": major, "minor": minor, "angle": angle}, c3)
+    return PointResult(
+        pose,
+        [r0[:2], r1[:2]],
+        {"major": major, "minor": minor, "angle": angle},
+        c3,
+        error_estimate,
+    )
 
 
 UNSTABLE = "the equilibrium is unstable: the stiffness matrix is not positive definite"
@@ -75,9 +93,11 @@ class Result:
     load_factor: float = 1.0  # load factor of the reported state (1 when converged)
     energy: float | None = None  # elastic energy at equilibrium
     residual: float | None = None  # relative residual at equilibrium (see flexgen/solver.py)
-    # set only when a tolerance was requested (flexgen.select): the requested tolerance and the
-    # a-posteriori error estimate of the whole answer; model[flexure] then also carries
-    # "kernel" and "error_estimate"
+    # the estimated error of the whole answer (the largest of its points' pose and compliance
+    # estimates: flexgen.estimate, or flexgen.select with a tolerance; inf when there is no
+    # answer or the estimate failed; None for the exact solver and when none was asked for).
+    # ``tolerance``: set only when a tolerance was requested (flexgen.select); model[flexure]
+    # then also carries "kernel" and "error_estimate"
     tolerance: float | None = None
     error_estimate: float | None = None
     # which solver produced it (Python API only): "core" (flexgen.solver) or "exact"
@@ -94,8 +114,6 @@ class Result:
     stability_margin: float | None = None
     bend: dict[str, float] = field(default_factory=dict, compare=False)
     kernel: dict[str, str] = field(default_factory=dict, compare=False)
-    # the indicative error class {"pose", "compliance"} of flexgen.validity (Python API only)
-    error_class: dict[str, float] | None = field(default=None, compare=False)
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -112,15 +130,15 @@ class Result:
             "model": {k: dict(v) for k, v in self.model.items()},
             "q": {k: [float(x) for x in v] for k, v in self.q.items()},
             "points": {ref: p.contract() for ref, p in self.points.items()},
-            "warnings": list(self.warnings),
-            "notes": list(self.notes),
         }
-        if not self.converged:
-            out["reason"] = self.reason or "not converged"
-        if self.tolerance is not None:
+        if self.tolerance is not None or self.error_estimate is not None:
             out["error_estimate"] = (
                 math.inf if self.error_estimate is None else float(self.error_estimate)
             )
+        out["warnings"] = list(self.warnings)
+        out["notes"] = list(self.notes)
+        if not self.converged:
+            out["reason"] = self.reason or "not converged"
         return out
 
     def to_json(self, indent: int | None = None) -> str:
@@ -151,19 +169,31 @@ class Result:
             )
         if self.points:
             w = max(len(ref) for ref in self.points)
+            with_est = any(p.error_estimate is not None for p in self.points.values())
             lines.append(
                 f"  {'point':<{w}}  {'x':>12} {'y':>12} {'angle':>10}  "
                 f"{'major':>11} {'minor':>11} {'ell. angle':>10}"
+                + (f"  {'est. pose':>9} {'est. C':>8}" if with_est else "")
             )
             for ref, p in self.points.items():
                 e = p.ellipse
+                pe = p.error_estimate
                 lines.append(
                     f"  {ref:<{w}}  {p.pose[0]:>12.6g} {p.pose[1]:>12.6g} {p.pose[2]:>10.5f}  "
                     f"{e['major']:>11.5g} {e['minor']:>11.5g} {e['angle']:>10.5f}"
+                    + (
+                        f"  {pe['pose']:>9.2g} {pe['compliance']:>8.2g}"
+                        if with_est and pe is not None
+                        else ""
+                    )
                 )
-        if self.tolerance is not None:
+        if self.tolerance is not None or self.error_estimate is not None:
             est = math.inf if self.error_estimate is None else self.error_estimate
-            lines.append(f"  error estimate {est:.2g} (tolerance {self.tolerance:.2g})")
+            lines.append(
+                f"  error estimate {est:.2g}"
+                + (f" (tolerance {self.tolerance:.2g})" if self.tolerance is not None else "")
+                + " (pose relative to the flexure length to the point; compliance relative)"
+            )
         for lam in self.critical_load_factors:
             lines.append(f"  critical load factor: {lam:.8g}")
         for msg in self.warnings:

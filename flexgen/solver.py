@@ -126,15 +126,27 @@ class Solver:
         return list(self.problem.outputs)
 
     def solve(
-        self, loads: Any = None, tensions: Any = None, q0: Mapping[str, Any] | None = None
+        self,
+        loads: Any = None,
+        tensions: Any = None,
+        q0: Mapping[str, Any] | None = None,
+        estimate: bool = False,
     ) -> Result:
         """Equilibrium, stability and compliance under ``loads`` (one (fx, fy, moment) row per
         ``[[load]]`` of the scene, in its order, world frame; None: the scene's) and
         ``tensions`` (one per ``[[tendon]]``; None: the scene's). ``q0`` ({flexure:
         coordinates}, e.g. the previous answer's ``q``) is a warm start: Newton at the full load
         from q0, accepted if it converges to a stable equilibrium within ``max_dq`` of it, else
-        the solve starts from the unloaded state."""
-        return self._result(self.run(loads, tensions, q0))
+        the solve starts from the unloaded state. ``estimate=True`` adds the error estimate
+        (``flexgen.estimate``: the richer model solved from this answer; ``flexgen.solve`` asks
+        for it by default): ``Result.error_estimate`` and each point's ``error_estimate``."""
+        status = self.run(loads, tensions, q0)
+        est = None
+        if estimate:
+            from .estimate import estimate_answer
+
+            est = estimate_answer(self, status)
+        return self._result(status, est)
 
     def run(
         self, loads: Any = None, tensions: Any = None, q0: Mapping[str, Any] | None = None
@@ -187,9 +199,16 @@ class Solver:
     # ---- the answer -------------------------------------------------------------------------
 
     def _failed(
-        self, status: int, iterations: int, notes: list[str], critical: list[float], lam: float
+        self,
+        status: int,
+        iterations: int,
+        notes: list[str],
+        critical: list[float],
+        lam: float,
+        est: Any = None,
     ) -> Result:
-        """The Result of a solve without an equilibrium: the reason, and what was met on the way."""
+        """The Result of a solve without an equilibrium: the reason, and what was met on the way
+        (an error estimate asked for is inf: there is no answer to estimate)."""
         return Result(
             scene=self.scene.name,
             converged=False,
@@ -202,13 +221,14 @@ class Solver:
             reason=self._reason(status),
             critical_load_factors=critical,
             load_factor=lam,
+            error_estimate=None if est is None else math.inf,
         )
 
-    def _result(self, status: int) -> Result:
+    def _result(self, status: int, est: Any = None) -> Result:
         ws, p = self.workspace, self.problem
         a = ws.answer
         if status == core.MODEL_ERROR:  # the core refused the problem: the answer is not filled
-            return self._failed(status, 0, [], [], 1.0)
+            return self._failed(status, 0, [], [], 1.0, est)
         # the critical events and kernel switches are notes (facts of the path that do not
         # make the answer wrong); what may make it wrong is a warning
         notes: list[str] = []
@@ -242,7 +262,7 @@ class Solver:
                     if msg:
                         notes.append(msg)
         if not solved:
-            return self._failed(status, a.iterations, notes, critical, a.failure_load_factor)
+            return self._failed(status, a.iterations, notes, critical, a.failure_load_factor, est)
         stable = bool(a.stable)
         if not stable:
             warnings.append(UNSTABLE)
@@ -259,8 +279,11 @@ class Solver:
         r.scene, r.converged, r.stable, r.iterations = self.scene.name, True, stable, a.iterations
         r.warnings, r.reason, r.critical_load_factors, r.load_factor = warnings, None, critical, 1.0
         r.notes = notes
-        r.energy, r.residual, r.tolerance, r.error_estimate = a.energy, a.residual, None, None
-        r.solver, r.stability_margin, r.error_class = "core", None, None
+        r.energy, r.residual, r.tolerance = a.energy, a.residual, None
+        r.error_estimate = None if est is None else est.total
+        if est is not None and est.warning:
+            warnings.append(est.warning)
+        r.solver, r.stability_margin = "core", None
         snapshot = (
             ws.q.copy(),
             ws.pose.copy(),
@@ -269,22 +292,29 @@ class Solver:
             ws.K.copy(),
             ws.bend.copy(),
             ws.kernel.copy() if self._kernel_models else None,
+            est,
         )
         r._build = partial(self._lazy_field, snapshot)
         return r
 
     def _lazy_field(self, snapshot: tuple, name: str) -> Any:
         """One of a LazyResult's fields (``LAZY_FIELDS``) from the answer's arrays."""
-        q, pose, compliance, ellipse, K, bend, kernel = snapshot
+        q, pose, compliance, ellipse, K, bend, kernel, est = snapshot
         p = self.problem
         if name == "q":
             qs = q.tolist()
             return {n: qs[sl] for n, sl in self._slices}
         if name == "points":
+            ests: list = [None] * len(p.outputs)
+            if est is not None:
+                ests = [
+                    {"pose": pe, "compliance": ce}
+                    for pe, ce in zip(est.pose, est.compliance)
+                ]
             return {
-                ref: point_result(pose_i, c3, ell)
-                for ref, pose_i, c3, ell in zip(
-                    p.outputs, pose.tolist(), compliance.tolist(), ellipse.tolist()
+                ref: point_result(pose_i, c3, ell, e)
+                for ref, pose_i, c3, ell, e in zip(
+                    p.outputs, pose.tolist(), compliance.tolist(), ellipse.tolist(), ests
                 )
             }
         if name == "model":

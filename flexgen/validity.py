@@ -654,7 +654,7 @@ def assess(
             f"the tip of a single flexure, and this scene has {ctx.prb_problem}; no accuracy is "
             f"claimed"
         )
-    if beta > BANDS[-1]:
+    if calibrated and beta > BANDS[-1]:
         unclaimed.update(models)
         warnings.append(
             f"flexure {beta_at!r} ({labels[beta_at]}): bent {_deg(beta)}, past the "
@@ -730,17 +730,16 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
 
 def check(scene: Scene, result, models: Mapping | None = None, model_factory=None):
     """Append the validity warnings of a converged chain-model ``result`` to
-    ``result.warnings`` (no duplicates) and set ``result.error_class`` ({"pose", "compliance"}:
-    the indicative error class, inf where nothing is claimed; None when a tolerance was
-    requested, whose ``error_estimate`` is then the claim). Returns the Claim (None if the
-    result did not converge)."""
+    ``result.warnings`` (no duplicates): a model past its validity (prb past 64 deg or outside
+    its fitted case, a kernel past its certified range) or a load near a critical one. What the
+    answer claims is its error estimate (``flexgen.estimate``), not the CLAIMS table: the
+    table's warnings (load level, bands, bends past its last band) are not given here. Returns
+    the Claim (None if the result did not converge)."""
     if not result.converged or not scene.flexures:
-        result.error_class = None
         return None
     ms = models_of(scene, result, models, model_factory)
-    claim = assess(scene, result, ms, calibrated=result.tolerance is None)
+    claim = assess(scene, result, ms, calibrated=False)
     for w in claim.warnings:
         if w not in result.warnings:
             result.warnings.append(w)
-    result.error_class = claim.error_class if result.tolerance is None else None
     return claim

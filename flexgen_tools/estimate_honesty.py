@@ -1,0 +1,183 @@
+"""Is every answer's error estimate honest? Chain models against the exact elastica.
+
+``estimate_scenes(seed)`` is a seeded set of scenes: the examples, single cantilevers under a tip
+force, a tip moment or both at several magnitudes (bends up to about 150 degrees, so past the
+polynomial kernels' range too), and random two- and three-flexure chains (links, tip force and
+moment, some driven by a tendon). ``estimate_cases`` solves each with every chain model in
+``MODELS`` through ``flexgen.solve`` (which gives every answer its ``error_estimate``) and
+measures the true error against ``flexgen.solve(scene, model="exact")``, per output point, the
+same way (``select.error_components``: position / L_p, angle, relative spectral norm of the
+compliance). ``estimate_rates`` sums them up: coverage (true <= estimate), the worst
+true/estimate, and the answers more than 10x above their estimate without a warning. Used by
+tests/test_estimate.py and benchmarks/estimate.py; never by the runtime.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from flexgen.scene import Scene, load_scene, scene_from_dict
+
+from .honesty import _alpha_for_bend, honesty_suite
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+# (label, flexgen.solve keyword arguments)
+MODELS: tuple[tuple[str, dict[str, Any]], ...] = (
+    ("cc", {"model": "cc"}),
+    ("prb", {"model": "prb"}),
+    ("scm2", {"model": "scm", "modes": 2}),
+    ("scm3", {"model": "scm", "modes": 3}),
+    ("scm4", {"model": "scm", "modes": 4}),
+    ("scm5", {"model": "scm", "modes": 5}),
+    ("scm6", {"model": "scm", "modes": 6}),
+    ("scm7", {"model": "scm", "modes": 7}),
+    ("scm8", {"model": "scm", "modes": 8}),
+    ("fem4", {"model": "fem", "elements": 4}),
+    ("fem16", {"model": "fem", "elements": 16}),
+    ("fem32", {"model": "fem", "elements": 32}),
+)
+
+
+def _examples() -> list[tuple[str, Scene]]:
+    return [(p.stem, load_scene(p)) for p in sorted(EXAMPLES.glob("*.toml"))]
+
+
+def _cantilevers(rng: np.random.Generator, count: int) -> list[tuple[str, Scene]]:
+    out = []
+    for k in range(count):
+        L = float(10 ** rng.uniform(-2, 0))
+        EI = float(10 ** rng.uniform(-3, 0))
+        kind = ("force", "moment", "both")[k % 3]
+        bend = float(rng.uniform(0.05, 1.0)) * math.radians(150)
+        force, moment = [0.0, 0.0], 0.0
+        if kind in ("force", "both"):
+            ang = float(rng.uniform(-0.8, 0.8) * math.pi)
+            alpha = _alpha_for_bend(bend * (0.6 if kind == "both" else 1.0), ang)
+            force = [alpha * EI / L**2 * math.cos(ang), alpha * EI / L**2 * math.sin(ang)]
+        if kind in ("moment", "both"):
+            moment = (bend * (0.4 if kind == "both" else 1.0)) * EI / L * float(rng.choice([-1, 1]))
+        d = {
+            "name": f"cantilever {k} ({kind})",
+            "flexure": [{"name": "beam", "length": L, "EI": EI}],
+            "load": [{"point": "beam.tip", "force": force, "moment": moment}],
+        }
+        out.append((d["name"], scene_from_dict(d)))
+    return out
+
+
+def _three_link(rng: np.random.Generator, k: int) -> tuple[str, Scene]:
+    flex, links, outputs = [], [], []
+    parent = "base"
+    Ltot = 0.0
+    for j in range(3):
+        L, EI = float(rng.uniform(0.3, 1.0)), float(rng.uniform(0.5, 2.0))
+        gap = float(rng.uniform(0.1, 0.5))
+        at = [0.0, 0.0, 0.0] if j == 0 else [gap, 0.0, float(rng.uniform(-0.4, 0.4))]
+        flex.append({"name": f"f{j}", "length": L, "EI": EI, "parent": parent, "at": at})
+        links.append({"name": f"l{j}", "parent": f"f{j}", "points": {"p": [gap, 0.05]}})
+        outputs.append(f"l{j}.p")
+        parent = f"l{j}"
+        Ltot += L + gap
+    ang = float(rng.uniform(-0.8, 0.8) * math.pi)
+    P = _alpha_for_bend(float(rng.uniform(0.2, 1.0)) * math.radians(100), ang) * 0.5 / Ltot**2
+    d = {
+        "name": f"three-link chain {k}",
+        "flexure": flex,
+        "link": links,
+        "load": [
+            {
+                "point": outputs[-1],
+                "force": [P * math.cos(ang), P * math.sin(ang)],
+                "moment": float(rng.uniform(-0.3, 0.3)),
+            }
+        ],
+        "output": {"points": outputs},
+    }
+    return d["name"], scene_from_dict(d)
+
+
+def estimate_scenes(
+    seed: int = 0, cantilevers: int = 9, chains: int = 2, tendons: int = 1, three: int = 2
+) -> list[tuple[str, Scene]]:
+    """The examples, ``cantilevers`` single cantilevers (tip force, moment or both, bends up to
+    about 150 deg), two-flexure chains (``honesty_suite``'s, bends up to about 120 deg, with and
+    without a tendon) and ``three`` three-flexure chains; seeded. -> [(label, Scene)]."""
+    rng = np.random.default_rng(seed)
+    out = _examples() + _cantilevers(rng, cantilevers)
+    two = honesty_suite(
+        seed, cantilevers=0, chains=chains, tendons=tendons, max_bend=math.radians(120)
+    )
+    out += [(f"{label} (seed {seed})", sc) for label, sc in two]
+    out += [_three_link(rng, k) for k in range(three)]
+    return out
+
+
+@dataclass
+class EstimateCase:
+    scene: str
+    model: str
+    estimate: float  # the answer's error_estimate
+    true_error: float  # against the exact elastica, measured the same way
+    ratio: float  # largest true/estimate over the points and components
+    warned: bool  # the answer has a warning
+
+
+def estimate_cases(
+    scenes: Sequence[tuple[str, Scene]],
+    models: Sequence[tuple[str, dict[str, Any]]] = MODELS,
+    progress=None,
+) -> list[EstimateCase]:
+    """Every scene with every model: the estimate against the exact elastica's true error."""
+    import flexgen
+    from flexgen.select import error_components, length_scales, outputs_of
+
+    cases = []
+    for label, scene in scenes:
+        exact = flexgen.solve(scene, model="exact")
+        ex = outputs_of(exact)
+        if ex is None:
+            continue
+        scales = length_scales(scene, ex)
+        for mlabel, kw in models:
+            res = flexgen.solve(scene, **kw)
+            got = outputs_of(res)
+            if got is None or res.error_estimate is None:
+                continue
+            comps = error_components(got, ex, scales).reshape(-1, 3)
+            ratio = 0.0
+            for (dpos, dth, dC), p in zip(comps, res.points.values()):
+                e = p.error_estimate
+                assert e is not None
+                for true, est in ((max(dpos, dth), e["pose"]), (dC, e["compliance"])):
+                    r = true / est if est > 0 else (0.0 if true == 0 else math.inf)
+                    ratio = max(ratio, r)
+            true = float(comps.max()) if comps.size else 0.0
+            case = EstimateCase(label, mlabel, res.error_estimate, true, ratio, bool(res.warnings))
+            cases.append(case)
+            if progress:
+                progress(case)
+    return cases
+
+
+def estimate_rates(cases: Sequence[EstimateCase]) -> dict[str, Any]:
+    """Coverage per answer (every point's true pose and compliance error <= its estimate),
+    coverage of the whole answer (true error <= error_estimate), the worst ratio, and the answers
+    above 10x their estimate with and without a warning."""
+    n = len(cases)
+    whole = [c.true_error / c.estimate if c.estimate > 0 else math.inf for c in cases]
+    return {
+        "answers": n,
+        "covered": sum(c.ratio <= 1.0 for c in cases) / n if n else 1.0,
+        "covered_whole": sum(r <= 1.0 for r in whole) / n if n else 1.0,
+        "worst_ratio": max((c.ratio for c in cases), default=0.0),
+        "worst": max(cases, key=lambda c: c.ratio) if cases else None,
+        "above_10x_unwarned": [c for c in cases if c.ratio > 10 and not c.warned],
+        "above_10x_warned": [c for c in cases if c.ratio > 10 and c.warned],
+    }
