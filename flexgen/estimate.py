@@ -39,12 +39,14 @@ largest margin of their pairs applies to the whole answer (the flexures of a cha
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from . import core
+from .scene import Scene
 
 # err(N) <= d + err(N + 2) <= d / (1 - rho) for a contraction rho per two modes: 1.5 covers
 # rho <= 1/3 (measured: err(N) / d at most 1.12 on the suite of tests/test_estimate.py, at bends
@@ -71,6 +73,28 @@ class Estimate:
     def total(self) -> float:
         """The whole answer's estimate: the largest of every point's pose and compliance."""
         return max(max(self.pose, default=0.0), max(self.compliance, default=0.0))
+
+
+def _path_owner(scene: Scene, body: str) -> str:
+    """The body whose flexure path a point on ``body`` follows: the body itself (the base or a
+    flexure), or the flexure a link is attached to."""
+    if scene.body_kind(body) != "link":
+        return body
+    parent = scene.body_parent(body)
+    assert parent is not None  # only the base has no parent
+    return parent
+
+
+def length_scales(scene: Scene, refs: Iterable[str]) -> dict[str, float]:
+    """L_p for every point: the summed length of the flexures between the base and p (the
+    longest flexure's length for a point on the base)."""
+    longest = max(f.length for f in scene.flexures)
+    out = {}
+    for ref in refs:
+        body, _ = scene.resolve_point(ref)
+        path = scene.flexure_path(_path_owner(scene, body))
+        out[ref] = sum(scene.flexure(n).length for n in path) or longest
+    return out
 
 
 def _scm_pad(n: int):
@@ -125,12 +149,12 @@ def richer(model: Any) -> tuple[Any, Any, float, str]:
         from .models.fem import FEMModel
 
         n = int(model.n_dof)
-        m = FEMModel(model.length, model.EI, 2 * n)
-        return m, _fem_refine(n, 2 * n), FEM_FACTOR, f"fem{2 * n}"
+        fine = FEMModel(model.length, model.EI, 2 * n)
+        return fine, _fem_refine(n, 2 * n), FEM_FACTOR, f"fem{2 * n}"
     raise ValueError(f"no richer model for {model!r}")
 
 
-def _kernel_bounds(model: Any, q: np.ndarray | None = None) -> tuple[float, float]:
+def _kernel_bounds(model: Any) -> tuple[float, float]:
     """(position bound / length, compliance bound) of a smooth curvature model's kernels (the
     larger of its polynomial and Gauss kernels: either may evaluate the answer)."""
     if getattr(model, "kind", None) != "scm":
@@ -145,9 +169,6 @@ class Estimator:
     """The richer model of a prepared ``Solver``'s scene and models, prepared once."""
 
     def __init__(self, solver: Any):
-        from .select import _path_owner, length_scales
-        from .solver import Solver
-
         scene = solver.scene
         self.scene = scene
         self.order = list(solver.problem.flexure_order)
@@ -162,7 +183,7 @@ class Estimator:
         self.labels = labels
         # the poorest pair decides the margin (flexures of a chain interact)
         self.factor = max(factors, default=1.0)
-        self.rich = Solver(scene, rich, solver.settings)
+        self.rich = type(solver)(scene, rich, solver.settings)  # a flexgen.solver.Solver
         self.outputs = list(solver.problem.outputs)
         self.n = len(self.outputs)
         # the q map, linear in q: one matrix from the answer's packed q to the richer one's

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from . import kernels
+from .estimate import _path_owner, length_scales  # noqa: F401  (select.length_scales)
 from .result import Result
 from .scene import Scene, SceneError
 
@@ -106,28 +107,6 @@ def outputs_of_exact(sol) -> Outputs | None:
         ref: (np.asarray(sol.poses[ref], float), np.asarray(sol.compliance[ref], float))
         for ref in sol.poses
     }
-
-
-def _path_owner(scene: Scene, body: str) -> str:
-    """The body whose flexure path a point on ``body`` follows: the body itself (the base or a
-    flexure), or the flexure a link is attached to."""
-    if scene.body_kind(body) != "link":
-        return body
-    parent = scene.body_parent(body)
-    assert parent is not None  # only the base has no parent
-    return parent
-
-
-def length_scales(scene: Scene, refs: Iterable[str]) -> dict[str, float]:
-    """L_p for every point: the summed length of the flexures between the base and p (the
-    longest flexure's length for a point on the base)."""
-    longest = max(f.length for f in scene.flexures)
-    out = {}
-    for ref in refs:
-        body, _ = scene.resolve_point(ref)
-        path = scene.flexure_path(_path_owner(scene, body))
-        out[ref] = sum(scene.flexure(n).length for n in path) or longest
-    return out
 
 
 def error_components(got: Outputs, ref: Outputs, scales: Mapping[str, float]) -> np.ndarray:

@@ -307,10 +307,7 @@ class Solver:
         if name == "points":
             ests: list = [None] * len(p.outputs)
             if est is not None:
-                ests = [
-                    {"pose": pe, "compliance": ce}
-                    for pe, ce in zip(est.pose, est.compliance)
-                ]
+                ests = [{"pose": pe, "compliance": ce} for pe, ce in zip(est.pose, est.compliance)]
             return {
                 ref: point_result(pose_i, c3, ell, e)
                 for ref, pose_i, c3, ell, e in zip(

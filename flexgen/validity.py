@@ -654,7 +654,7 @@ def assess(
             f"the tip of a single flexure, and this scene has {ctx.prb_problem}; no accuracy is "
             f"claimed"
         )
-    if calibrated and beta > BANDS[-1]:
+    if beta > BANDS[-1]:
         unclaimed.update(models)
         warnings.append(
             f"flexure {beta_at!r} ({labels[beta_at]}): bent {_deg(beta)}, past the "

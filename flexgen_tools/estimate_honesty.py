@@ -63,7 +63,7 @@ def _cantilevers(rng: np.random.Generator, count: int) -> list[tuple[str, Scene]
             force = [alpha * EI / L**2 * math.cos(ang), alpha * EI / L**2 * math.sin(ang)]
         if kind in ("moment", "both"):
             moment = (bend * (0.4 if kind == "both" else 1.0)) * EI / L * float(rng.choice([-1, 1]))
-        d = {
+        d: dict[str, Any] = {
             "name": f"cantilever {k} ({kind})",
             "flexure": [{"name": "beam", "length": L, "EI": EI}],
             "load": [{"point": "beam.tip", "force": force, "moment": moment}],
@@ -87,7 +87,7 @@ def _three_link(rng: np.random.Generator, k: int) -> tuple[str, Scene]:
         Ltot += L + gap
     ang = float(rng.uniform(-0.8, 0.8) * math.pi)
     P = _alpha_for_bend(float(rng.uniform(0.2, 1.0)) * math.radians(100), ang) * 0.5 / Ltot**2
-    d = {
+    d: dict[str, Any] = {
         "name": f"three-link chain {k}",
         "flexure": flex,
         "link": links,

@@ -29,6 +29,7 @@ CONTRACT = {
     "warnings",
     "notes",
 }
+CHAIN_CONTRACT = CONTRACT | {"error_estimate"}  # every chain-model answer (not exact)
 
 
 def cli(*argv):
@@ -63,7 +64,7 @@ def finger_json():
 
 def test_json_has_exactly_the_contract_fields_and_types(finger_json):
     d = finger_json
-    assert set(d) == CONTRACT
+    assert set(d) == CHAIN_CONTRACT
     assert d["scene"] == "two-link finger" and d["converged"] is True and d["stable"] is True
     assert isinstance(d["iterations"], int) and d["iterations"] > 0
     assert d["model"] == {
@@ -74,7 +75,10 @@ def test_json_has_exactly_the_contract_fields_and_types(finger_json):
     assert all(len(v) == 3 and all(map(is_number, v)) for v in d["q"].values())
     assert set(d["points"]) == {"middle.pad", "fingertip.pad"}
     for p in d["points"].values():
-        assert set(p) == {"pose", "compliance", "ellipse"}
+        assert set(p) == {"pose", "compliance", "ellipse", "error_estimate"}
+        assert set(p["error_estimate"]) == {"pose", "compliance"}
+        assert all(0 < v < 1e-3 for v in p["error_estimate"].values())
+        assert max(p["error_estimate"].values()) <= d["error_estimate"]
         assert len(p["pose"]) == 3 and all(map(is_number, p["pose"]))
         C = p["compliance"]
         assert len(C) == 2 and all(len(r) == 2 and all(map(is_number, r)) for r in C)
@@ -114,7 +118,7 @@ def test_model_overrides_beat_the_scene(capsys, argv, model, qlen):
     code, out, err = run(capsys, "solve", EX / "cantilever_tip_load.toml", "--json", *argv)
     assert code == 0, err
     d = json.loads(out)
-    assert set(d) == CONTRACT
+    assert set(d) == (CONTRACT if model["kind"] == "exact" else CHAIN_CONTRACT)
     assert d["model"] == {"beam": model} and len(d["q"]["beam"]) == qlen
 
 
@@ -324,7 +328,8 @@ def test_no_equilibrium_exits_1_with_the_reason_in_json(tmp_path):
     code, out, err = cli("solve", path, "--json")
     assert code == 1
     d = json.loads(out)
-    assert set(d) == CONTRACT | {"reason"}
+    assert set(d) == CHAIN_CONTRACT | {"reason"}
+    assert d["error_estimate"] is None  # inf: no answer to estimate
     assert d["converged"] is False and "'beam'" in d["reason"] and "90 deg" in d["reason"]
     lines = err.splitlines()
     assert len(lines) == 1 and "no equilibrium" in lines[0] and "Traceback" not in err

@@ -1,5 +1,6 @@
 """flexgen.validity: every solve result (``flexgen solve``, ``flexgen.solve``) carries the
-validity warnings of its models, and the indicative error class for the Python API."""
+validity warnings of its models; what it claims is its error estimate (flexgen.estimate), no
+longer the CLAIMS table's error class."""
 
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ CONTRACT_KEYS = {
     "model",
     "q",
     "points",
+    "error_estimate",
     "warnings",
     "notes",
 }
@@ -77,18 +79,19 @@ def test_prb_within_its_validity_has_no_warning(tmp_path):
     r = flexgen.solve(cantilever_toml(tmp_path, 0.0, -2.0, kind="prb"))
     assert r.converged and abs(r.q["beam"][0]) < math.radians(64)
     assert r.warnings == []
-    assert math.isfinite(r.error_class["pose"])
+    assert not hasattr(r, "error_class")
+    assert r.error_estimate is not None and 0 < r.error_estimate < 1
 
 
 def test_finger_inside_every_band_has_no_warning():
     r = flexgen.solve(FINGER)
     assert r.converged and r.stable
     assert r.warnings == []
-    # the indicative class, for the Python API only
-    assert set(r.error_class) == {"pose", "compliance"}
-    assert 0 < r.error_class["pose"] < 0.1 and 0 < r.error_class["compliance"] < 0.1
+    # the estimate, in the JSON too (the error class is gone)
+    assert 0 < r.error_estimate < 1e-3
     data = solve_json(FINGER)
     assert data["warnings"] == [] and set(data) == CONTRACT_KEYS
+    assert data["error_estimate"] == pytest.approx(r.error_estimate)
     assert "error_class" not in r.to_json()
 
 
@@ -97,7 +100,7 @@ def test_prb_outside_its_load_case_warns():
     assert r.converged
     hits = [w for w in r.warnings if "pseudo-rigid-body" in w]
     assert len(hits) == 1 and "'proximal'" in hits[0] and "'distal'" in hits[0]
-    assert r.error_class == {"pose": math.inf, "compliance": math.inf}
+    assert r.error_estimate is not None and r.error_estimate > 0.1  # prb is far off here
 
 
 def test_poly_past_range_with_auto_warns_once(tmp_path):
@@ -121,7 +124,8 @@ def test_near_buckling_warns(tmp_path):
         assert r.converged and r.stable
         hits = [w for w in r.warnings if "near a critical load" in w]
         assert len(hits) == 1 and "'beam.tip'" in hits[0] and "5%" in hits[0]
-        assert r.error_class["compliance"] > 10 * r.error_class["pose"]
+        e = r.points["beam.tip"].error_estimate
+        assert e is not None and e["compliance"] > 10 * e["pose"]
     r = flexgen.solve(cantilever_toml(tmp_path, -0.5 * P, 0.0))
     assert not [w for w in r.warnings if "near a critical load" in w]
 
@@ -134,16 +138,22 @@ def test_margin_is_one_minus_load_over_critical(tmp_path):
     assert m == pytest.approx(0.4, abs=1e-6)
 
 
-def test_load_level_above_calibration_warns(tmp_path):
+def test_load_level_above_the_old_calibration_is_not_a_warning(tmp_path):
+    """The CLAIMS table's load-level band no longer says anything: the estimate is the claim
+    (a load level of 40, mostly tension, is answered accurately)."""
     r = flexgen.solve(cantilever_toml(tmp_path, 40.0, 5.0))  # mostly tension: converges
     assert r.converged
-    assert any("load level" in w and "30" in w for w in r.warnings)
-    assert r.error_class["pose"] == math.inf
+    assert not any("load level" in w or "calibrated" in w for w in r.warnings)
+    assert r.error_estimate is not None and r.error_estimate < 1e-2
+    # the stability sweep's assessment still has it (calibrated=True)
+    scene = flexgen.load_scene(cantilever_toml(tmp_path, 40.0, 5.0))
+    claim = V.assess(scene, r, V.models_of(scene, r))
+    assert any("load level" in w for w in claim.warnings)
 
 
 def test_tolerance_result_keeps_its_estimate_as_the_claim():
     r = flexgen.solve(FINGER, tolerance=1e-4)
-    assert r.converged and r.error_class is None and r.error_estimate is not None
+    assert r.converged and r.error_estimate is not None and r.error_estimate <= 1e-4
     assert r.warnings == []
 
 
@@ -157,10 +167,11 @@ def test_models_passed_to_solve_are_assessed(tmp_path):
 
 def test_exact_and_unconverged_results_are_not_assessed(tmp_path):
     r = flexgen.solve(FINGER, model="exact")
-    assert r.warnings == [] and getattr(r, "error_class", None) is None
-    # poly alone past its range: no equilibrium (converged false says so)
+    assert r.warnings == [] and r.error_estimate is None
+    assert "error_estimate" not in r.to_json()
+    # poly alone past its range: no equilibrium (converged false says so); no estimate either
     r = flexgen.solve(cantilever_toml(tmp_path, -8.0, -8.0, kernel="poly"))
-    assert not r.converged and r.error_class is None
+    assert not r.converged and r.error_estimate == math.inf
 
 
 def test_stability_uses_validity():
