@@ -543,6 +543,14 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
         info.update(modes=N, kernel=chosen.kernels[k], error_estimate=share)
         res.model[name] = info
     res.tolerance, res.error_estimate = tol, est
+    # each output point's share, in the shape every answer's estimate has (flexgen.estimate)
+    for k, ref in enumerate(table.refs):
+        point = res.points.get(ref)
+        if point is not None and np.size(tot):
+            point.error_estimate = {
+                "pose": float(max(tot[3 * k], tot[3 * k + 1])),
+                "compliance": float(tot[3 * k + 2]),
+            }
     msg = None
     if not reached:
         M = ", ".join(f"{ft.name} {ft.rich}" for ft in table.flexures)

@@ -1,0 +1,147 @@
+"""Every chain-model answer states its estimated error (flexgen.estimate, issue 10 item 1), and the
+estimate is honest against the exact elastica: the true error is below it in at least 95 % of
+answers and never above 10x it without a warning."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexgen
+from flexgen import estimate as E
+from flexgen_tools.estimate_honesty import (
+    MODELS,
+    estimate_cases,
+    estimate_rates,
+    estimate_scenes,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+EX = ROOT / "examples"
+FINGER = EX / "two_link_finger.toml"
+
+
+def cantilever(fx: float, fy: float, moment: float = 0.0, **model) -> dict:
+    return {
+        "name": "cantilever",
+        "model": {"kind": "scm", **model},
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "beam.tip", "force": [fx, fy], "moment": moment}],
+    }
+
+
+@pytest.mark.parametrize("label, kw", MODELS)
+def test_every_chain_answer_states_its_estimate(label, kw):
+    """JSON: error_estimate at the top level and in every point, the top level the largest."""
+    r = flexgen.solve(FINGER, **kw)
+    d = json.loads(r.to_json())
+    assert r.converged and math.isfinite(r.error_estimate) and r.error_estimate > 0
+    assert d["error_estimate"] == pytest.approx(r.error_estimate)
+    largest = 0.0
+    for ref, p in d["points"].items():
+        est = p["error_estimate"]
+        assert set(est) == {"pose", "compliance"} and all(v > 0 for v in est.values())
+        assert est == r.points[ref].error_estimate
+        largest = max(largest, *est.values())
+    assert largest == d["error_estimate"]
+    assert "est. pose" in r.table() and "error estimate" in r.table()
+
+
+def test_exact_has_no_estimate():
+    r = flexgen.solve(FINGER, model="exact")
+    d = json.loads(r.to_json())
+    assert "error_estimate" not in d
+    assert all("error_estimate" not in p for p in d["points"].values())
+
+
+def test_prepared_solver_pays_only_when_asked():
+    """Solver.solve() gives no estimate unless asked; flexgen.solve(estimate=False) skips it."""
+    s = flexgen.Solver(FINGER)
+    r = s.solve()
+    assert r.error_estimate is None and "error_estimate" not in r.to_json()
+    assert all(p.error_estimate is None for p in r.points.values())
+    assert getattr(s, "_estimator", None) is None  # nothing of the richer model prepared
+    r2 = s.solve(estimate=True)
+    assert r2.error_estimate == pytest.approx(flexgen.solve(FINGER).error_estimate, rel=1e-9)
+    assert r2.points == r.points or all(  # the answer itself is untouched by the estimate
+        p.pose == r.points[k].pose for k, p in r2.points.items()
+    )
+    r3 = flexgen.solve(FINGER, estimate=False)
+    assert r3.error_estimate is None and "error_estimate" not in r3.to_json()
+
+
+def test_the_richer_solver_is_prepared_once():
+    scene = flexgen.load_scene(FINGER)
+    flexgen.solve(scene)
+    from flexgen import api
+
+    solver = next(s for s in api._solvers.values() if s.scene is scene)
+    est = solver._estimator
+    for _ in range(3):
+        assert flexgen.solve(scene).error_estimate is not None
+    assert solver._estimator is est
+
+
+def test_more_modes_estimate_less():
+    """Spectral convergence: scm2 .. scm6 estimates fall; scm7 and scm8 report the estimate of
+    scm5 and scm6 (no richer kernel: conservative by one step)."""
+    est = {n: flexgen.solve(FINGER, modes=n).error_estimate for n in range(2, 9)}
+    assert est[2] > est[3] > est[4] > est[5] > est[6]
+    assert est[7] == pytest.approx(est[5], rel=1e-6) and est[8] == pytest.approx(est[6], rel=1e-6)
+
+
+def test_a_failed_richer_solve_is_inf_with_a_warning(monkeypatch):
+    """The richer model limited to its polynomial kernel cannot follow an answer bent past 90
+    deg: the estimate is inf and a warning says why."""
+    real = E.richer
+
+    def poly_only(model):
+        m, f, fac, lab = real(model)
+        from flexgen.models.scm import SCMModel
+
+        return SCMModel(m.length, m.EI, int(m.n_dof), "poly", name="beam"), f, fac, lab
+
+    monkeypatch.setattr(E, "richer", poly_only)
+    r = flexgen.solve(cantilever(0.0, 0.0, 2.5))  # a tip moment: 143 deg
+    assert r.converged and r.error_estimate == math.inf
+    assert r.points["beam.tip"].error_estimate == {"pose": math.inf, "compliance": math.inf}
+    assert any("error estimate" in w and "richer model (scm5)" in w for w in r.warnings)
+    d = json.loads(r.to_json())
+    assert d["error_estimate"] is None  # inf is null in the JSON
+
+
+def test_fem_refinement_map_is_exact_for_linear_curvature():
+    """fem n -> 2n: joint rotations are h kappa at the cell midpoints; a linear curvature maps
+    exactly (away from the end cells, where it is held)."""
+    f = E._fem_refine(8, 16)
+    kappa = lambda s: 1.0 + 2.0 * s  # noqa: E731
+    q8 = kappa((np.arange(8) + 0.5) / 8) / 8
+    q16 = f(q8)
+    want = kappa((np.arange(16) + 0.5) / 16) / 16
+    assert np.allclose(q16[1:-1], want[1:-1], rtol=1e-12)
+
+
+def test_the_estimate_is_honest_against_the_exact_elastica():
+    """Examples, cantilevers (tip force, moment, both; bends to ~150 deg) and random two- and
+    three-flexure chains, every chain model: true error <= estimate in >= 95 % of answers (per
+    point, pose and compliance), never > 10x without a warning."""
+    scenes = estimate_scenes(0) + estimate_scenes(1)[4:] + estimate_scenes(2)[4:]  # examples once
+    cases = estimate_cases(scenes)
+    rates = estimate_rates(cases)
+    assert rates["answers"] >= 500
+    assert rates["covered"] >= 0.95, rates
+    assert rates["above_10x_unwarned"] == [], rates["above_10x_unwarned"]
+
+
+def test_the_honesty_check_can_fail(monkeypatch):
+    """With the margins turned into under-statements (half the measured difference), the same
+    check misses: it is not vacuous."""
+    monkeypatch.setattr(E, "SCM_FACTOR", 0.5)
+    monkeypatch.setattr(E, "FEM_FACTOR", 0.5)
+    monkeypatch.setattr(E, "COARSE_FACTOR", 0.5)
+    cases = estimate_cases(estimate_scenes(0)[:4], MODELS[2:7] + MODELS[9:])
+    assert estimate_rates(cases)["covered"] < 0.95
