@@ -1,10 +1,13 @@
-"""What a model's answer may claim, and the warnings when it is past that.
+"""When a model's answer is past its validity, and the stability sweep's error classes.
 
-One job: given a converged ``solve`` result and the flexure models that produced it, say how
-accurate the answer is claimed to be (the *indicative error class*) and warn wherever the answer
-is past what its model may claim. ``flexgen.api.solve_scene`` (the path of ``flexgen solve`` and
-``flexgen.solve``) appends these warnings to every chain-model result; ``flexgen_tools.stability``
-checks on load sweeps that no answer is silently wrong with them (tests/test_stability.py).
+``flexgen.api.solve_scene`` (the path of ``flexgen solve`` and ``flexgen.solve``) calls ``check``
+on every converged chain-model result: it appends the validity warnings (prb past 64 deg or
+outside its fitted case, a kernel past its certified range, a bend past 180 deg, a load near a
+critical one). What an answer claims is its own error estimate (``flexgen.estimate``); the
+CLAIMS table below no longer enters ``flexgen.solve`` (``check`` assesses with
+``calibrated=False``). ``flexgen_tools.stability`` still assesses its sweep with the table
+(``assess(..., calibrated=True)``) and ``python -m flexgen_tools.stability --calibrate`` still
+rewrites it: left in place for that tool, unused by the runtime.
 
 The indicative error class
 --------------------------
