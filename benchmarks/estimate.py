@@ -6,7 +6,7 @@
 Cost, per example scene and model, best of --repeat rounds of --number calls each, one process:
 
 - solve:     ``Solver.run()``, the compiled solve (the core call, answer left in the workspace);
-- estimate:  ``Estimator.estimate(solver)`` on that answer: the richer model's warm-started core
+- estimate:  ``solver.estimator().estimate(solver)`` on that answer: the richer model's warm-started core
              call and the per-point differences;
 - ratio:     estimate / solve;
 - Result:    ``Solver.solve()`` and ``Solver.solve(estimate=True)`` (with the Result built).
@@ -25,7 +25,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import flexgen  # noqa: E402
-from flexgen.estimate import estimator_of  # noqa: E402
 
 MODELS = (
     ("scm3", {}),
@@ -57,7 +56,7 @@ def cost(number: int, repeat: int) -> None:
         for label, kw in MODELS:
             s = flexgen.Solver(path, **kw)
             s.run()
-            est = estimator_of(s)
+            est = s.estimator()
             t_run = best(s.run, number, repeat)
             t_est = best(lambda: est.estimate(s), number, repeat)  # noqa: B023
             t_res = best(s.solve, number, repeat)

@@ -168,7 +168,7 @@ def _kernel_bounds(model: Any) -> tuple[float, float]:
 class Estimator:
     """The richer model of a prepared ``Solver``'s scene and models, prepared once."""
 
-    def __init__(self, solver: Any):
+    def __init__(self, solver: Any, solver_class: Any):
         scene = solver.scene
         self.scene = scene
         self.order = list(solver.problem.flexure_order)
@@ -183,7 +183,7 @@ class Estimator:
         self.labels = labels
         # the poorest pair decides the margin (flexures of a chain interact)
         self.factor = max(factors, default=1.0)
-        self.rich = type(solver)(scene, rich, solver.settings)  # a flexgen.solver.Solver
+        self.rich = solver_class(scene, rich, solver.settings)
         self.outputs = list(solver.problem.outputs)
         self.n = len(self.outputs)
         # the q map, linear in q: one matrix from the answer's packed q to the richer one's
@@ -269,22 +269,25 @@ def _sym_norm(a: float, b: float, c: float) -> float:
     return abs(0.5 * (a + c)) + math.hypot(0.5 * (a - c), b)
 
 
-def estimator_of(solver: Any) -> Estimator:
-    """The solver's Estimator, prepared on first use and kept on the solver."""
+def estimator_of(solver: Any, solver_class: Any) -> Estimator:
+    """The solver's Estimator, prepared on first use and kept on the solver; ``solver_class``
+    prepares the richer model (``flexgen.solver.Solver``, passed in by it: this module does not
+    import the solver; from outside, ``Solver.estimator()``)."""
     est = getattr(solver, "_estimator", None)
     if est is None:
-        est = solver._estimator = Estimator(solver)
+        est = solver._estimator = Estimator(solver, solver_class)
     return est
 
 
-def estimate_answer(solver: Any, status: int) -> Estimate:
+def estimate_answer(solver: Any, status: int, solver_class: Any) -> Estimate:
     """The estimate of the answer a ``solver.run`` just left in its workspace (``status``: what
-    ``run`` returned); no answer: an empty Estimate (its Result says inf)."""
+    ``run`` returned; ``solver_class``: see ``estimator_of``); no answer: an empty Estimate (its
+    Result says inf)."""
     n = len(solver.problem.outputs)
     if status != core.SOLVED:
         return Estimate([], [])
     try:
-        est = estimator_of(solver)
+        est = estimator_of(solver, solver_class)
     except ValueError as exc:  # a flexure model with no richer model (a user's own)
         return Estimate([math.inf] * n, [math.inf] * n, f"error estimate: unknown ({exc})")
     return est.estimate(solver)

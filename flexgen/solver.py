@@ -145,7 +145,7 @@ class Solver:
         if estimate:
             from .estimate import estimate_answer
 
-            est = estimate_answer(self, status)
+            est = estimate_answer(self, status, Solver)
         return self._result(status, est)
 
     def run(
@@ -324,6 +324,13 @@ class Solver:
             states = kernel.tolist() if kernel is not None else ()
             return {n: KERNEL_STATES[k] for n, k in zip(p.flexure_order, states) if k}
         raise AttributeError(name)
+
+    def estimator(self):
+        """The ``flexgen.estimate.Estimator`` of this solver's scene and models (the richer
+        model's prepared solver), built on first use and kept."""
+        from .estimate import estimator_of
+
+        return estimator_of(self, Solver)
 
     def margin(self) -> float:
         """The margin to a critical load of the last solve's answer (``fg_margin``: the
