@@ -13,8 +13,8 @@ Speed table, three timings per case (``flexgen_tools.timing``), in alternating b
 lasting at least ``BATCH_S`` each (the median per call over the batches):
 
 - *flexgen.solve*: ``flexgen.solve(scene)`` through the public API, the same Scene object every
-  call (its prepared solver comes from the API's cache; the Result and the validity check
-  included); exact: ``flexgen.solve`` of the scene with kind "exact" (``models.exact``, Python
+  call (its prepared solver comes from the API's cache; the Result, its error estimate and the
+  validity check included); exact: ``flexgen.solve`` of the scene with kind "exact" (``models.exact``, Python
   and SciPy), median of single calls, and nothing else;
 - *Solver.solve()*: a prepared ``flexgen.Solver``: the core call and the Result;
 - *core call*: the bare ``core.lib.fg_solve`` on that solver's problem and workspace;
@@ -309,7 +309,8 @@ def render_markdown(
         "C core (`flexgen/compiled/chain_solver.c`, the extension `flexgen._core`), each case a "
         "scene every flexure of which has the model. *flexgen.solve*: `flexgen.solve(scene)` "
         "through the public API, the same Scene object every call, so its prepared solver comes "
-        "from the API's cache (the Result and the validity check included); exact is "
+        "from the API's cache (the Result, its error estimate and the validity check included); "
+        "exact is "
         '`flexgen.solve` with kind "exact" (`models.exact`, Python and SciPy; median of single '
         "calls). *Solver.solve()*: a prepared `flexgen.Solver` (the core call and the Result). "
         "*core call*: the bare `core.lib.fg_solve(problem, work, iwork, answer)` on that "

@@ -10,8 +10,8 @@ with every model and compares each answer with the exact elastica (``models.exac
 * compliance error of every output point: ||C - C_exact||_2 / ||C_exact||_2 (2x2 position block);
 * time per solve (equilibrium + compliance of the output points) of the one solver, the C core,
   three ways (``flexgen_tools.timing``): (a) ``flexgen.solve(scene)`` through the public API (the
-  same Scene object every call, so its prepared solver comes from the cache; validity check
-  included), (b) a prepared ``flexgen.Solver``'s ``solve()`` (the core call and the Result), (c)
+  same Scene object every call, so its prepared solver comes from the cache; error estimate and
+  validity check included), (b) a prepared ``flexgen.Solver``'s ``solve()`` (the core call and the Result), (c)
   the bare core call ``core.lib.fg_solve`` on that solver's problem and workspace. (a)/(c) is
   what the Python API costs on top of the computation, (b)-(c) the overhead of the Result;
   ``exact`` is ``solve_exact`` (Python and SciPy) in every column;
@@ -829,7 +829,8 @@ def render_markdown(data: BenchData) -> str:
         ", the extension `flexgen._core`), three ways (`flexgen_tools/timing.py`):",
         "  - *flexgen.solve*: `flexgen.solve(scene)` through the public API, the same Scene "
         "object (every flexure given the model) each call, so its prepared solver comes from "
-        "the API's cache; the Result and the validity check included;",
+        "the API's cache; the Result, its error estimate (the richer model's warm-started solve, "
+        "`flexgen/estimate.py`) and the validity check included;",
         "  - *Solver.solve()*: a prepared `flexgen.Solver` (problem and workspace built once), "
         "as a controller loop calls it: the core call and the Result;",
         "  - *core call*: the bare `core.lib.fg_solve(problem, work, iwork, answer)` on that "

@@ -1,8 +1,9 @@
 """How a solve is timed: three layers of the one solver, and the timers.
 
     api       flexgen.solve(scene)       the public API: the prepared solver of that Scene object
-                                         from its cache, the core call, the Result, the validity
-                                         check (the same Scene object every call)
+                                         from its cache, the core call, the Result, its error
+                                         estimate, the validity check (the same Scene object
+                                         every call)
     prepared  solver.solve()             a prepared ``flexgen.Solver``: the core call and the
                                          Result (what a controller loop calls)
     core      core.lib.fg_solve(...)     the bare core call on the solver's problem and workspace
