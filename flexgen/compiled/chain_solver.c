@@ -109,6 +109,10 @@ typedef struct {
     fg_real *dk;             /* per flexure: the rank-one coefficients summed over its subtree */
     fg_real *kq;             /* the q of the last kinematics (kin_ok: they succeeded) */
     int kin_ok;
+    int *kin_poly;          /* per flexure: 1 if the last kinematics evaluated its polynomial
+                             * kernel, so q was within that kernel's range (in_range) */
+    int poly_in_range;      /* 1: the next kinematics' q is known to be within the range of
+                             * every polynomial kernel (in_kernel_range said so): not asked again */
     int evaluations;        /* kinematics evaluated in this solve */
     /* the last error and the last model error (fg_answer.last_error*, model_error*) */
     int err, err_flex, err_route, err_iterations;
@@ -164,7 +168,8 @@ FG_API size_t fg_work_size(const fg_problem *p)
 
 FG_API size_t fg_iwork_size(const fg_problem *p)
 {
-    return (size_t)p->ndof + 1 + 2 * (size_t)p->nflex;    /* pivots, kernel-switch flags (2) */
+    /* pivots, kernel-switch flags (2), the kernels of the last kinematics */
+    return (size_t)p->ndof + 1 + 3 * (size_t)p->nflex;
 }
 
 static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
@@ -177,6 +182,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->tstride = tip_stride(p);
     w->n = p->ndof;
     w->kin_ok = 0;
+    w->poly_in_range = 0;
     w->evaluations = 0;
     w->err = FG_ERR_NONE;
     w->err_flex = w->err_route = -1;
@@ -231,6 +237,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->piv = iwork;
     w->switched = iwork + p->ndof + 1;
     w->saved_switched = w->switched + p->nflex;
+    w->kin_poly = w->saved_switched + p->nflex;
 }
 
 /* the tip block of flexure i: J (3 k), H (3 k k), RJ (2 k), after the F tip poses */
@@ -242,24 +249,28 @@ static fg_real *tip_block(const fg_ws *w, int i)
 /* ---- flexure models ------------------------------------------------------------------------ */
 
 /* pose (3), J (3 x k), H (3 x k x k) of the tip in the root frame, physical units; 0 if the
- * model cannot be evaluated at q (a polynomial-only kernel past its range) */
+ * model cannot be evaluated at q (a polynomial-only kernel past its range). in_range: 1 if q is
+ * known to be within the polynomial kernel's range (not asked again), else -1; *poly: 1 if the
+ * polynomial kernel was evaluated (q within its range), else 0 */
 static int flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
-                       fg_real *scratch, int *switched)
+                       fg_real *scratch, int *switched, int in_range, int *poly)
 {
     int k = f->ndof, i, j;
+    *poly = 0;
     if (f->kind == FG_MODEL_KERNEL) {
         fg_kernel kernel;
         fg_real L = f->length;
-        if (f->poly != NULL && (f->gauss == NULL || f->in_range(q)))
+        if (f->poly != NULL && in_range < 0)
+            in_range = f->in_range(q) != 0;
+        if (f->poly != NULL && in_range) {
             kernel = f->poly;
-        else if (f->gauss != NULL) {
+            *poly = 1;
+        } else if (f->gauss != NULL) {
             kernel = f->gauss;
             if (f->poly != NULL)
                 *switched = 1;
         } else
-            return 0;
-        if (f->poly != NULL && f->gauss == NULL && !f->in_range(q))
-            return 0;
+            return 0;       /* a polynomial-only kernel past its range */
         kernel(q, pose, J, H);
         pose[0] *= L;
         pose[1] *= L;
@@ -355,7 +366,8 @@ static int kinematics(fg_ws *w, const fg_real *q)
         rp[0] = pp[0] + awx;
         rp[1] = pp[1] + awy;
         rp[2] = th + f->at[2];
-        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i])) {
+        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i],
+                         w->poly_in_range ? 1 : -1, &w->kin_poly[i])) {
             w->fail_flex = i;
             w->fail_route = -1;
             return 0;
@@ -1248,15 +1260,34 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
     return 0;
 }
 
+/* q is the q of the last kinematics (which succeeded): their kernel choices (kin_poly) hold */
+static int at_kinematics(const fg_ws *w, const fg_real *q)
+{
+    return w->kin_ok && (q == w->kq || memcmp(q, w->kq, sizeof(fg_real) * (size_t)w->n) == 0);
+}
+
+/* flexure i (a kernel flexure with a polynomial kernel) within that kernel's range at q (all
+ * coordinates); known: q is the last kinematics' (at_kinematics), which asked in_range there */
+static int poly_in_range(const fg_ws *w, int i, const fg_real *q, int known)
+{
+    const fg_flexure *f = &w->p->flex[i];
+    return known ? w->kin_poly[i] : f->in_range(q + f->offset) != 0;
+}
+
 /* every smooth curvature flexure within its range: the polynomial kernel's when it has one
  * (an "auto" flexure past it would switch kernels), else the Gauss kernel's certified range */
-static int in_kernel_range(const fg_problem *p, const fg_real *q)
+static int in_kernel_range(const fg_ws *w, const fg_real *q)
 {
-    int i;
+    const fg_problem *p = w->p;
+    int i, known = at_kinematics(w, q);
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
-        fg_range in_range = f->poly != NULL ? f->in_range : f->gauss_in_range;
-        if (f->kind == FG_MODEL_KERNEL && in_range != NULL && !in_range(q + f->offset))
+        if (f->kind != FG_MODEL_KERNEL)
+            continue;
+        if (f->poly != NULL) {
+            if (!poly_in_range(w, i, q, known))
+                return 0;
+        } else if (f->gauss_in_range != NULL && !f->gauss_in_range(q + f->offset))
             return 0;
     }
     return 1;
@@ -1433,7 +1464,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     if (!newton(w, cur, spare, NULL, max_it, 1, iterations))
         goto done;
     c = *cur;
-    if (!in_kernel_range(p, c->q) || !cholesky(p, c->K, end_factor, n))
+    if (!in_kernel_range(w, c->q) || !cholesky(p, c->K, end_factor, n))
         goto done;
     cholesky_solve(p, end_factor, n, c->Q, t1);
     /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
@@ -1444,7 +1475,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
         fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
         for (i = 0; i < n; ++i)
             qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
-        if (!in_kernel_range(p, qt))
+        if (!in_kernel_range(w, qt))
             goto done;
         if (linear) {             /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0) */
             for (i = 0; i < n; ++i) {
@@ -1452,7 +1483,11 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
                 corr[i] = (k * qt[i] - t * st0->Q[i]) / k;
             }
         } else {
-            if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
+            int evaluated;
+            w->poly_in_range = 1;     /* in range (above): in_range is not asked again */
+            evaluated = evaluate(w, qt, t, smp);
+            w->poly_in_range = 0;
+            if (!evaluated || !cholesky(p, smp->K, w->la, n))
                 goto done;
             cholesky_solve(p, w->la, n, smp->r, corr);
         }
@@ -1887,6 +1922,7 @@ static void describe_answer(fg_ws *w, fg_answer *out)
     const fg_problem *p = w->p;
     int i;
     const fg_real *q = out->q;
+    int known = out->kernel != NULL && at_kinematics(w, q);
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
         const fg_real *qf = q + f->offset;
@@ -1895,7 +1931,7 @@ static void describe_answer(fg_ws *w, fg_answer *out)
         if (out->kernel != NULL) {
             int state = FG_KERNEL_NONE;
             if (f->kind == FG_MODEL_KERNEL) {
-                if (f->poly != NULL && f->in_range(qf))
+                if (f->poly != NULL && poly_in_range(w, i, q, known))
                     state = FG_KERNEL_POLY;
                 else if (f->gauss != NULL)
                     state = f->gauss_in_range(qf) ? FG_KERNEL_GAUSS : FG_KERNEL_GAUSS_PAST;
@@ -1943,8 +1979,8 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch)
 {
-    int switched = 0;
-    return flexure_tip(f, q, pose, J, H, scratch, &switched);
+    int switched = 0, poly;
+    return flexure_tip(f, q, pose, J, H, scratch, &switched, -1, &poly);
 }
 
 /* Solve: the warm start, else the unloaded state, the direct solve, else the continuation;
