@@ -65,12 +65,14 @@
 
 #include "chain_solver.h"
 
-/* the largest finite value and a floor for divisors, of fg_real */
+/* the largest finite value, the machine epsilon and a floor for divisors, of fg_real */
 #ifdef FG_SINGLE
 #define FG_REAL_MAX FLT_MAX
+#define FG_EPS FLT_EPSILON
 #define FG_TINY 1e-30f
 #else
 #define FG_REAL_MAX DBL_MAX
+#define FG_EPS DBL_EPSILON
 #define FG_TINY 1e-300
 #endif
 
@@ -1878,27 +1880,89 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out)
     }
 }
 
+/* phi(sigma) of a kernel flexure with k coordinates q: phi = q_0 sigma + sum_m q_m B_m(sigma),
+ * B_m = (P_{m+1}(x) - P_{m-1}(x)) / (2 (2m + 1)), x = 2 sigma - 1, the Legendre values by their
+ * three-term recurrence in P (k + 1 entries): fg_answer.bend's value at a sample */
+static fg_real legendre_phi(const fg_real *q, int k, fg_real sigma, fg_real *P)
+{
+    int m;
+    fg_real x = 2.0 * sigma - 1.0, phi = q[0] * sigma;
+    P[0] = 1.0;
+    P[1] = x;
+    for (m = 1; m < k; ++m)
+        P[m + 1] = ((2.0 * m + 1.0) * x * P[m] - m * P[m - 1]) / (m + 1.0);
+    for (m = 1; m < k; ++m)
+        phi += q[m] * (P[m + 1] - P[m - 1]) / (2.0 * (2.0 * m + 1.0));
+    return phi;
+}
+
+/* 1 if phi (legendre_phi) of a kernel flexure is strictly monotone on [0, 1] by a margin that
+ * no rounding of legendre_phi can undo on a grid of step h: then, phi(0) being 0 (exactly, also
+ * in floating point: P_m(-1) = (-1)^m), its largest |phi| on the grid is at sigma = 1, also as
+ * computed. phi' = sum_m q_m P_m(2 sigma - 1) (B_m' = P_m), of degree k - 1 in sigma, lies between
+ * the least and the largest of its Bernstein coefficients on [0, 1]; they are built mode by mode
+ * (the shifted Legendre polynomial P_m has the Bernstein coefficients (-1)^(m+j) C(m, j); the sum
+ * so far is degree-elevated by one before each). If they all have one sign and the smallest
+ * magnitude b exceeds 1e4 eps S (2^k + 1/h), S = sum |q|, eps the machine epsilon, then |phi|
+ * grows by at least h (b - e) from one sample to the next, e <= 32 eps 2^k S the coefficients'
+ * rounding, about 100 times twice legendre_phi's rounding (a few ulps per recurrence step and
+ * term: below 64 eps S for k <= 16). b: k entries of scratch. */
+static int bend_monotone(const fg_real *q, int k, fg_real h, fg_real *b)
+{
+    int m, j;
+    fg_real size = 0.0, low, binom, pow2 = 2.0;
+    if (k > 16)
+        return 0;
+    for (m = 0; m < k; ++m) {
+        size += fabs(q[m]);
+        pow2 *= 2.0;
+    }
+    b[0] = q[0];
+    for (m = 1; m < k; ++m) {
+        b[m] = b[m - 1];                    /* degree elevation from m - 1 to m */
+        for (j = m - 1; j >= 1; --j)
+            b[j] = ((fg_real)j * b[j - 1] + (fg_real)(m - j) * b[j]) / (fg_real)m;
+        binom = 1.0;                        /* C(m, j) */
+        for (j = 0; j <= m; ++j) {
+            b[j] += ((m + j) % 2 == 0 ? q[m] : -q[m]) * binom;
+            binom = binom * (fg_real)(m - j) / (fg_real)(j + 1);
+        }
+    }
+    low = 1e4 * FG_EPS * size * (pow2 + 1.0 / h);
+    if (!(low <= FG_REAL_MAX))
+        return 0;
+    for (j = 0; j < k; ++j)
+        if (!(b[j] > low))
+            break;
+    if (j == k)
+        return 1;
+    for (j = 0; j < k; ++j)
+        if (!(b[j] < -low))
+            return 0;
+    return 1;
+}
+
 /* max |phi(s)| along flexure f at its coordinates q (rad, relative to its root frame), on
  * samples points s/L = 0 .. 1: for a kernel flexure phi = sum q_n B_n with
  * B_0 = s/L and B_n = (P_{n+1}(x) - P_{n-1}(x)) / (2 (2n + 1)), x = 2 s/L - 1 (the integral of
- * the shifted Legendre polynomial), the Legendre values by their three-term recurrence; for the
- * n-element chain the joint angles q_0 + ... + q_k; for the pseudo-rigid body |q_0| */
-static fg_real flexure_bend(const fg_flexure *f, const fg_real *q, int samples, fg_real *P)
+ * the shifted Legendre polynomial), the Legendre values by their three-term recurrence
+ * (legendre_phi); for the n-element chain the joint angles q_0 + ... + q_k; for the
+ * pseudo-rigid body |q_0|. Where phi is monotone by a margin (bend_monotone: a flexure bent one
+ * way, the usual answer) the largest sample is the last one, evaluated alone: the same value,
+ * bit for bit. scratch: 4 (k + 1). */
+static fg_real flexure_bend(const fg_flexure *f, const fg_real *q, int samples, fg_real *scratch)
 {
-    int k = f->ndof, i, m;
+    int k = f->ndof, i;
     fg_real most = 0.0;
     if (f->kind == FG_MODEL_KERNEL) {
+        fg_real *P = scratch, *b = scratch + (k + 1);
+        if (samples >= 2 && bend_monotone(q, k, (fg_real)1.0 / (fg_real)(samples - 1), b))
+            return fabs(legendre_phi(q, k, 1.0, P));
         for (i = 0; i < samples; ++i) {
             fg_real sigma = samples > 1 ? (fg_real)i / (fg_real)(samples - 1) : 1.0;
-            fg_real x = 2.0 * sigma - 1.0, phi = q[0] * sigma;
-            P[0] = 1.0;
-            P[1] = x;
-            for (m = 1; m < k; ++m)
-                P[m + 1] = ((2.0 * m + 1.0) * x * P[m] - m * P[m - 1]) / (m + 1.0);
-            for (m = 1; m < k; ++m)
-                phi += q[m] * (P[m + 1] - P[m - 1]) / (2.0 * (2.0 * m + 1.0));
-            if (fabs(phi) > most)
-                most = fabs(phi);
+            fg_real phi = fabs(legendre_phi(q, k, sigma, P));
+            if (phi > most)
+                most = phi;
         }
         return most;
     }
