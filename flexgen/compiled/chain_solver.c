@@ -129,6 +129,7 @@ typedef struct {
     fg_real *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
     fg_real *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
     fg_real *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
+    fg_real *mr;             /* n-vector: a tendon segment's rank-one vector over its length */
     fg_real hist[FG_MAX_LAG + 1];    /* Newton's last stagnation_lag + 1 relative residuals */
     fg_real *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
@@ -164,7 +165,7 @@ FG_API size_t fg_work_size(const fg_problem *p)
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
     size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
     return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
-        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 10 * n
+        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 11 * n
         + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
 }
 
@@ -221,6 +222,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->cvec = x; x += n;
     w->qplus = x; x += n;
     w->qminus = x; x += n;
+    w->mr = x; x += n;
     w->ew = x; x += n;
     w->eV = x; x += n * n;
     w->ework = x; x += 2 * n * n + FG_LWORK(n);
@@ -394,10 +396,8 @@ static int kinematics(fg_ws *w, const fg_real *q)
         else {
             int plo = (int)w->fdata[FG_FDATA * f->parent + 10];
             int phi = (int)w->fdata[FG_FDATA * f->parent + 11];
-            for (a = 0; a < 3; ++a) {   /* the parent's J is zero outside [plo, phi) */
-                memset(J + a * n, 0, sizeof(fg_real) * (size_t)plo);
-                memset(J + a * n + phi, 0, sizeof(fg_real) * (size_t)(n - phi));
-            }
+            /* the parent's J is zero outside [plo, phi): zero, then that range set */
+            memset(J, 0, sizeof(fg_real) * 3 * (size_t)n);
             for (j = plo; j < phi; ++j) {
                 fg_real jt = PJ[2 * n + j];
                 J[j] = (PJ[j] - awy * jt) - wy * jt;
@@ -754,8 +754,11 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
             st->gmax = fabs(st->gU[i]);
         st->QL[i] = st->QT[i] = w->reach[i] = 0.0;
     }
-    for (i = 0; i < n; ++i)       /* the upper triangle only */
-        memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(fg_real) * (size_t)(n - i));
+    if (n <= 16)                  /* one call (the lower triangle is never read) */
+        memset(st->S, 0, sizeof(fg_real) * (size_t)n * (size_t)n);
+    else                          /* the upper triangle only */
+        for (i = 0; i < n; ++i)
+            memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(fg_real) * (size_t)(n - i));
     memset(w->acc, 0, sizeof(fg_real) * 4 * (size_t)p->nflex);
     memset(w->dk, 0, sizeof(fg_real) * (size_t)p->nflex);
     st->W = st->V = 0.0;
@@ -774,7 +777,7 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
     for (t = 0; t < p->ntendons; ++t) {
         fg_real T = p->tension[t], l = 0.0;
         const int *route = p->route + p->route_start[t];
-        fg_real *gl = w->vec1, *m = w->vec2;
+        fg_real *gl = w->vec1, *m = w->vec2, *mr = w->mr;
         if (T == 0.0)
             continue;
         memset(gl, 0, sizeof(fg_real) * (size_t)n);
@@ -795,12 +798,15 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
                 fg_real Jx = JB[i] - JA[i], Jy = JB[n + i] - JA[n + i];
                 gl[i] += ux * Jx + uy * Jy;
                 m[i] = ux * Jy - uy * Jx;
+                mr[i] = m[i] / rho;
                 w->reach[i] += fabs(T) * sqrt(Jx * Jx + Jy * Jy);
             }
             for (a = 0; a < n; ++a)       /* T times the rank-one part of hess l */
-                if (m[a] != 0.0)
+                if (m[a] != 0.0) {
+                    fg_real tm = T * m[a], *Sa = st->S + (size_t)a * (size_t)n;
                     for (b = a; b < n; ++b)       /* the upper triangle only */
-                        st->S[a * n + b] += T * m[a] * (m[b] / rho);
+                        Sa[b] += tm * mr[b];
+                }
             add_coefficient(w, pb, T * ux, T * uy, 0.0);
             add_coefficient(w, pa, -T * ux, -T * uy, 0.0);
         }
