@@ -130,6 +130,7 @@ typedef struct {
     fg_real *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
     fg_real *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
     fg_real *mr;             /* n-vector: a tendon segment's rank-one vector over its length */
+    fg_real *hf;             /* per load: |(fx, fy)| (set by fg_solve: the loads are fixed) */
     fg_real hist[FG_MAX_LAG + 1];    /* Newton's last stagnation_lag + 1 relative residuals */
     fg_real *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
@@ -165,7 +166,7 @@ FG_API size_t fg_work_size(const fg_problem *p)
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
     size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
     return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
-        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 11 * n
+        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 11 * n + (size_t)p->nloads
         + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
 }
 
@@ -223,6 +224,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->qplus = x; x += n;
     w->qminus = x; x += n;
     w->mr = x; x += n;
+    w->hf = x; x += (size_t)p->nloads;
     w->ew = x; x += n;
     w->eV = x; x += n * n;
     w->ework = x; x += 2 * n * n + FG_LWORK(n);
@@ -766,7 +768,7 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
         int pt = p->load_point[t];
         const fg_real *F = p->load + 3 * t;
         const fg_real *pose = w->ppose + 3 * pt, *J = w->pJ + (size_t)3 * n * pt;
-        fg_real hf = hypot(F[0], F[1]), mf = fabs(F[2]);
+        fg_real hf = w->hf[t], mf = fabs(F[2]);
         st->W += F[0] * pose[0] + F[1] * pose[1] + F[2] * pose[2];
         for (i = 0; i < n; ++i) {
             st->QL[i] += F[0] * J[i] + F[1] * J[n + i] + F[2] * J[2 * n + i];
@@ -2067,6 +2069,8 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
         return FG_MODEL_ERROR;
     n = p->ndof;
     bind(w, p, work, iwork);
+    for (i = 0; i < p->nloads; ++i)
+        w->hf[i] = hypot(p->load[3 * i], p->load[3 * i + 1]);
     st0 = &w->st[0];
     cur = &w->st[1];
     spare = &w->st[2];
