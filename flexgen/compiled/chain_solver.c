@@ -113,6 +113,8 @@ typedef struct {
     int kin_ok;
     int *kin_poly;          /* per flexure: 1 if the last kinematics evaluated its polynomial
                              * kernel, so q was within that kernel's range (in_range) */
+    int *rotated;           /* per flexure: 1 if its tip frame's rotation is read (a child, or a
+                             * point off its origin: set by fg_solve); else not computed */
     int poly_in_range;      /* 1: the next kinematics' q is known to be within the range of
                              * every polynomial kernel (in_kernel_range said so): not asked again */
     int evaluations;        /* kinematics evaluated in this solve */
@@ -172,8 +174,8 @@ FG_API size_t fg_work_size(const fg_problem *p)
 
 FG_API size_t fg_iwork_size(const fg_problem *p)
 {
-    /* pivots, kernel-switch flags (2), the kernels of the last kinematics */
-    return (size_t)p->ndof + 1 + 3 * (size_t)p->nflex;
+    /* pivots, kernel-switch flags (2), the kernels of the last kinematics, rotated frames */
+    return (size_t)p->ndof + 1 + 4 * (size_t)p->nflex;
 }
 
 static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
@@ -244,6 +246,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->switched = iwork + p->ndof + 1;
     w->saved_switched = w->switched + p->nflex;
     w->kin_poly = w->saved_switched + p->nflex;
+    w->rotated = w->kin_poly + p->nflex;
 }
 
 /* the tip block of flexure i: J (3 k), H (3 k k), RJ (2 k), after the F tip poses */
@@ -429,8 +432,13 @@ static int kinematics(fg_ws *w, const fg_real *q)
         d[5] = wx;
         d[6] = wy;
         d[7] = moving || tmoving;
-        d[8] = cos(pose[2]);      /* the tip frame's rotation (its children, points) */
-        d[9] = sin(pose[2]);
+        if (w->rotated[i]) {
+            d[8] = cos(pose[2]);  /* the tip frame's rotation (its children, points) */
+            d[9] = sin(pose[2]);
+        } else {                  /* read by nothing (points at the origin: below) */
+            d[8] = 1.0;
+            d[9] = 0.0;
+        }
         d[10] = lo;
         d[11] = hi;
     }
@@ -442,6 +450,11 @@ static int kinematics(fg_ws *w, const fg_real *q)
             pose[1] = pt->y;
             pose[2] = 0.0;
             memset(J, 0, sizeof(fg_real) * 3 * (size_t)n);
+            continue;
+        }
+        if (pt->x == 0.0 && pt->y == 0.0) {    /* the frame's origin: its pose and J */
+            memcpy(pose, w->fpose + 3 * pt->frame, sizeof(fg_real) * 3);
+            memcpy(J, w->fJ + (size_t)3 * n * pt->frame, sizeof(fg_real) * 3 * (size_t)n);
             continue;
         }
         {
@@ -2071,6 +2084,14 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
     bind(w, p, work, iwork);
     for (i = 0; i < p->nloads; ++i)
         w->hf[i] = hypot(p->load[3 * i], p->load[3 * i + 1]);
+    for (i = 0; i < p->nflex; ++i)
+        w->rotated[i] = 0;
+    for (i = 0; i < p->nflex; ++i)
+        if (p->flex[i].parent >= 0)
+            w->rotated[p->flex[i].parent] = 1;
+    for (i = 0; i < p->npoints; ++i)
+        if (p->points[i].frame >= 0 && (p->points[i].x != 0.0 || p->points[i].y != 0.0))
+            w->rotated[p->points[i].frame] = 1;
     st0 = &w->st[0];
     cur = &w->st[1];
     spare = &w->st[2];
