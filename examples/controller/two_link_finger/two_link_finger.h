@@ -32,8 +32,9 @@ extern "C" {
 #define TWO_LINK_FINGER_NTENDONS 1      /* [[tendon]] entries, in scene order */
 #define TWO_LINK_FINGER_NOUTPUTS 2      /* [output] points, in scene order */
 #define TWO_LINK_FINGER_NFLEXURES 2     /* [[flexure]] entries, in scene order */
-#define TWO_LINK_FINGER_NWORK 1702       /* the solver's scratch memory, in two_link_finger_state */
-#define TWO_LINK_FINGER_NIWORK 11
+#define TWO_LINK_FINGER_NWORK 1709       /* the solver's scratch memory, in two_link_finger_state */
+#define TWO_LINK_FINGER_NIWORK 15
+#define TWO_LINK_FINGER_WARM_CHANGE 0.25      /* largest relative change of the inputs for a warm start */
 
 /* index of each load in two_link_finger_inputs.load, named after its point */
 enum {
@@ -113,7 +114,7 @@ typedef struct {
 } two_link_finger_inputs;
 
 typedef struct {
-    double q[6];          /* the last answer's coordinates (when solved = 1) */
+    double q[TWO_LINK_FINGER_NDOF];   /* the last answer's coordinates (when solved = 1) */
     int solved;              /* 1: q is the equilibrium under last; 0 (all zero): unloaded */
     int critical;            /* 1: that equilibrium's load path met a critical event */
     double critical_load_factor;
@@ -123,13 +124,13 @@ typedef struct {
 } two_link_finger_state;
 
 typedef struct {
-    double pose[2][3];           /* x, y, angle of each output point (TWO_LINK_FINGER_OUT_*), world frame */
-    double compliance[2][3][3];  /* d(x, y, angle)/d(fx, fy, moment) of a load at that point */
-    double ellipse[2][3];        /* major, minor axis (compliance eigenvalues) and the
+    double pose[TWO_LINK_FINGER_NOUTPUTS][3];           /* x, y, angle of each output point (TWO_LINK_FINGER_OUT_*), world frame */
+    double compliance[TWO_LINK_FINGER_NOUTPUTS][3][3];  /* d(x, y, angle)/d(fx, fy, moment) of a load at that point */
+    double ellipse[TWO_LINK_FINGER_NOUTPUTS][3];        /* major, minor axis (compliance eigenvalues) and the
                                      * major axis's angle of the 2 x 2 position compliance */
-    double q[6];                /* the equilibrium's coordinates */
-    double bend[2];             /* largest |angle| along each flexure from its root, rad */
-    int kernel[2];              /* TWO_LINK_FINGER_KERNEL_* of each flexure at the answer */
+    double q[TWO_LINK_FINGER_NDOF];                /* the equilibrium's coordinates */
+    double bend[TWO_LINK_FINGER_NFLEXURES];             /* largest |angle| along each flexure from its root, rad */
+    int kernel[TWO_LINK_FINGER_NFLEXURES];              /* TWO_LINK_FINGER_KERNEL_* of each flexure at the answer */
     double energy;                 /* potential energy at the equilibrium */
     double residual;               /* relative residual of the equilibrium equations */
     int stable;                    /* 1: a stable equilibrium */
@@ -155,7 +156,6 @@ void two_link_finger_inputs_default(two_link_finger_inputs *in);
  * state beyond its arguments. */
 int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_state *state, two_link_finger_outputs *out);
 
-#define TWO_LINK_FINGER_WARM_CHANGE 0.25
 
 #ifdef __cplusplus
 }
