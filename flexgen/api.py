@@ -34,17 +34,26 @@ from dataclasses import replace
 from typing import Any
 
 from .result import Result
-from .scene import MODEL_KINDS, Scene, SceneError, as_scene
+from .scene import (
+    MAX_ELEMENTS,
+    MAX_MODES,
+    MODEL_KINDS,
+    Scene,
+    SceneError,
+    _fmt,
+    as_scene,
+    check_limits,
+)
 from .settings import DEFAULT, SolverSettings
 from .solver import Solver, make_settings
 from .validity import check
 
 
-def _count(value, key: str) -> int | None:
+def _count(value, key: str, maximum: int) -> int | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise SceneError(f"{key}: must be an integer >= 1, got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= maximum:
+        raise SceneError(f"{key}: must be an integer in [1, {maximum}], got {_fmt(value)}")
     return value
 
 
@@ -52,9 +61,12 @@ def override(
     scene: Scene, model: str | None = None, modes: int | None = None, elements: int | None = None
 ) -> Scene:
     """``scene`` with every flexure's model kind, modes and elements replaced where given."""
-    if model is not None and model not in MODEL_KINDS:
-        raise SceneError(f"model: unknown kind {model!r} (choose from {', '.join(MODEL_KINDS)})")
-    modes, elements = _count(modes, "modes"), _count(elements, "elements")
+    if model is not None and (not isinstance(model, str) or model not in MODEL_KINDS):
+        raise SceneError(
+            f"model: unknown kind {_fmt(model)} (choose from {', '.join(MODEL_KINDS)})"
+        )
+    modes = _count(modes, "modes", MAX_MODES)
+    elements = _count(elements, "elements", MAX_ELEMENTS)
     changes: dict[str, Any] = {}
     if model is not None:
         changes["kind"] = model
@@ -65,7 +77,9 @@ def override(
     if not changes:
         return scene
     flexures = tuple(replace(f, model=replace(f.model, **changes)) for f in scene.flexures)
-    return replace(scene, model=replace(scene.model, **changes), flexures=flexures)
+    scene = replace(scene, model=replace(scene.model, **changes), flexures=flexures)
+    check_limits(scene)
+    return scene
 
 
 def uses_exact(scene: Scene) -> bool:
