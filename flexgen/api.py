@@ -33,6 +33,8 @@ from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from .result import Result
 from .scene import (
     MAX_ELEMENTS,
@@ -132,6 +134,35 @@ def _assessed(solver: Solver, q0: Mapping[str, Any] | None) -> Result:
     return result
 
 
+def _check_inputs(scene: Scene, models: Any, q0: Any) -> None:
+    """TypeError/ValueError naming the key for a ``models`` or ``q0`` that is not a mapping of
+    the scene's flexures to models / finite coordinates."""
+    names = {f.name for f in scene.flexures}
+    for what, given in (("models", models), ("q0", q0)):
+        if given is None:
+            continue
+        if not isinstance(given, Mapping):
+            raise TypeError(f"{what}: expected a dict {{flexure: ...}}, got {type(given).__name__}")
+        for name, value in given.items():
+            if name not in names:
+                raise ValueError(f"{what}: unknown flexure {_fmt(name)}")
+            if what == "models":
+                if not (hasattr(value, "core_flexure") and hasattr(value, "n_dof")):
+                    raise TypeError(
+                        f"models[{name!r}]: expected a flexure model (flexgen.models), "
+                        f"got {type(value).__name__}"
+                    )
+                continue
+            try:
+                v = np.asarray(value, dtype=float)
+            except (TypeError, ValueError, OverflowError):
+                v = None
+            if v is None or v.ndim > 1 or not np.all(np.isfinite(v)):
+                raise ValueError(
+                    f"q0[{name!r}]: must be a list of finite numbers, got {_fmt(value)}"
+                )
+
+
 def solve_scene(
     scene: Scene,
     models: Mapping[str, Any] | None = None,
@@ -146,6 +177,8 @@ def solve_scene(
     (``flexgen.validity.check``: appended to ``warnings``) and, for the Python API,
     ``error_class`` = {"pose", "compliance"}, the indicative error class (None when a tolerance
     chose the models: ``error_estimate`` is then the claim; not part of the JSON contract)."""
+    if q0 is not None or models is not None:
+        _check_inputs(scene, models, q0)
     if (
         models is None
         and tolerance is None

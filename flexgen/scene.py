@@ -300,8 +300,10 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
         raise SceneError(f"{path}: invalid TOML: {msg}") from None
     except RecursionError:
         raise SceneError(f"{path}: invalid TOML: arrays or tables nested too deeply") from None
-    except ValueError as e:  # e.g. an integer of more digits than Python converts
+    except ValueError as e:  # an integer of more digits than Python converts (4300)
         msg = " ".join(str(e).split())
+        if "integer string conversion" in msg:
+            msg = "an integer of more than 4300 digits"
         raise SceneError(f"{path}: invalid TOML: {msg}") from None
     return scene_from_dict(d, order=_declaration_order(text, d), default_name=path.stem)
 
