@@ -24,11 +24,14 @@ from .scene import Scene
 def to_result(scene: Scene, sol) -> Result:
     """Convert a ``models.exact.SceneSolution`` of ``scene`` into a Result."""
     info = {f.name: {"kind": "exact"} for f in scene.flexures}
-    warnings = list(sol.warnings)
+    # a bifurcation crossed onto the stable branch is a note (a fact of the path); every other
+    # message of the elastica solver (a stall, a loss of stability) is a warning
+    notes = [w for w in sol.warnings if "followed the stable branch" in w]
+    warnings = [w for w in sol.warnings if w not in notes]
     critical = [] if sol.critical_load_factor is None else [float(sol.critical_load_factor)]
     if not sol.converged:
         reason = f"exact solver: no equilibrium found beyond load factor {sol.load_factor:.6g}" + (
-            f" ({warnings[0]})" if warnings else ""
+            f" ({(warnings + notes)[0]})" if warnings or notes else ""
         )
         return Result(
             scene=scene.name,
@@ -40,6 +43,7 @@ def to_result(scene: Scene, sol) -> Result:
             q={},
             points={},
             warnings=warnings,
+            notes=notes,
             reason=reason,
             critical_load_factors=critical,
             load_factor=float(sol.load_factor),
@@ -72,6 +76,7 @@ def to_result(scene: Scene, sol) -> Result:
         q=q,
         points=points,
         warnings=warnings,
+        notes=notes,
         reason=None,
         critical_load_factors=critical,
         load_factor=float(sol.load_factor),

@@ -67,6 +67,8 @@ class Result:
     model: dict[str, dict[str, Any]]
     q: dict[str, list[float]]
     points: dict[str, PointResult]
+    # what may make the answer wrong beyond its accuracy; ``notes``: facts that do not (a switch
+    # to a certified kernel, a critical load passed and the branch taken)
     warnings: list[str] = field(default_factory=list)
     reason: str | None = None
     critical_load_factors: list[float] = field(default_factory=list)
@@ -94,6 +96,7 @@ class Result:
     kernel: dict[str, str] = field(default_factory=dict, compare=False)
     # the indicative error class {"pose", "compliance"} of flexgen.validity (Python API only)
     error_class: dict[str, float] | None = field(default=None, compare=False)
+    notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """Every field, as plain Python data."""
@@ -110,6 +113,7 @@ class Result:
             "q": {k: [float(x) for x in v] for k, v in self.q.items()},
             "points": {ref: p.contract() for ref, p in self.points.items()},
             "warnings": list(self.warnings),
+            "notes": list(self.notes),
         }
         if not self.converged:
             out["reason"] = self.reason or "not converged"
@@ -164,6 +168,8 @@ class Result:
             lines.append(f"  critical load factor: {lam:.8g}")
         for msg in self.warnings:
             lines.append(f"  warning: {msg}")
+        for msg in self.notes:
+            lines.append(f"  note: {msg}")
         return "\n".join(lines)
 
 

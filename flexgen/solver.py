@@ -187,7 +187,7 @@ class Solver:
     # ---- the answer -------------------------------------------------------------------------
 
     def _failed(
-        self, status: int, iterations: int, warnings: list[str], critical: list[float], lam: float
+        self, status: int, iterations: int, notes: list[str], critical: list[float], lam: float
     ) -> Result:
         """The Result of a solve without an equilibrium: the reason, and what was met on the way."""
         return Result(
@@ -198,7 +198,7 @@ class Solver:
             model={name: dict(v) for name, v in self._info.items()},
             q={},
             points={},
-            warnings=warnings,
+            notes=notes,
             reason=self._reason(status),
             critical_load_factors=critical,
             load_factor=lam,
@@ -209,6 +209,9 @@ class Solver:
         a = ws.answer
         if status == core.MODEL_ERROR:  # the core refused the problem: the answer is not filled
             return self._failed(status, 0, [], [], 1.0)
+        # the critical events and kernel switches are notes (facts of the path that do not
+        # make the answer wrong); what may make it wrong is a warning
+        notes: list[str] = []
         warnings: list[str] = []
         critical: list[float] = []
         ncritical = a.ncritical
@@ -216,13 +219,13 @@ class Solver:
             stored = min(ncritical, a.max_critical)
             for lam, kind in zip(ws.critical[:stored].tolist(), ws.critical_kind[:stored].tolist()):
                 critical.append(lam)
-                warnings.append(
+                notes.append(
                     snap_warning(lam)
                     if kind == core.SNAP_THROUGH
                     else buckling_warning(lam, BUCKLING_SIDES[kind - 1])
                 )
             if ncritical > stored:
-                warnings.append(
+                notes.append(
                     f"{ncritical - stored} more critical events on the load path are not listed"
                 )
         solved = status == core.SOLVED
@@ -237,9 +240,9 @@ class Solver:
                     model: Any = self.models[name]
                     msg = model.switch_warning(q[sl] if solved else None)
                     if msg:
-                        warnings.append(msg)
+                        notes.append(msg)
         if not solved:
-            return self._failed(status, a.iterations, warnings, critical, a.failure_load_factor)
+            return self._failed(status, a.iterations, notes, critical, a.failure_load_factor)
         stable = bool(a.stable)
         if not stable:
             warnings.append(UNSTABLE)
@@ -255,6 +258,7 @@ class Solver:
         r = LazyResult.__new__(LazyResult)
         r.scene, r.converged, r.stable, r.iterations = self.scene.name, True, stable, a.iterations
         r.warnings, r.reason, r.critical_load_factors, r.load_factor = warnings, None, critical, 1.0
+        r.notes = notes
         r.energy, r.residual, r.tolerance, r.error_estimate = a.energy, a.residual, None, None
         r.solver, r.stability_margin, r.error_class = "core", None, None
         snapshot = (

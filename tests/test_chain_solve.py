@@ -286,7 +286,7 @@ def test_rectangular_elastica_buckles_onto_the_bent_branch():
     assert res.stable
     assert len(res.critical_load_factors) == 1
     assert res.critical_load_factors[0] == pytest.approx(math.pi**2 / 4 / P, rel=1e-4)
-    assert any("bifurcation" in w for w in res.warnings)
+    assert any("bifurcation" in w for w in res.notes)
     assert res.residual <= 1e-12
 
 
@@ -412,6 +412,7 @@ def test_json_contract_fields_and_ellipse_convention():
         "q",
         "points",
         "warnings",
+        "notes",
     }
     assert out["model"] == {"f": {"kind": "scm", "modes": 3}}
     assert set(out["points"]["f.tip"]) == {"pose", "compliance", "ellipse"}
@@ -505,7 +506,7 @@ def test_imperfect_elastica_follows_its_imperfection_without_a_bifurcation(sign)
     assert res.converged and res.stable
     x, y, _ = res.points["f.tip"].pose
     assert sign * y == pytest.approx(0.762760, abs=1e-3) and x == pytest.approx(0.456947, abs=1e-3)
-    assert res.critical_load_factors == [] and res.warnings == []
+    assert res.critical_load_factors == [] and res.warnings == [] and res.notes == []
 
 
 @pytest.mark.parametrize(

@@ -18,7 +18,17 @@ from flexgen.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 EX = ROOT / "examples"
-CONTRACT = {"scene", "converged", "stable", "iterations", "model", "q", "points", "warnings"}
+CONTRACT = {
+    "scene",
+    "converged",
+    "stable",
+    "iterations",
+    "model",
+    "q",
+    "points",
+    "warnings",
+    "notes",
+}
 
 
 def cli(*argv):
@@ -290,7 +300,7 @@ def test_auto_kernel_switches_to_gauss_past_the_range_with_a_warning():
         pytest.approx((1 - math.cos(2.5)) / 2.5, abs=1e-9),
         pytest.approx(2.5),
     )
-    switch = [w for w in res.warnings if "Gauss kernel" in w]
+    switch = [w for w in res.notes if "Gauss kernel" in w]
     assert len(switch) == 1 and "'beam'" in switch[0] and "90 deg" in switch[0]
     # in range: no warning
     inside = _bent("auto")

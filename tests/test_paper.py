@@ -129,7 +129,7 @@ def test_first_buckling_load_scm5_to_1e_6():
     assert res.converged and res.stable
     (lam_c,) = res.critical_load_factors
     assert abs(lam_c * P_RECT - EULER) / EULER <= 1e-6
-    warning = [w for w in res.warnings if "bifurcation" in w]
+    warning = [w for w in res.notes if "bifurcation" in w]
     assert len(warning) == 1 and f"{lam_c:.10g}" in warning[0]
 
 

@@ -103,7 +103,8 @@ def _driver(prefixes: list[str]) -> str:
             f"    {p}_inputs_default(&in);",
             f"    int s = {p}_solve(&in, &st, &out);",
             f'    std::printf("{{\\"name\\": \\"{p}\\", \\"status\\": %d, \\"flags\\": %d, '
-            f'\\"stable\\": %d, \\"q\\": ", s, out.flags, out.stable);',
+            f'\\"notes\\": %d, \\"stable\\": %d, \\"q\\": ", s, out.flags, out.notes, '
+            f"out.stable);",
             f"    vec(out.q, {P}_NDOF);",
             '    std::printf(", \\"pose\\": ");',
             f"    vec(&out.pose[0][0], 3 * {P}_NOUTPUTS);",
@@ -171,12 +172,14 @@ def test_emitted_solver_answers_as_the_library(built, prefix):
         ref = np.asarray(point.compliance)
         np.testing.assert_allclose(c3[:2, :2], ref, rtol=0, atol=1e-10 * np.abs(ref).max())
     assert got["stable"] == int(r.stable)
-    # a warning in the library is a flag in C (and no flag where the library is silent about
-    # the kernel range, the bend and stability)
-    warned = " ".join(r.warnings)
-    assert bool(got["flags"] & 1) == ("critical load" in warned or "snap" in warned), warned
+    # a warning in the library is a flag in C, a note a note (and no flag where the library is
+    # silent about the kernel range and stability)
+    warned, noted = " ".join(r.warnings), " ".join(r.notes)
     past = "wrong by any amount" in warned or "error bound does not hold" in warned
-    assert bool(got["flags"] & 2) == past, warned
+    assert bool(got["flags"] & 1) == past, warned
+    assert bool(got["flags"] & 2) == (not r.stable)
+    assert bool(got["notes"] & 1) == ("buckling" in noted or "snap" in noted), noted
+    assert bool(got["notes"] & 2) == ("switched to the Gauss kernel" in noted), noted
 
 
 def test_random_scenes_cover_what_the_issue_names():
@@ -252,7 +255,7 @@ def test_example_program_prints_the_json_of_flexgen_solve(tmp_path):
         ).stdout
     )
     assert got.keys() <= ref.keys() | {"reason"}
-    for key in ("scene", "converged", "stable", "iterations", "warnings"):
+    for key in ("scene", "converged", "stable", "iterations", "warnings", "notes"):
         assert got[key] == ref[key], key
     assert got["q"].keys() == ref["q"].keys()
     for name in ref["q"]:

@@ -32,7 +32,7 @@ def register(sub) -> None:
             "Emit the kernel of one flexure: tip pose, Jacobian and Hessian in closed form. "
             "Without "
             "--modes, regenerates the checked-in set (scm1..scm8 polynomial at 90 degrees, Gauss "
-            "kernels for 1..6 modes). With --check, writes nothing and exits 1 naming the files in "
+            "kernels for 1..8 modes). With --check, writes nothing and exits 1 naming the files in "
             "--out that differ from a fresh generation. With --scene, emits instead a "
             "self-contained C99 solver of that mechanism for a controller: NAME.h, NAME.c, "
             "NAME_example.c, CMakeLists.txt and NAME.mk (docs/controller.md)."

@@ -138,7 +138,8 @@ enum {
     FG_ERR_STAGNATION = 1,      /* Newton stagnated (at a load factor, a relative residual) */
     FG_ERR_NOT_CONVERGED = 2,   /* Newton did not converge in last_error_iterations iterations */
     FG_ERR_LINE_SEARCH = 3,     /* the line search failed (at a load factor, a residual) */
-    FG_ERR_JUMP = 4,            /* the path jumped by more than max_dq (at a load factor) */
+    FG_ERR_JUMP = 4,            /* the path jumped: by more than max_dq, or against its
+                                 * tangent onto another branch (at a load factor) */
     FG_ERR_NONFINITE = 5,       /* a model returned a non-finite value */
     FG_ERR_KERNEL_RANGE = 6,    /* a polynomial-only kernel past its range (*_error_flexure) */
     FG_ERR_TENDON = 7           /* a tendon segment of zero length (*_error_route) */
@@ -347,12 +348,14 @@ FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, 
 
 #endif /* FLEXGEN_CHAIN_SOLVER_H */
 
-/* the largest finite value and a floor for divisors, of fg_real */
+/* the largest finite value, the machine epsilon and a floor for divisors, of fg_real */
 #ifdef FG_SINGLE
 #define FG_REAL_MAX FLT_MAX
+#define FG_EPS FLT_EPSILON
 #define FG_TINY 1e-30f
 #else
 #define FG_REAL_MAX DBL_MAX
+#define FG_EPS DBL_EPSILON
 #define FG_TINY 1e-300
 #endif
 
@@ -391,6 +394,12 @@ typedef struct {
     fg_real *dk;             /* per flexure: the rank-one coefficients summed over its subtree */
     fg_real *kq;             /* the q of the last kinematics (kin_ok: they succeeded) */
     int kin_ok;
+    int *kin_poly;          /* per flexure: 1 if the last kinematics evaluated its polynomial
+                             * kernel, so q was within that kernel's range (in_range) */
+    int *rotated;           /* per flexure: 1 if its tip frame's rotation is read (a child, or a
+                             * point off its origin: set by fg_solve); else not computed */
+    int poly_in_range;      /* 1: the next kinematics' q is known to be within the range of
+                             * every polynomial kernel (in_kernel_range said so): not asked again */
     int evaluations;        /* kinematics evaluated in this solve */
     /* the last error and the last model error (fg_answer.last_error*, model_error*) */
     int err, err_flex, err_route, err_iterations;
@@ -405,6 +414,8 @@ typedef struct {
     fg_real *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
     fg_real *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
     fg_real *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
+    fg_real *mr;             /* n-vector: a tendon segment's rank-one vector over its length */
+    fg_real *hf;             /* per load: |(fx, fy)| (set by fg_solve: the loads are fixed) */
     fg_real hist[FG_MAX_LAG + 1];    /* Newton's last stagnation_lag + 1 relative residuals */
     fg_real *ew, *eV, *ework;    /* eigenvalues (n), eigenvectors (n x n, one a row), scratch */
     int *piv;
@@ -440,13 +451,14 @@ FG_API size_t fg_work_size(const fg_problem *p)
     size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
     size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
     return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
-        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 10 * n
+        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 11 * n + (size_t)p->nloads
         + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
 }
 
 FG_API size_t fg_iwork_size(const fg_problem *p)
 {
-    return (size_t)p->ndof + 1 + 2 * (size_t)p->nflex;    /* pivots, kernel-switch flags (2) */
+    /* pivots, kernel-switch flags (2), the kernels of the last kinematics, rotated frames */
+    return (size_t)p->ndof + 1 + 4 * (size_t)p->nflex;
 }
 
 static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
@@ -459,6 +471,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->tstride = tip_stride(p);
     w->n = p->ndof;
     w->kin_ok = 0;
+    w->poly_in_range = 0;
     w->evaluations = 0;
     w->err = FG_ERR_NONE;
     w->err_flex = w->err_route = -1;
@@ -495,6 +508,8 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->cvec = x; x += n;
     w->qplus = x; x += n;
     w->qminus = x; x += n;
+    w->mr = x; x += n;
+    w->hf = x; x += (size_t)p->nloads;
     w->ew = x; x += n;
     w->eV = x; x += n * n;
     w->ework = x; x += 2 * n * n + FG_LWORK(n);
@@ -513,6 +528,8 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->piv = iwork;
     w->switched = iwork + p->ndof + 1;
     w->saved_switched = w->switched + p->nflex;
+    w->kin_poly = w->saved_switched + p->nflex;
+    w->rotated = w->kin_poly + p->nflex;
 }
 
 /* the tip block of flexure i: J (3 k), H (3 k k), RJ (2 k), after the F tip poses */
@@ -524,24 +541,28 @@ static fg_real *tip_block(const fg_ws *w, int i)
 /* ---- flexure models ------------------------------------------------------------------------ */
 
 /* pose (3), J (3 x k), H (3 x k x k) of the tip in the root frame, physical units; 0 if the
- * model cannot be evaluated at q (a polynomial-only kernel past its range) */
+ * model cannot be evaluated at q (a polynomial-only kernel past its range). in_range: 1 if q is
+ * known to be within the polynomial kernel's range (not asked again), else -1; *poly: 1 if the
+ * polynomial kernel was evaluated (q within its range), else 0 */
 static int flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
-                       fg_real *scratch, int *switched)
+                       fg_real *scratch, int *switched, int in_range, int *poly)
 {
     int k = f->ndof, i, j;
+    *poly = 0;
     if (f->kind == FG_MODEL_KERNEL) {
         fg_kernel kernel;
         fg_real L = f->length;
-        if (f->poly != NULL && (f->gauss == NULL || f->in_range(q)))
+        if (f->poly != NULL && in_range < 0)
+            in_range = f->in_range(q) != 0;
+        if (f->poly != NULL && in_range) {
             kernel = f->poly;
-        else if (f->gauss != NULL) {
+            *poly = 1;
+        } else if (f->gauss != NULL) {
             kernel = f->gauss;
             if (f->poly != NULL)
                 *switched = 1;
         } else
-            return 0;
-        if (f->poly != NULL && f->gauss == NULL && !f->in_range(q))
-            return 0;
+            return 0;       /* a polynomial-only kernel past its range */
         kernel(q, pose, J, H);
         pose[0] *= L;
         pose[1] *= L;
@@ -637,7 +658,8 @@ static int kinematics(fg_ws *w, const fg_real *q)
         rp[0] = pp[0] + awx;
         rp[1] = pp[1] + awy;
         rp[2] = th + f->at[2];
-        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i])) {
+        if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i],
+                         w->poly_in_range ? 1 : -1, &w->kin_poly[i])) {
             w->fail_flex = i;
             w->fail_route = -1;
             return 0;
@@ -662,10 +684,8 @@ static int kinematics(fg_ws *w, const fg_real *q)
         else {
             int plo = (int)w->fdata[FG_FDATA * f->parent + 10];
             int phi = (int)w->fdata[FG_FDATA * f->parent + 11];
-            for (a = 0; a < 3; ++a) {   /* the parent's J is zero outside [plo, phi) */
-                memset(J + a * n, 0, sizeof(fg_real) * (size_t)plo);
-                memset(J + a * n + phi, 0, sizeof(fg_real) * (size_t)(n - phi));
-            }
+            /* the parent's J is zero outside [plo, phi): zero, then that range set */
+            memset(J, 0, sizeof(fg_real) * 3 * (size_t)n);
             for (j = plo; j < phi; ++j) {
                 fg_real jt = PJ[2 * n + j];
                 J[j] = (PJ[j] - awy * jt) - wy * jt;
@@ -695,8 +715,13 @@ static int kinematics(fg_ws *w, const fg_real *q)
         d[5] = wx;
         d[6] = wy;
         d[7] = moving || tmoving;
-        d[8] = cos(pose[2]);      /* the tip frame's rotation (its children, points) */
-        d[9] = sin(pose[2]);
+        if (w->rotated[i]) {
+            d[8] = cos(pose[2]);  /* the tip frame's rotation (its children, points) */
+            d[9] = sin(pose[2]);
+        } else {                  /* read by nothing (points at the origin: below) */
+            d[8] = 1.0;
+            d[9] = 0.0;
+        }
         d[10] = lo;
         d[11] = hi;
     }
@@ -708,6 +733,11 @@ static int kinematics(fg_ws *w, const fg_real *q)
             pose[1] = pt->y;
             pose[2] = 0.0;
             memset(J, 0, sizeof(fg_real) * 3 * (size_t)n);
+            continue;
+        }
+        if (pt->x == 0.0 && pt->y == 0.0) {    /* the frame's origin: its pose and J */
+            memcpy(pose, w->fpose + 3 * pt->frame, sizeof(fg_real) * 3);
+            memcpy(J, w->fJ + (size_t)3 * n * pt->frame, sizeof(fg_real) * 3 * (size_t)n);
             continue;
         }
         {
@@ -1022,8 +1052,11 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
             st->gmax = fabs(st->gU[i]);
         st->QL[i] = st->QT[i] = w->reach[i] = 0.0;
     }
-    for (i = 0; i < n; ++i)       /* the upper triangle only */
-        memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(fg_real) * (size_t)(n - i));
+    if (n <= 16)                  /* one call (the lower triangle is never read) */
+        memset(st->S, 0, sizeof(fg_real) * (size_t)n * (size_t)n);
+    else                          /* the upper triangle only */
+        for (i = 0; i < n; ++i)
+            memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(fg_real) * (size_t)(n - i));
     memset(w->acc, 0, sizeof(fg_real) * 4 * (size_t)p->nflex);
     memset(w->dk, 0, sizeof(fg_real) * (size_t)p->nflex);
     st->W = st->V = 0.0;
@@ -1031,7 +1064,7 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
         int pt = p->load_point[t];
         const fg_real *F = p->load + 3 * t;
         const fg_real *pose = w->ppose + 3 * pt, *J = w->pJ + (size_t)3 * n * pt;
-        fg_real hf = hypot(F[0], F[1]), mf = fabs(F[2]);
+        fg_real hf = w->hf[t], mf = fabs(F[2]);
         st->W += F[0] * pose[0] + F[1] * pose[1] + F[2] * pose[2];
         for (i = 0; i < n; ++i) {
             st->QL[i] += F[0] * J[i] + F[1] * J[n + i] + F[2] * J[2 * n + i];
@@ -1042,7 +1075,7 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
     for (t = 0; t < p->ntendons; ++t) {
         fg_real T = p->tension[t], l = 0.0;
         const int *route = p->route + p->route_start[t];
-        fg_real *gl = w->vec1, *m = w->vec2;
+        fg_real *gl = w->vec1, *m = w->vec2, *mr = w->mr;
         if (T == 0.0)
             continue;
         memset(gl, 0, sizeof(fg_real) * (size_t)n);
@@ -1063,12 +1096,15 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
                 fg_real Jx = JB[i] - JA[i], Jy = JB[n + i] - JA[n + i];
                 gl[i] += ux * Jx + uy * Jy;
                 m[i] = ux * Jy - uy * Jx;
+                mr[i] = m[i] / rho;
                 w->reach[i] += fabs(T) * sqrt(Jx * Jx + Jy * Jy);
             }
             for (a = 0; a < n; ++a)       /* T times the rank-one part of hess l */
-                if (m[a] != 0.0)
+                if (m[a] != 0.0) {
+                    fg_real tm = T * m[a], *Sa = st->S + (size_t)a * (size_t)n;
                     for (b = a; b < n; ++b)       /* the upper triangle only */
-                        st->S[a * n + b] += T * m[a] * (m[b] / rho);
+                        Sa[b] += tm * mr[b];
+                }
             add_coefficient(w, pb, T * ux, T * uy, 0.0);
             add_coefficient(w, pa, -T * ux, -T * uy, 0.0);
         }
@@ -1530,15 +1566,34 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
     return 0;
 }
 
+/* q is the q of the last kinematics (which succeeded): their kernel choices (kin_poly) hold */
+static int at_kinematics(const fg_ws *w, const fg_real *q)
+{
+    return w->kin_ok && (q == w->kq || memcmp(q, w->kq, sizeof(fg_real) * (size_t)w->n) == 0);
+}
+
+/* flexure i (a kernel flexure with a polynomial kernel) within that kernel's range at q (all
+ * coordinates); known: q is the last kinematics' (at_kinematics), which asked in_range there */
+static int poly_in_range(const fg_ws *w, int i, const fg_real *q, int known)
+{
+    const fg_flexure *f = &w->p->flex[i];
+    return known ? w->kin_poly[i] : f->in_range(q + f->offset) != 0;
+}
+
 /* every smooth curvature flexure within its range: the polynomial kernel's when it has one
  * (an "auto" flexure past it would switch kernels), else the Gauss kernel's certified range */
-static int in_kernel_range(const fg_problem *p, const fg_real *q)
+static int in_kernel_range(const fg_ws *w, const fg_real *q)
 {
-    int i;
+    const fg_problem *p = w->p;
+    int i, known = at_kinematics(w, q);
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
-        fg_range in_range = f->poly != NULL ? f->in_range : f->gauss_in_range;
-        if (f->kind == FG_MODEL_KERNEL && in_range != NULL && !in_range(q + f->offset))
+        if (f->kind != FG_MODEL_KERNEL)
+            continue;
+        if (f->poly != NULL) {
+            if (!poly_in_range(w, i, q, known))
+                return 0;
+        } else if (f->gauss_in_range != NULL && !f->gauss_in_range(q + f->offset))
             return 0;
     }
     return 1;
@@ -1715,7 +1770,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     if (!newton(w, cur, spare, NULL, max_it, 1, iterations))
         goto done;
     c = *cur;
-    if (!in_kernel_range(p, c->q) || !cholesky(p, c->K, end_factor, n))
+    if (!in_kernel_range(w, c->q) || !cholesky(p, c->K, end_factor, n))
         goto done;
     cholesky_solve(p, end_factor, n, c->Q, t1);
     /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
@@ -1726,7 +1781,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
         fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
         for (i = 0; i < n; ++i)
             qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
-        if (!in_kernel_range(p, qt))
+        if (!in_kernel_range(w, qt))
             goto done;
         if (linear) {             /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0) */
             for (i = 0; i < n; ++i) {
@@ -1734,7 +1789,11 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
                 corr[i] = (k * qt[i] - t * st0->Q[i]) / k;
             }
         } else {
-            if (!evaluate(w, qt, t, smp) || !cholesky(p, smp->K, w->la, n))
+            int evaluated;
+            w->poly_in_range = 1;     /* in range (above): in_range is not asked again */
+            evaluated = evaluate(w, qt, t, smp);
+            w->poly_in_range = 0;
+            if (!evaluated || !cholesky(p, smp->K, w->la, n))
                 goto done;
             cholesky_solve(p, w->la, n, smp->r, corr);
         }
@@ -2125,27 +2184,89 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out)
     }
 }
 
+/* phi(sigma) of a kernel flexure with k coordinates q: phi = q_0 sigma + sum_m q_m B_m(sigma),
+ * B_m = (P_{m+1}(x) - P_{m-1}(x)) / (2 (2m + 1)), x = 2 sigma - 1, the Legendre values by their
+ * three-term recurrence in P (k + 1 entries): fg_answer.bend's value at a sample */
+static fg_real legendre_phi(const fg_real *q, int k, fg_real sigma, fg_real *P)
+{
+    int m;
+    fg_real x = 2.0 * sigma - 1.0, phi = q[0] * sigma;
+    P[0] = 1.0;
+    P[1] = x;
+    for (m = 1; m < k; ++m)
+        P[m + 1] = ((2.0 * m + 1.0) * x * P[m] - m * P[m - 1]) / (m + 1.0);
+    for (m = 1; m < k; ++m)
+        phi += q[m] * (P[m + 1] - P[m - 1]) / (2.0 * (2.0 * m + 1.0));
+    return phi;
+}
+
+/* 1 if phi (legendre_phi) of a kernel flexure is strictly monotone on [0, 1] by a margin that
+ * no rounding of legendre_phi can undo on a grid of step h: then, phi(0) being 0 (exactly, also
+ * in floating point: P_m(-1) = (-1)^m), its largest |phi| on the grid is at sigma = 1, also as
+ * computed. phi' = sum_m q_m P_m(2 sigma - 1) (B_m' = P_m), of degree k - 1 in sigma, lies between
+ * the least and the largest of its Bernstein coefficients on [0, 1]; they are built mode by mode
+ * (the shifted Legendre polynomial P_m has the Bernstein coefficients (-1)^(m+j) C(m, j); the sum
+ * so far is degree-elevated by one before each). If they all have one sign and the smallest
+ * magnitude b exceeds 1e4 eps S (2^k + 1/h), S = sum |q|, eps the machine epsilon, then |phi|
+ * grows by at least h (b - e) from one sample to the next, e <= 32 eps 2^k S the coefficients'
+ * rounding, about 100 times twice legendre_phi's rounding (a few ulps per recurrence step and
+ * term: below 64 eps S for k <= 16). b: k entries of scratch. */
+static int bend_monotone(const fg_real *q, int k, fg_real h, fg_real *b)
+{
+    int m, j;
+    fg_real size = 0.0, low, binom, pow2 = 2.0;
+    if (k > 16)
+        return 0;
+    for (m = 0; m < k; ++m) {
+        size += fabs(q[m]);
+        pow2 *= 2.0;
+    }
+    b[0] = q[0];
+    for (m = 1; m < k; ++m) {
+        b[m] = b[m - 1];                    /* degree elevation from m - 1 to m */
+        for (j = m - 1; j >= 1; --j)
+            b[j] = ((fg_real)j * b[j - 1] + (fg_real)(m - j) * b[j]) / (fg_real)m;
+        binom = 1.0;                        /* C(m, j) */
+        for (j = 0; j <= m; ++j) {
+            b[j] += ((m + j) % 2 == 0 ? q[m] : -q[m]) * binom;
+            binom = binom * (fg_real)(m - j) / (fg_real)(j + 1);
+        }
+    }
+    low = 1e4 * FG_EPS * size * (pow2 + 1.0 / h);
+    if (!(low <= FG_REAL_MAX))
+        return 0;
+    for (j = 0; j < k; ++j)
+        if (!(b[j] > low))
+            break;
+    if (j == k)
+        return 1;
+    for (j = 0; j < k; ++j)
+        if (!(b[j] < -low))
+            return 0;
+    return 1;
+}
+
 /* max |phi(s)| along flexure f at its coordinates q (rad, relative to its root frame), on
  * samples points s/L = 0 .. 1: for a kernel flexure phi = sum q_n B_n with
  * B_0 = s/L and B_n = (P_{n+1}(x) - P_{n-1}(x)) / (2 (2n + 1)), x = 2 s/L - 1 (the integral of
- * the shifted Legendre polynomial), the Legendre values by their three-term recurrence; for the
- * n-element chain the joint angles q_0 + ... + q_k; for the pseudo-rigid body |q_0| */
-static fg_real flexure_bend(const fg_flexure *f, const fg_real *q, int samples, fg_real *P)
+ * the shifted Legendre polynomial), the Legendre values by their three-term recurrence
+ * (legendre_phi); for the n-element chain the joint angles q_0 + ... + q_k; for the
+ * pseudo-rigid body |q_0|. Where phi is monotone by a margin (bend_monotone: a flexure bent one
+ * way, the usual answer) the largest sample is the last one, evaluated alone: the same value,
+ * bit for bit. scratch: 4 (k + 1). */
+static fg_real flexure_bend(const fg_flexure *f, const fg_real *q, int samples, fg_real *scratch)
 {
-    int k = f->ndof, i, m;
+    int k = f->ndof, i;
     fg_real most = 0.0;
     if (f->kind == FG_MODEL_KERNEL) {
+        fg_real *P = scratch, *b = scratch + (k + 1);
+        if (samples >= 2 && bend_monotone(q, k, (fg_real)1.0 / (fg_real)(samples - 1), b))
+            return fabs(legendre_phi(q, k, 1.0, P));
         for (i = 0; i < samples; ++i) {
             fg_real sigma = samples > 1 ? (fg_real)i / (fg_real)(samples - 1) : 1.0;
-            fg_real x = 2.0 * sigma - 1.0, phi = q[0] * sigma;
-            P[0] = 1.0;
-            P[1] = x;
-            for (m = 1; m < k; ++m)
-                P[m + 1] = ((2.0 * m + 1.0) * x * P[m] - m * P[m - 1]) / (m + 1.0);
-            for (m = 1; m < k; ++m)
-                phi += q[m] * (P[m + 1] - P[m - 1]) / (2.0 * (2.0 * m + 1.0));
-            if (fabs(phi) > most)
-                most = fabs(phi);
+            fg_real phi = fabs(legendre_phi(q, k, sigma, P));
+            if (phi > most)
+                most = phi;
         }
         return most;
     }
@@ -2169,6 +2290,7 @@ static void describe_answer(fg_ws *w, fg_answer *out)
     const fg_problem *p = w->p;
     int i;
     const fg_real *q = out->q;
+    int known = out->kernel != NULL && at_kinematics(w, q);
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
         const fg_real *qf = q + f->offset;
@@ -2177,7 +2299,7 @@ static void describe_answer(fg_ws *w, fg_answer *out)
         if (out->kernel != NULL) {
             int state = FG_KERNEL_NONE;
             if (f->kind == FG_MODEL_KERNEL) {
-                if (f->poly != NULL && f->in_range(qf))
+                if (f->poly != NULL && poly_in_range(w, i, q, known))
                     state = FG_KERNEL_POLY;
                 else if (f->gauss != NULL)
                     state = f->gauss_in_range(qf) ? FG_KERNEL_GAUSS : FG_KERNEL_GAUSS_PAST;
@@ -2225,8 +2347,8 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch)
 {
-    int switched = 0;
-    return flexure_tip(f, q, pose, J, H, scratch, &switched);
+    int switched = 0, poly;
+    return flexure_tip(f, q, pose, J, H, scratch, &switched, -1, &poly);
 }
 
 /* Solve: the warm start, else the unloaded state, the direct solve, else the continuation;
@@ -2243,6 +2365,16 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
         return FG_MODEL_ERROR;
     n = p->ndof;
     bind(w, p, work, iwork);
+    for (i = 0; i < p->nloads; ++i)
+        w->hf[i] = hypot(p->load[3 * i], p->load[3 * i + 1]);
+    for (i = 0; i < p->nflex; ++i)
+        w->rotated[i] = 0;
+    for (i = 0; i < p->nflex; ++i)
+        if (p->flex[i].parent >= 0)
+            w->rotated[p->flex[i].parent] = 1;
+    for (i = 0; i < p->npoints; ++i)
+        if (p->points[i].frame >= 0 && (p->points[i].x != 0.0 || p->points[i].y != 0.0))
+            w->rotated[p->points[i].frame] = 1;
     st0 = &w->st[0];
     cur = &w->st[1];
     spare = &w->st[2];
@@ -2906,7 +3038,7 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     fg_problem p = two_link_finger_problem;
     fg_answer a;
     fg_real bend[2], critical[1];
-    int kernel[2], critical_kind[1], status, j, k;
+    int kernel[2], switched[2], critical_kind[1], status, j, k;
 
     /* the core's entry points this controller does not call */
     (void)fg_margin;
@@ -2923,6 +3055,7 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     a.ellipse = &out->ellipse[0][0];
     a.bend = bend;
     a.kernel = kernel;
+    a.switched = switched;
     a.critical = critical;
     a.critical_kind = critical_kind;
     a.max_critical = 1;
@@ -2939,12 +3072,13 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
      * answer's critical events; a cold one has its own */
     out->warm = a.warm;
     out->flags = 0;
+    out->notes = 0;
     if (!a.warm) {
         state->critical = a.ncritical > 0;
         state->critical_load_factor = a.ncritical > 0 ? critical[0] : 0.0;
     }
     if (state->critical) {
-        out->flags |= TWO_LINK_FINGER_FLAG_CRITICAL;
+        out->notes |= TWO_LINK_FINGER_NOTE_CRITICAL;
         out->critical_load_factor = state->critical_load_factor;
     } else {
         out->critical_load_factor = 0.0;
@@ -2955,6 +3089,8 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
         out->kernel[s] = kernel[j];
         if (kernel[j] == FG_KERNEL_POLY_PAST || kernel[j] == FG_KERNEL_GAUSS_PAST)
             out->flags |= TWO_LINK_FINGER_FLAG_PAST_RANGE;
+        if (switched[j])
+            out->notes |= TWO_LINK_FINGER_NOTE_GAUSS;
         if (!(bend[j] <= two_link_finger_claim_limit[j]))
             out->flags |= TWO_LINK_FINGER_FLAG_NO_CLAIM;
     }

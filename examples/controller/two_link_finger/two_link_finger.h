@@ -14,7 +14,8 @@
  *     memset(&state, 0, sizeof state); all zero: the unloaded mechanism
  *     two_link_finger_inputs_default(&in);  the scene's own loads and tensions
  *     in.load[TWO_LINK_FINGER_LOAD_...][1] = ...;   change what the controller changes
- *     if (two_link_finger_solve(&in, &state, &out) == TWO_LINK_FINGER_SOLVED && out.flags == 0) ... use out.pose, out.compliance
+ *     if (two_link_finger_solve(&in, &state, &out) == TWO_LINK_FINGER_SOLVED && out.flags == 0)
+ *         ... use out.pose, out.compliance
  *
  * Units: those of the scene file, which must be consistent (SI: m, N, N m, Pa). Forces and
  * moments act in the world (base) frame; angles are radians, counter-clockwise.
@@ -31,8 +32,9 @@ extern "C" {
 #define TWO_LINK_FINGER_NTENDONS 1      /* [[tendon]] entries, in scene order */
 #define TWO_LINK_FINGER_NOUTPUTS 2      /* [output] points, in scene order */
 #define TWO_LINK_FINGER_NFLEXURES 2     /* [[flexure]] entries, in scene order */
-#define TWO_LINK_FINGER_NWORK 1702       /* the solver's scratch memory, in two_link_finger_state */
-#define TWO_LINK_FINGER_NIWORK 11
+#define TWO_LINK_FINGER_NWORK 1709       /* the solver's scratch memory, in two_link_finger_state */
+#define TWO_LINK_FINGER_NIWORK 15
+#define TWO_LINK_FINGER_WARM_CHANGE 0.25      /* largest relative change of the inputs for a warm start */
 
 /* index of each load in two_link_finger_inputs.load, named after its point */
 enum {
@@ -73,28 +75,37 @@ enum {
     TWO_LINK_FINGER_FAIL_LIMIT = 4         /* no equilibrium beyond a load factor (the path ends) */
 };
 
-/* what the library would warn about, as bits of two_link_finger_outputs.flags (0: none) */
+/* what the library would warn about (the answer may be wrong beyond its accuracy), as bits of
+ * two_link_finger_outputs.flags (0: none) */
 enum {
-    TWO_LINK_FINGER_FLAG_CRITICAL = 1,        /* the load path from the unloaded state crossed a
+    TWO_LINK_FINGER_FLAG_PAST_RANGE = 1,      /* a flexure is bent past its kernel's certified range:
+                                          * the answer may be wrong by any amount */
+    TWO_LINK_FINGER_FLAG_UNSTABLE = 2,        /* the equilibrium is not stable */
+    TWO_LINK_FINGER_FLAG_NO_COMPLIANCE = 4,   /* the stiffness is singular: a compliance is not finite */
+    TWO_LINK_FINGER_FLAG_NO_CLAIM = 8         /* a flexure is bent further than the model's accuracy
+                                          * is known (flexgen/validity.py), or a prb pin past
+                                          * its validity: no accuracy is claimed */
+};
+
+/* what the library notes (facts that do not make the answer wrong), as bits of
+ * two_link_finger_outputs.notes */
+enum {
+    TWO_LINK_FINGER_NOTE_CRITICAL = 1,        /* the load path from the unloaded state crossed a
                                           * bifurcation (buckled: the stable side the library's
                                           * rule picks) or snapped through; critical_load_factor
                                           * says where */
-    TWO_LINK_FINGER_FLAG_PAST_RANGE = 2,      /* a flexure is bent past its kernel's certified range:
-                                          * the answer may be wrong by any amount */
-    TWO_LINK_FINGER_FLAG_UNSTABLE = 4,        /* the equilibrium is not stable */
-    TWO_LINK_FINGER_FLAG_NO_COMPLIANCE = 8,   /* the stiffness is singular: a compliance is not finite */
-    TWO_LINK_FINGER_FLAG_NO_CLAIM = 16        /* a flexure is bent further than the model's accuracy
-                                          * is known (flexgen/validity.py), or a prb pin past
-                                          * its validity: no accuracy is claimed */
+    TWO_LINK_FINGER_NOTE_GAUSS = 2            /* a flexure left its polynomial kernel's range during
+                                          * the solve and its Gauss kernel took over (kernel[]
+                                          * says which evaluates it at the answer) */
 };
 
 /* which kernel evaluated each flexure at the answer (two_link_finger_outputs.kernel) */
 enum {
     TWO_LINK_FINGER_KERNEL_NONE = 0,        /* not a kernel model (fem, prb) */
     TWO_LINK_FINGER_KERNEL_POLY = 1,        /* the polynomial kernel, within its range */
-    TWO_LINK_FINGER_KERNEL_POLY_PAST = 2,   /* a polynomial kernel past its range (TWO_LINK_FINGER_FLAG_PAST_RANGE) */
+    TWO_LINK_FINGER_KERNEL_POLY_PAST = 2,   /* a polynomial kernel past its range (FLAG_PAST_RANGE) */
     TWO_LINK_FINGER_KERNEL_GAUSS = 3,       /* the Gauss kernel, within its certified range */
-    TWO_LINK_FINGER_KERNEL_GAUSS_PAST = 4   /* the Gauss kernel past its range (TWO_LINK_FINGER_FLAG_PAST_RANGE) */
+    TWO_LINK_FINGER_KERNEL_GAUSS_PAST = 4   /* the Gauss kernel past its range (FLAG_PAST_RANGE) */
 };
 
 typedef struct {
@@ -103,7 +114,7 @@ typedef struct {
 } two_link_finger_inputs;
 
 typedef struct {
-    double q[6];          /* the last answer's coordinates (when solved = 1) */
+    double q[TWO_LINK_FINGER_NDOF];   /* the last answer's coordinates (when solved = 1) */
     int solved;              /* 1: q is the equilibrium under last; 0 (all zero): unloaded */
     int critical;            /* 1: that equilibrium's load path met a critical event */
     double critical_load_factor;
@@ -113,13 +124,13 @@ typedef struct {
 } two_link_finger_state;
 
 typedef struct {
-    double pose[2][3];           /* x, y, angle of each output point (TWO_LINK_FINGER_OUT_*), world frame */
-    double compliance[2][3][3];  /* d(x, y, angle)/d(fx, fy, moment) of a load at that point */
-    double ellipse[2][3];        /* major, minor axis (compliance eigenvalues) and the
+    double pose[TWO_LINK_FINGER_NOUTPUTS][3];           /* x, y, angle of each output point (TWO_LINK_FINGER_OUT_*), world frame */
+    double compliance[TWO_LINK_FINGER_NOUTPUTS][3][3];  /* d(x, y, angle)/d(fx, fy, moment) of a load at that point */
+    double ellipse[TWO_LINK_FINGER_NOUTPUTS][3];        /* major, minor axis (compliance eigenvalues) and the
                                      * major axis's angle of the 2 x 2 position compliance */
-    double q[6];                /* the equilibrium's coordinates */
-    double bend[2];             /* largest |angle| along each flexure from its root, rad */
-    int kernel[2];              /* TWO_LINK_FINGER_KERNEL_* of each flexure at the answer */
+    double q[TWO_LINK_FINGER_NDOF];                /* the equilibrium's coordinates */
+    double bend[TWO_LINK_FINGER_NFLEXURES];             /* largest |angle| along each flexure from its root, rad */
+    int kernel[TWO_LINK_FINGER_NFLEXURES];              /* TWO_LINK_FINGER_KERNEL_* of each flexure at the answer */
     double energy;                 /* potential energy at the equilibrium */
     double residual;               /* relative residual of the equilibrium equations */
     int stable;                    /* 1: a stable equilibrium */
@@ -127,7 +138,8 @@ typedef struct {
     int evaluations;               /* chain (kinematics and kernel) evaluations */
     int warm;                      /* 1: the warm start from state->q was accepted */
     int flags;                     /* TWO_LINK_FINGER_FLAG_* bits; 0: nothing to warn about */
-    double critical_load_factor;   /* TWO_LINK_FINGER_FLAG_CRITICAL: the first critical load factor */
+    int notes;                     /* TWO_LINK_FINGER_NOTE_* bits */
+    double critical_load_factor;   /* TWO_LINK_FINGER_NOTE_CRITICAL: the first critical load factor */
     int failure;                   /* TWO_LINK_FINGER_NO_EQUILIBRIUM: TWO_LINK_FINGER_FAIL_* */
     double failure_load_factor;    /* TWO_LINK_FINGER_NO_EQUILIBRIUM: where (fraction of the load) */
 } two_link_finger_outputs;
@@ -144,7 +156,6 @@ void two_link_finger_inputs_default(two_link_finger_inputs *in);
  * state beyond its arguments. */
 int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_state *state, two_link_finger_outputs *out);
 
-#define TWO_LINK_FINGER_WARM_CHANGE 0.25
 
 #ifdef __cplusplus
 }

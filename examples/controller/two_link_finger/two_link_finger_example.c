@@ -34,17 +34,33 @@ static void print_vector(const double *x, int n)
 }
 
 static const char *const flag_text[] = {
-    "the load path crossed a critical load (buckling or snap-through)",
     "a flexure is bent past its kernel's certified range",
     "the equilibrium is not stable",
     "a compliance is undefined: the stiffness is singular",
     "a flexure is bent further than the model's accuracy is known"
 };
 
+static const char *const note_text[] = {
+    "the load path crossed a critical load (buckling or snap-through)",
+    "a flexure left its polynomial kernel's range and its Gauss kernel took over"
+};
+
+static void print_bits(const char *const *text, int count, int bits)
+{
+    int i, first = 1;
+    printf("[");
+    for (i = 0; i < count; ++i)
+        if (bits & (1 << i)) {
+            printf("%s\"%s\"", first ? "" : ", ", text[i]);
+            first = 0;
+        }
+    printf("]");
+}
+
 static void print_json(int status, const two_link_finger_outputs *out)
 {
     static const char *const outputs[] = {"middle.pad", "fingertip.pad"};
-    int i, first = 1;
+    int i;
     printf("{\n  \"scene\": \"two-link finger\",\n  \"converged\": %s,\n", status == TWO_LINK_FINGER_SOLVED ? "true" : "false");
     printf("  \"stable\": %s,\n  \"iterations\": %d,\n", out->stable ? "true" : "false", out->iterations);
     if (status != TWO_LINK_FINGER_SOLVED) {
@@ -72,13 +88,11 @@ static void print_json(int status, const two_link_finger_outputs *out)
         print_number(out->ellipse[i][2]);
         printf("}}");
     }
-    printf("\n  },\n  \"warnings\": [");
-    for (i = 0; i < 5; ++i)
-        if (out->flags & (1 << i)) {
-            printf("%s\"%s\"", first ? "" : ", ", flag_text[i]);
-            first = 0;
-        }
-    printf("]\n}\n");
+    printf("\n  },\n  \"warnings\": ");
+    print_bits(flag_text, 4, out->flags);
+    printf(",\n  \"notes\": ");
+    print_bits(note_text, 2, out->notes);
+    printf("\n}\n");
 }
 
 /* mean microseconds per solve over at least 0.2 s of CPU time */
