@@ -37,18 +37,29 @@ from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from .result import Result
-from .scene import MODEL_KINDS, Scene, SceneError, as_scene
+from .scene import (
+    MAX_ELEMENTS,
+    MAX_MODES,
+    MODEL_KINDS,
+    Scene,
+    SceneError,
+    _fmt,
+    as_scene,
+    check_limits,
+)
 from .settings import DEFAULT, SolverSettings
 from .solver import Solver, make_settings
 from .validity import check
 
 
-def _count(value, key: str) -> int | None:
+def _count(value, key: str, maximum: int) -> int | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise SceneError(f"{key}: must be an integer >= 1, got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= maximum:
+        raise SceneError(f"{key}: must be an integer in [1, {maximum}], got {_fmt(value)}")
     return value
 
 
@@ -56,9 +67,12 @@ def override(
     scene: Scene, model: str | None = None, modes: int | None = None, elements: int | None = None
 ) -> Scene:
     """``scene`` with every flexure's model kind, modes and elements replaced where given."""
-    if model is not None and model not in MODEL_KINDS:
-        raise SceneError(f"model: unknown kind {model!r} (choose from {', '.join(MODEL_KINDS)})")
-    modes, elements = _count(modes, "modes"), _count(elements, "elements")
+    if model is not None and (not isinstance(model, str) or model not in MODEL_KINDS):
+        raise SceneError(
+            f"model: unknown kind {_fmt(model)} (choose from {', '.join(MODEL_KINDS)})"
+        )
+    modes = _count(modes, "modes", MAX_MODES)
+    elements = _count(elements, "elements", MAX_ELEMENTS)
     changes: dict[str, Any] = {}
     if model is not None:
         changes["kind"] = model
@@ -69,7 +83,9 @@ def override(
     if not changes:
         return scene
     flexures = tuple(replace(f, model=replace(f.model, **changes)) for f in scene.flexures)
-    return replace(scene, model=replace(scene.model, **changes), flexures=flexures)
+    scene = replace(scene, model=replace(scene.model, **changes), flexures=flexures)
+    check_limits(scene)
+    return scene
 
 
 def uses_exact(scene: Scene) -> bool:
@@ -123,6 +139,35 @@ def _assessed(solver: Solver, q0: Mapping[str, Any] | None, estimate: bool = Tru
     return result
 
 
+def _check_inputs(scene: Scene, models: Any, q0: Any) -> None:
+    """TypeError/ValueError naming the key for a ``models`` or ``q0`` that is not a mapping of
+    the scene's flexures to models / finite coordinates."""
+    names = {f.name for f in scene.flexures}
+    for what, given in (("models", models), ("q0", q0)):
+        if given is None:
+            continue
+        if not isinstance(given, Mapping):
+            raise TypeError(f"{what}: expected a dict {{flexure: ...}}, got {type(given).__name__}")
+        for name, value in given.items():
+            if name not in names:
+                raise ValueError(f"{what}: unknown flexure {_fmt(name)}")
+            if what == "models":
+                if not hasattr(value, "n_dof"):  # the registry refuses a kind it does not know
+                    raise TypeError(
+                        f"models[{name!r}]: expected a flexure model (flexgen.models), "
+                        f"got {type(value).__name__}"
+                    )
+                continue
+            try:
+                v = np.asarray(value, dtype=float)
+            except (TypeError, ValueError, OverflowError):
+                v = None
+            if v is None or v.ndim > 1 or not np.all(np.isfinite(v)):
+                raise ValueError(
+                    f"q0[{name!r}]: must be a list of finite numbers, got {_fmt(value)}"
+                )
+
+
 def solve_scene(
     scene: Scene,
     models: Mapping[str, Any] | None = None,
@@ -137,6 +182,8 @@ def solve_scene(
     A chain-model result carries its error estimate (``estimate=True``; with a tolerance, the
     selection's) and, when converged, the validity warnings of its models
     (``flexgen.validity.check``: appended to ``warnings``)."""
+    if q0 is not None or models is not None:
+        _check_inputs(scene, models, q0)
     if (
         models is None
         and tolerance is None

@@ -134,6 +134,7 @@ class Chain:
             start += n
         self.ndof = start
         self._order = self._body_order()
+        self._children: dict[str, list[str]] | None = None
         self._cache_key: bytes | None = None
         self._cache: dict[str, PointKinematics] = {}
         self._roots: dict[str, PointKinematics] = {}
@@ -158,25 +159,28 @@ class Chain:
         raise ChainError(f"unknown body {body!r}")
 
     def _body_order(self) -> list[str]:
-        """Flexures and links, every body after its parent (cycles and unknown parents raise)."""
+        """Flexures and links, every body after its parent (cycles and unknown parents raise).
+        Iterative: a chain thousands of bodies deep needs no recursion."""
         order: list[str] = []
-        state: dict[str, int] = {}
-
-        def visit(body: str, trail: tuple[str, ...]) -> None:
-            if body == BASE or state.get(body) == 2:
-                return
-            if state.get(body) == 1:
-                raise ChainError(f"the scene's bodies form a cycle: {' -> '.join(trail + (body,))}")
-            state[body] = 1
-            parent = self.body_parent(body)
-            if parent != BASE and parent not in self.flexures and parent not in self.links:
-                raise ChainError(f"body {body!r} has unknown parent {parent!r}")
-            visit(parent, trail + (body,))
-            state[body] = 2
-            order.append(body)
-
-        for body in list(self.flexures) + list(self.links):
-            visit(body, ())
+        placed: set[str] = {BASE}
+        for start in list(self.flexures) + list(self.links):
+            trail: list[str] = []  # start, its parent, ... up to a placed body
+            on_trail: set[str] = set()
+            body = start
+            while body not in placed:
+                if body in on_trail:
+                    cycle = trail[trail.index(body) :] + [body]
+                    raise ChainError(f"the scene's bodies form a cycle: {' -> '.join(cycle)}")
+                parent = self.body_parent(body)
+                if parent != BASE and parent not in self.flexures and parent not in self.links:
+                    raise ChainError(f"body {body!r} has unknown parent {parent!r}")
+                trail.append(body)
+                on_trail.add(body)
+                assert parent is not None  # flexures and links have parents
+                body = parent
+            for b in reversed(trail):  # parents first
+                order.append(b)
+                placed.add(b)
         return order
 
     @property
@@ -195,7 +199,12 @@ class Chain:
         return self.scene.resolve_point(ref)
 
     def children(self, body: str) -> list[str]:
-        return [b for b in self._order if self.body_parent(b) == body]
+        if self._children is None:
+            kids: dict[str, list[str]] = {}
+            for b in self._order:
+                kids.setdefault(self.body_parent(b) or BASE, []).append(b)
+            self._children = kids
+        return list(self._children.get(body, ()))
 
     # ---- packing --------------------------------------------------------------------------
 

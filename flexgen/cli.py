@@ -2,7 +2,9 @@
 messages and exit codes.
 
 Exit codes: 0 success, 1 the work ran but failed (stale files, no equilibrium), 2 bad input.
-Nothing below this module prints errors or exits: the commands raise, and main() reports.
+Nothing below this module prints errors or exits: the commands raise, and main() reports, always
+as one line on stderr with control characters escaped; an unexpected exception is reported the
+same way ("internal error", exit 1) rather than as a traceback (FLEXGEN_TRACEBACK=1 re-raises).
 """
 
 from __future__ import annotations
@@ -64,20 +66,42 @@ def _user_errors() -> tuple[type[Exception], ...]:
 
 
 def main(argv=None) -> int:
+    try:
+        return _main(argv)
+    except (MemoryError, RecursionError) as exc:  # pragma: no cover - the limits prevent them
+        _error(f"out of resources ({type(exc).__name__})")
+        return 1
+
+
+def _main(argv) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
         return args.run(args)
     except _user_errors() as exc:
-        print(f"flexgen: error: {exc}", file=sys.stderr)
+        _error(f"error: {exc}")
         return 2
     except KeyboardInterrupt:
-        print("flexgen: interrupted", file=sys.stderr)
+        _error("interrupted")
         return 130
     except BrokenPipeError:
         # the reader (e.g. `| head`) went away: stop quietly, as other Unix tools do
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except Exception as exc:
+        # a bug, not an answer: one line all the same (FLEXGEN_TRACEBACK=1 shows the traceback)
+        if os.environ.get("FLEXGEN_TRACEBACK"):
+            raise
+        _error(f"internal error: {type(exc).__name__}: {exc} (please report it)")
+        return 1
+
+
+def _error(message: str) -> None:
+    """``flexgen: <message>`` on stderr as one line of printable text."""
+    from flexgen.commands.common import printable
+
+    text = printable(" ".join(str(message).split()))
+    print(f"flexgen: {text}", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -7,12 +7,20 @@ magnitude ``F`` in every direction: semi-axes ``F * major`` and ``F * minor`` al
 eigenvectors of the 2x2 compliance. ``F`` is chosen so that the largest ellipse is a fifth of the
 drawing; the legend states it.
 
-matplotlib (Agg, no pyplot) is imported only when drawing.
+matplotlib (Agg, no pyplot) is imported only when drawing; without it ``draw`` raises
+``PlotError`` saying how to install it. The file is written to a temporary name in its folder and
+renamed, so a failed write (a full disk) leaves nothing behind and an existing file is replaced
+whole; an existing folder, symbolic link, FIFO or other non-regular file at the path is refused
+(``check_output``).
 """
 
 from __future__ import annotations
 
 import math
+import os
+import stat
+import tempfile
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -24,6 +32,70 @@ from .result import Result
 from .scene import BASE, Scene
 
 SUFFIXES = (".png", ".svg")
+INSTALL_HINT = (
+    "flexgen plot needs matplotlib: pip install 'flexgen[plot]' (or pip install matplotlib)"
+)
+
+
+class PlotError(ValueError):
+    """A plot that cannot be drawn or written where asked: one line naming why."""
+
+
+def check_output(path: str | os.PathLike[str]) -> Path:
+    """The plot path if a plot may be written there: a .png or .svg name whose folder exists
+    (or can be created) and that is not an existing folder, symbolic link, FIFO or other
+    non-regular file. PlotError otherwise; nothing is written."""
+    path = Path(path)
+    if path.suffix.lower() not in SUFFIXES:
+        raise PlotError(f"-o: the plot file must end in .png or .svg, got {str(path)!r}")
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
+        info = None
+    except OSError as e:
+        raise PlotError(f"-o: cannot write {str(path)!r}: {e.strerror or e}") from None
+    if info is not None:
+        if stat.S_ISLNK(info.st_mode):
+            raise PlotError(f"-o: {str(path)!r} is a symbolic link; give the file itself")
+        if stat.S_ISDIR(info.st_mode):
+            raise PlotError(f"-o: {str(path)!r} is a folder")
+        if not stat.S_ISREG(info.st_mode):
+            raise PlotError(f"-o: {str(path)!r} is not a regular file")
+    probe = path.parent
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise PlotError(f"-o: cannot write {str(path)!r}: {str(probe)!r} is not a folder")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise PlotError(f"-o: cannot write {str(path)!r}: {str(probe)!r} is not writable")
+    return path
+
+
+def _text(s: str) -> str:
+    """A name as matplotlib text: control characters escaped, ``$`` not read as mathtext."""
+    if not s.isprintable():
+        s = "".join(c if c.isprintable() else repr(c)[1:-1] for c in s)
+    return s.replace("$", r"\$")
+
+
+def _save(fig, path: Path) -> None:
+    """``fig`` into ``path``: a temporary file in the same folder, then a rename (removed again
+    if anything fails)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
+    try:
+        with os.fdopen(fd, "wb") as handle, warnings.catch_warnings():
+            # a name's characters missing from the font are drawn as boxes, not warned about
+            warnings.filterwarnings("ignore", message="Glyph .* missing from")
+            fig.savefig(handle, format=path.suffix[1:].lower(), dpi=130)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
 
 
 @dataclass
@@ -116,12 +188,13 @@ def _xy(v: np.ndarray | Sequence[float]) -> tuple[float, float]:
 
 def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | None = None) -> Path:
     """Draw ``scene`` at ``result``'s equilibrium into ``path`` (.png or .svg); returns the path."""
-    path = Path(path)
-    if path.suffix.lower() not in SUFFIXES:
-        raise ValueError(f"-o: the plot file must end in .png or .svg, got {path.name!r}")
+    path = check_output(path)
     if not result.converged:
-        raise ValueError(f"no equilibrium to draw: {result.reason}")
-    import matplotlib
+        raise PlotError(f"no equilibrium to draw: {result.reason}")
+    try:
+        import matplotlib
+    except ImportError:
+        raise PlotError(INSTALL_HINT) from None
 
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
@@ -245,7 +318,7 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
             )
             ax.plot(*point.pose[:2], "o", color="C1", ms=3)
             ax.annotate(
-                ref,
+                _text(ref),
                 _xy(point.pose),
                 xytext=(6, -12),
                 textcoords="offset points",
@@ -267,8 +340,7 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
     ax.grid(True, lw=0.4, alpha=0.5)
     ax.set_xlabel("x")
     ax.set_ylabel("y")
-    ax.set_title(title or f"{scene.name} ({_model_label(result)})")
+    ax.set_title(_text(title or f"{scene.name} ({_model_label(result)})"))
     ax.legend(handles=handles, fontsize=8, loc="best")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
+    _save(fig, path)
     return path

@@ -14,7 +14,8 @@ from __future__ import annotations
 import difflib
 import math
 import os
-import re
+import reprlib
+import stat
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -24,6 +25,7 @@ from types import MappingProxyType
 from typing import Any
 
 from .models.registry import MODEL_KINDS
+from .tomlorder import array_table_headers
 
 KERNELS = ("auto", "poly", "gauss")
 BASE = "base"
@@ -38,6 +40,17 @@ LINK_KEYS = ("name", "parent", "points")
 LOAD_KEYS = ("point", "force", "moment")
 TENDON_KEYS = ("tension", "route")
 OUTPUT_KEYS = ("points",)
+
+# Limits that keep a scene's memory and time bounded (docs/scene.md, "Limits"), checked before
+# any work: a solve at the limits takes seconds, not minutes.
+MAX_MODES = 8  # the shipped kernels: scm1 .. scm8
+MAX_ELEMENTS = 512  # fem elements per flexure
+MAX_BODIES = 512  # flexures and links together
+MAX_COORDINATES = 2048  # generalized coordinates of the whole scene (the solver's matrices)
+MAX_ENTRIES = 1000  # loads; named points; output points; tendon route points (each in total)
+MAX_FILE_BYTES = 4 * 1024 * 1024  # a scene file
+MAX_MAGNITUDE = 1e100  # every number's magnitude (so that products of a few stay finite)
+MIN_POSITIVE = 1e-100  # the smallest length, stiffness or section dimension
 
 
 class SceneError(ValueError):
@@ -131,7 +144,7 @@ class Scene:
 
     def _known(self, name: str) -> None:
         if name not in self._index["kinds"]:
-            known = ", ".join(self.bodies())
+            known = _names(self.bodies())
             raise SceneError(f"unknown body {name!r} (known: {known})")
 
     def bodies(self) -> tuple[str, ...]:
@@ -163,7 +176,7 @@ class Scene:
             return self._index["flex"][name]
         except KeyError:
             raise SceneError(
-                f"unknown flexure {name!r} (known: {', '.join(self._index['flex']) or 'none'})"
+                f"unknown flexure {name!r} (known: {_names(self._index['flex']) or 'none'})"
             ) from None
 
     def link(self, name: str) -> Link:
@@ -171,7 +184,7 @@ class Scene:
             return self._index["links"][name]
         except KeyError:
             raise SceneError(
-                f"unknown link {name!r} (known: {', '.join(self._index['links']) or 'none'})"
+                f"unknown link {name!r} (known: {_names(self._index['links']) or 'none'})"
             ) from None
 
     def flexure_order(self) -> tuple[Flexure, ...]:
@@ -190,7 +203,7 @@ class Scene:
             stack.extend(reversed(self._index["children"][body]))
         if len(out) != len(self.flexures):
             lost = [f.name for f in self.flexures if f.name not in seen]
-            raise SceneError(f"flexures not connected to the base: {', '.join(lost)}")
+            raise SceneError(f"flexures not connected to the base: {_names(lost)}")
         return tuple(out)
 
     def flexure_path(self, body: str) -> tuple[str, ...]:
@@ -217,7 +230,7 @@ class Scene:
         self._known(body)
         pts = self._index["points"][body]
         if point not in pts:
-            known = ", ".join(f"{body}.{p}" for p in pts) or "none"
+            known = _names(f"{body}.{p}" for p in pts) or "none"
             raise SceneError(f"unknown point {ref!r} (known: {known})")
         x, y = pts[point]
         return body, (float(x), float(y))
@@ -225,16 +238,12 @@ class Scene:
 
 # -- loading ---------------------------------------------------------------------------------
 
-_HEADER = re.compile(r"""^\s*\[\[\s*(?:"(flexure|link)"|'(flexure|link)'|(flexure|link))\s*\]\]""")
-
 
 def _declaration_order(text: str, d: Mapping[str, Any]) -> tuple[str, ...] | None:
-    """The file order of the [[flexure]] and [[link]] tables, or None if it cannot be read."""
-    kinds = []
-    for line in text.splitlines():
-        m = _HEADER.match(line)
-        if m:
-            kinds.append(next(g for g in m.groups() if g))
+    """The file order of the [[flexure]] and [[link]] tables (their headers, read by a scanner of
+    the TOML grammar: flexgen/tomlorder.py), or None if it does not match what tomllib read (an
+    inline array of tables, say): then only default parents that need no order are inferred."""
+    kinds = [key[0] for key in array_table_headers(text) if key in (("flexure",), ("link",))]
     for kind in ("flexure", "link"):
         items = d.get(kind, [])
         if not isinstance(items, list) or kinds.count(kind) != len(items):
@@ -242,13 +251,44 @@ def _declaration_order(text: str, d: Mapping[str, Any]) -> tuple[str, ...] | Non
     return tuple(kinds)
 
 
-def load_scene(path: str | os.PathLike[str]) -> Scene:
-    """Read and validate a TOML scene file. Any problem raises a one-line ``SceneError``."""
-    path = Path(path)
+def _read_regular_file(path: Path) -> bytes:
+    """The bytes of a regular file of at most MAX_FILE_BYTES; anything else (a folder, a FIFO, a
+    device, a larger file) is a SceneError before anything is read (a FIFO is opened without
+    blocking)."""
     try:
-        raw = path.read_bytes()
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as e:
         raise SceneError(f"{path}: cannot read scene file: {e.strerror or e}") from None
+    except ValueError as e:  # a NUL byte in the path
+        raise SceneError(f"scene: cannot read scene file {_fmt(str(path))}: {e}") from None
+    try:
+        info = os.fstat(fd)
+        if stat.S_ISDIR(info.st_mode):
+            raise SceneError(f"{path}: cannot read scene file: it is a folder")
+        if not stat.S_ISREG(info.st_mode):
+            raise SceneError(f"{path}: cannot read scene file: not a regular file")
+        if info.st_size > MAX_FILE_BYTES:
+            raise SceneError(
+                f"{path}: scene file too large ({info.st_size} bytes; at most {MAX_FILE_BYTES})"
+            )
+        with os.fdopen(fd, "rb", closefd=False) as handle:
+            raw = handle.read(MAX_FILE_BYTES + 1)
+    except OSError as e:
+        raise SceneError(f"{path}: cannot read scene file: {e.strerror or e}") from None
+    finally:
+        os.close(fd)
+    if len(raw) > MAX_FILE_BYTES:
+        raise SceneError(f"{path}: scene file too large (at most {MAX_FILE_BYTES} bytes)")
+    return raw
+
+
+def load_scene(path: str | os.PathLike[str]) -> Scene:
+    """Read and validate a TOML scene file. Any problem raises a one-line ``SceneError``."""
+    try:
+        path = Path(path)
+    except TypeError:
+        raise SceneError(f"scene: expected a path, got {type(path).__name__}") from None
+    raw = _read_regular_file(path)
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as e:
@@ -257,6 +297,13 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
         d = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         msg = " ".join(str(e).split())
+        raise SceneError(f"{path}: invalid TOML: {msg}") from None
+    except RecursionError:
+        raise SceneError(f"{path}: invalid TOML: arrays or tables nested too deeply") from None
+    except ValueError as e:  # an integer of more digits than Python converts (4300)
+        msg = " ".join(str(e).split())
+        if "integer string conversion" in msg:
+            msg = "an integer of more than 4300 digits"
         raise SceneError(f"{path}: invalid TOML: {msg}") from None
     return scene_from_dict(d, order=_declaration_order(text, d), default_name=path.stem)
 
@@ -277,12 +324,35 @@ def scene_from_dict(
 # -- validation helpers ----------------------------------------------------------------------
 
 _MISSING = object()
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 3, 60, 60, 40
 
 
 def _fmt(v: Any) -> str:
-    s = repr(v)
+    """A short one-line repr of any value (bounded in length and depth, whatever ``v`` is)."""
+    if isinstance(v, int) and not isinstance(v, bool) and v.bit_length() > 128:
+        digits = int(v.bit_length() * math.log10(2)) + 1
+        s = f"{'-' if v < 0 else ''}an integer of about {digits} digits"
+    else:
+        try:
+            s = _REPR.repr(v)
+        except Exception:  # a repr that fails (an object's own __repr__)
+            s = f"<{type(v).__name__}>"
     s = " ".join(s.split()) if "\n" in s else s
     return s if len(s) <= 80 else s[:77] + "..."
+
+
+def _names(names: Any, limit: int = 12) -> str:
+    """A comma-separated list of at most ``limit`` names (then how many more)."""
+    names = list(names)
+    shown = ", ".join(repr(n)[1:-1] if isinstance(n, str) else str(n) for n in names[:limit])
+    return shown + (f", ... ({len(names) - limit} more)" if len(names) > limit else "")
+
+
+def _key(k: Any) -> str:
+    """A key as it appears in a message: itself if printable and short, else its repr."""
+    text = k if isinstance(k, str) else _fmt(k)
+    return text if text.isprintable() and len(text) <= 80 else _fmt(text)
 
 
 def _fail(key: str, msg: str, value: Any = _MISSING) -> SceneError:
@@ -295,23 +365,44 @@ def _is_number(v: Any) -> bool:
 
 
 def _number(v: Any, key: str, sign: str = "") -> float:
-    """sign: "" any finite, "+" positive, "0+" non-negative."""
+    """sign: "" any finite, "+" positive, "0+" non-negative; the magnitude at most
+    MAX_MAGNITUDE, and at least MIN_POSITIVE for "+"."""
     desc = {
-        "": "a finite number",
-        "+": "a positive finite number",
-        "0+": "a non-negative finite number",
+        "": f"a finite number of magnitude <= {MAX_MAGNITUDE:g}",
+        "+": f"a positive number in [{MIN_POSITIVE:g}, {MAX_MAGNITUDE:g}]",
+        "0+": f"zero or a positive number <= {MAX_MAGNITUDE:g}",
     }[sign]
     if not _is_number(v):
         raise _fail(key, f"must be {desc}", v)
-    if not math.isfinite(v) or (sign == "+" and v <= 0) or (sign == "0+" and v < 0):
+    try:
+        x = float(v)
+    except OverflowError:  # an int too large for a float
+        raise _fail(key, f"must be {desc}", v) from None
+    if not (math.isfinite(x) and abs(x) <= MAX_MAGNITUDE):
         raise _fail(key, f"must be {desc}", v)
+    if (sign == "+" and x < MIN_POSITIVE) or (sign == "0+" and x < 0):
+        raise _fail(key, f"must be {desc}", v)
+    return x
+
+
+def _integer(v: Any, key: str, minimum: int, maximum: int) -> int:
+    if not isinstance(v, int) or isinstance(v, bool) or not minimum <= v <= maximum:
+        raise _fail(key, f"must be an integer in [{minimum}, {maximum}]", v)
+    return int(v)
+
+
+def _tolerance(v: Any, key: str) -> float:
+    """A relative tolerance: a number in (0, 1), as ``flexgen solve --tol``."""
+    if not _is_number(v) or not (0 < _clamped(v) < 1):
+        raise _fail(key, "must be a number in (0, 1) (a relative error)", v)
     return float(v)
 
 
-def _integer(v: Any, key: str, minimum: int) -> int:
-    if not isinstance(v, int) or isinstance(v, bool) or v < minimum:
-        raise _fail(key, f"must be an integer >= {minimum}", v)
-    return int(v)
+def _clamped(v: int | float) -> float:
+    try:
+        return float(v)
+    except OverflowError:
+        return math.inf if v > 0 else -math.inf
 
 
 def _string(v: Any, key: str) -> str:
@@ -352,7 +443,7 @@ def _identifier(v: Any, key: str, what: str) -> str:
 def _check_keys(tbl: Mapping[str, Any], prefix: str, allowed: Sequence[str]) -> None:
     for k in tbl:
         if k not in allowed:
-            key = f"{prefix}.{k}" if prefix else str(k)
+            key = f"{prefix}.{_key(k)}" if prefix else _key(k)
             close = difflib.get_close_matches(str(k), allowed, n=1)
             hint = f"did you mean {close[0]!r}? " if close else ""
             where = "top-level key" if not prefix else "key"
@@ -373,7 +464,7 @@ def _points(v: Any, key: str) -> Mapping[str, tuple[float, float]]:
     out: dict[str, tuple[float, float]] = {}
     for name, xy in tbl.items():
         _identifier(name, f"{key}", "a point name")
-        out[name] = _vector2(xy, f"{key}.{name}")
+        out[name] = _vector2(xy, f"{key}.{_key(name)}")
     return MappingProxyType(out)
 
 
@@ -386,16 +477,16 @@ def _model_fields(tbl: Mapping[str, Any], prefix: str) -> dict[str, Any]:
             raise _fail(f"{prefix}kind", f"must be one of {', '.join(MODEL_KINDS)}", v)
         out["kind"] = v
     if "modes" in tbl:
-        out["modes"] = _integer(tbl["modes"], f"{prefix}modes", 1)
+        out["modes"] = _integer(tbl["modes"], f"{prefix}modes", 1, MAX_MODES)
     if "elements" in tbl:
-        out["elements"] = _integer(tbl["elements"], f"{prefix}elements", 1)
+        out["elements"] = _integer(tbl["elements"], f"{prefix}elements", 1, MAX_ELEMENTS)
     if "kernel" in tbl:
         v = tbl["kernel"]
         if v not in KERNELS or not isinstance(v, str):
             raise _fail(f"{prefix}kernel", f"must be one of {', '.join(KERNELS)}", v)
         out["kernel"] = v
     if "tolerance" in tbl:
-        out["tolerance"] = _number(tbl["tolerance"], f"{prefix}tolerance", "+")
+        out["tolerance"] = _tolerance(tbl["tolerance"], f"{prefix}tolerance")
     return out
 
 
@@ -420,6 +511,18 @@ class _Parser:
         tendon_tbls = _array_of_tables(d, "tendon")
         if not flex_tbls:
             raise _fail("flexure", "the scene has no [[flexure]]; at least one is required")
+        if len(flex_tbls) + len(link_tbls) > MAX_BODIES:
+            raise _fail(
+                "flexure",
+                f"too many bodies: {len(flex_tbls)} flexures and {len(link_tbls)} links "
+                f"(at most {MAX_BODIES} together; docs/scene.md, Limits)",
+            )
+        if len(load_tbls) > MAX_ENTRIES:
+            raise _fail("load", f"too many loads: {len(load_tbls)} (at most {MAX_ENTRIES})")
+        if len(tendon_tbls) > MAX_ENTRIES:
+            raise _fail("tendon", f"too many tendons: {len(tendon_tbls)} (at most {MAX_ENTRIES})")
+        self.n_points = len(base_points)
+        self.n_route = 0
         self.order = self._check_order(order, len(flex_tbls), len(link_tbls))
 
         # names first, so that parents may refer to bodies declared later
@@ -433,12 +536,21 @@ class _Parser:
         }
 
         declared: list[tuple[str, int]] = []  # (kind, index) in file order, if known
+        # (kind, index) -> (the body declared just before it, the flexure declared last before it)
+        self.previous: dict[tuple[str, int], tuple[str | None, str | None]] = {}
         if self.order is not None:
             counters = {"flexure": 0, "link": 0}
+            names = {"flexure": flex_names, "link": link_names}
+            last_body: str | None = None
+            last_flexure: str | None = None
             for kind in self.order:
-                declared.append((kind, counters[kind]))
+                i = counters[kind]
+                declared.append((kind, i))
+                self.previous[(kind, i)] = (last_body, last_flexure)
+                last_body = names[kind][i]
+                if kind == "flexure":
+                    last_flexure = last_body
                 counters[kind] += 1
-        self.declared = declared
 
         flexures = tuple(self._flexure(t, i, flex_names) for i, t in enumerate(flex_tbls))
         links = tuple(self._link(t, i, flex_names, link_names) for i, t in enumerate(link_tbls))
@@ -450,6 +562,9 @@ class _Parser:
         self.points: dict[str, Mapping[str, tuple[float, float]]] = {BASE: base_points}
         self.points |= {f.name: {TIP: (0.0, 0.0)} for f in flexures}
         self.points |= {lk.name: lk.points for lk in links}
+        n_points = sum(len(pts) for pts in self.points.values()) - len(flexures)
+        if n_points > MAX_ENTRIES:
+            raise _fail("link", f"too many named points: {n_points} in all (at most {MAX_ENTRIES})")
 
         loads = tuple(self._load(t, f"load[{i}]") for i, t in enumerate(load_tbls))
         tendons = tuple(self._tendon(t, f"tendon[{i}]") for i, t in enumerate(tendon_tbls))
@@ -470,6 +585,7 @@ class _Parser:
             outputs=outputs,
             declaration_order=decl,
         )
+        check_limits(self.scene)
 
     # -- pieces --
 
@@ -502,11 +618,8 @@ class _Parser:
 
     def _previous(self, kind: str, index: int, want_flexure: bool) -> str | None:
         """The body (or flexure) declared just before item (kind, index) in file order."""
-        pos = self.declared.index((kind, index))
-        for k, i in reversed(self.declared[:pos]):
-            if k == "flexure" or not want_flexure:
-                return self.names[k][i]
-        return None
+        body, flexure = self.previous[(kind, index)]
+        return flexure if want_flexure else body
 
     def _flexure(self, tbl: Mapping[str, Any], i: int, flex_names: list[str]) -> Flexure:
         prefix = f"flexure[{i}]"
@@ -523,7 +636,7 @@ class _Parser:
             parent = _string(tbl["parent"], f"{prefix}.parent")
             if parent not in self.kinds:
                 raise _fail(
-                    f"{prefix}.parent", f"unknown body {parent!r} (known: {', '.join(self.kinds)})"
+                    f"{prefix}.parent", f"unknown body {parent!r} (known: {_names(self.kinds)})"
                 )
         elif i == 0:
             parent = BASE
@@ -577,9 +690,11 @@ class _Parser:
                     missing = "I" if not ({"width", "thickness"} & given.keys()) else k
                     raise _fail(f"{prefix}.{missing}", f"missing required key ({how})")
             EI = given["E"] * given["width"] * given["thickness"] ** 3 / 12.0
-        if not (math.isfinite(EI) and EI > 0):
+        if not (math.isfinite(EI) and MIN_POSITIVE <= EI <= MAX_MAGNITUDE):
             raise _fail(
-                f"{prefix}.EI", "computed bending stiffness must be a positive finite number", EI
+                f"{prefix}.EI",
+                f"computed bending stiffness must be in [{MIN_POSITIVE:g}, {MAX_MAGNITUDE:g}]",
+                EI,
             )
         return EI
 
@@ -594,14 +709,14 @@ class _Parser:
             if kind is None:
                 raise _fail(
                     f"{prefix}.parent",
-                    f"unknown body {parent!r} (known flexures: {', '.join(flex_names)})",
+                    f"unknown body {parent!r} (known flexures: {_names(flex_names)})",
                 )
             if kind != "flexure":
                 raise _fail(
                     f"{prefix}.parent",
                     f"must be a flexure, but {parent!r} is "
                     f"{'the base' if kind == 'base' else 'a link'} (known flexures: "
-                    f"{', '.join(flex_names)})",
+                    f"{_names(flex_names)})",
                 )
         elif self.order is None:
             raise _fail(
@@ -619,28 +734,25 @@ class _Parser:
         points = _points(tbl.get("points", {}), f"{prefix}.points")
         return Link(name=link_names[i], parent=parent, points=points)
 
-    @property
-    def names(self) -> dict[str, list[str]]:
-        return {
-            "flexure": [n for n, k in self.kinds.items() if k == "flexure"],
-            "link": [n for n, k in self.kinds.items() if k == "link"],
-        }
-
     @staticmethod
     def _check_cycles(parents: dict[str, str], keys: dict[str, str]) -> None:
         done = {BASE}
         for start in parents:
             path: list[str] = []
+            on_path: set[str] = set()
             node = start
             while node not in done:
-                if node in path:
+                if node in on_path:
                     cycle = path[path.index(node) :] + [node]
+                    if len(cycle) > 12:
+                        cycle = cycle[:6] + ["..."] + cycle[-6:]
                     raise _fail(
                         f"{keys[node]}.parent",
                         f"parents form a cycle ({' -> '.join(cycle)})",
                         parents[node],
                     )
                 path.append(node)
+                on_path.add(node)
                 node = parents[node]
             done.update(path)
 
@@ -652,10 +764,10 @@ class _Parser:
         if body not in self.points:
             raise _fail(
                 key,
-                f"unknown body {body!r} in point {v!r} (known bodies: {', '.join(self.points)})",
+                f"unknown body {body!r} in point {v!r} (known bodies: {_names(self.points)})",
             )
         if point not in self.points[body]:
-            known = ", ".join(f"{body}.{p}" for p in self.points[body]) or "none"
+            known = _names(f"{body}.{p}" for p in self.points[body]) or "none"
             raise _fail(key, f"unknown point {v!r} (known: {known})")
         return v
 
@@ -680,6 +792,13 @@ class _Parser:
             raise _fail(f"{prefix}.route", "must be a list of point references", route)
         if len(route) < 2:
             raise _fail(f"{prefix}.route", "needs at least two points", route)
+        self.n_route += len(route)
+        if self.n_route > MAX_ENTRIES:
+            raise _fail(
+                f"{prefix}.route",
+                f"too many route points: {self.n_route} in all tendons so far "
+                f"(at most {MAX_ENTRIES})",
+            )
         refs = tuple(self._ref(r, f"{prefix}.route[{j}]") for j, r in enumerate(route))
         for j in range(1, len(refs)):
             if refs[j] == refs[j - 1]:
@@ -697,10 +816,48 @@ class _Parser:
             pts = tbl["points"]
             if not isinstance(pts, list):
                 raise _fail("output.points", "must be a list of point references", pts)
+            if len(pts) > MAX_ENTRIES:
+                raise _fail(
+                    "output.points", f"too many output points: {len(pts)} (at most {MAX_ENTRIES})"
+                )
             refs = [self._ref(r, f"output.points[{j}]") for j, r in enumerate(pts)]
         else:
             refs = [ld.point for ld in loads]
         return tuple(dict.fromkeys(refs))
+
+
+def coordinates(spec: ModelSpec) -> int:
+    """The generalized coordinates of one flexure with this model (exact: its 3 root loads)."""
+    if spec.kind == "fem":
+        return spec.elements
+    if spec.kind == "scm":
+        # a tolerance may choose any modes up to MAX_MODES
+        return MAX_MODES if spec.tolerance is not None else spec.modes
+    return 3 if spec.kind == "exact" else 1
+
+
+def check_limits(scene: Scene) -> None:
+    """SceneError if the scene's models ask for more than the limits (docs/scene.md, Limits):
+    the modes and elements of every flexure and the coordinates of the whole scene. Run on every
+    scene parsed and again after command-line or API overrides of the models."""
+    total = 0
+    for i, f in enumerate(scene.flexures):
+        m = f.model
+        if not (isinstance(m.modes, int) and 1 <= m.modes <= MAX_MODES):
+            raise _fail(f"flexure[{i}].modes", f"must be an integer in [1, {MAX_MODES}]", m.modes)
+        if not (isinstance(m.elements, int) and 1 <= m.elements <= MAX_ELEMENTS):
+            raise _fail(
+                f"flexure[{i}].elements",
+                f"must be an integer in [1, {MAX_ELEMENTS}]",
+                m.elements,
+            )
+        total += coordinates(m)
+    if total > MAX_COORDINATES:
+        raise _fail(
+            "model",
+            f"the scene's models have {total} coordinates in all (at most {MAX_COORDINATES}: "
+            "fewer modes or elements, or fewer flexures; docs/scene.md, Limits)",
+        )
 
 
 def as_scene(scene: Scene | Mapping[str, Any] | str | os.PathLike) -> Scene:

@@ -47,7 +47,7 @@ import numpy as np
 from . import kernels
 from .estimate import _path_owner, length_scales  # noqa: F401  (select.length_scales)
 from .result import Result
-from .scene import Scene, SceneError
+from .scene import Scene, SceneError, _fmt
 
 MAX_MODES = 8  # the polynomial kernels shipped: scm1 .. scm8
 RHO_FLOOR = 1e-13  # added to the differences when the contraction rate is measured
@@ -74,13 +74,10 @@ def scene_tolerance(scene: Scene) -> float | None:
 
 
 def check_tolerance(tol: Any) -> float:
-    if (
-        isinstance(tol, bool)
-        or not isinstance(tol, (int, float))
-        or not math.isfinite(tol)
-        or tol <= 0
-    ):
-        raise SelectionError(f"tolerance: must be a positive finite number, got {tol!r}")
+    """A relative tolerance: a number in (0, 1) (as ``flexgen solve --tol`` and a scene's
+    ``tolerance``); 1 or more would accept any answer."""
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1:
+        raise SelectionError(f"tolerance: must be a number in (0, 1), got {_fmt(tol)}")
     return float(tol)
 
 

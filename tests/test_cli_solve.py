@@ -259,7 +259,7 @@ def test_empty_and_broken_toml(tmp_path, capsys, text, key):
         (["--modes", "three"], "--modes"),
         (["--elements", "-1"], "--elements"),
         (["--model", "magic"], "--model"),
-        (["--modes", "40"], "scm40"),  # no kernel with that many modes
+        (["--modes", "40"], "--modes"),  # no kernel with that many modes: 1..8
     ],
 )
 def test_bad_command_line_overrides(capsys, argv, key):

@@ -498,8 +498,8 @@ BAD = [
     ),
     (
         "EI-overflow",
-        _all(_del((*F0, "EI")), _set((*F0, "E"), 1e300), _set((*F0, "I"), 1e300)),
-        ["flexure[0].EI:", "inf"],
+        _all(_del((*F0, "EI")), _set((*F0, "E"), 1e60), _set((*F0, "I"), 1e60)),
+        ["flexure[0].EI:", "e+119"],
     ),
     # missing required keys
     ("missing-length", _del((*F0, "length")), ["flexure[0].length:", "missing"]),

@@ -71,10 +71,14 @@ def write_files(files: dict[str, str], out_dir: Path) -> list[str]:
             path.parent.mkdir(parents=True, exist_ok=True)
             existed = path.exists()
             fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-            with os.fdopen(fd, "w", newline="\n") as handle:
-                handle.write(text)
-            os.chmod(tmp, 0o644)
-            os.replace(tmp, path)
+            try:
+                with os.fdopen(fd, "w", newline="\n") as handle:
+                    handle.write(text)
+                os.chmod(tmp, 0o644)
+                os.replace(tmp, path)
+            except BaseException:  # a full disk: no half-written temporary file stays behind
+                Path(tmp).unlink(missing_ok=True)
+                raise
             if not existed:
                 created.append(path)
             written.append(str(path))

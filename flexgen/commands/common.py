@@ -13,17 +13,25 @@ class UsageError(Exception):
     """Bad command-line input: one line on stderr, exit code 2."""
 
 
-def integer(minimum: int | None = None):
-    """argparse type: an integer (at least ``minimum``), with a one-line message otherwise."""
+def integer(minimum: int | None = None, maximum: int | None = None):
+    """argparse type: an integer (in [minimum, maximum] where given), with a one-line message
+    otherwise."""
 
     def parse(text: str) -> int:
         try:
-            value = int(text)
+            value = int(text) if len(text) <= 100 else None
         except ValueError:
             value = None
-        if value is None or (minimum is not None and value < minimum):
-            bound = f" >= {minimum}" if minimum is not None else ""
-            raise argparse.ArgumentTypeError(f"must be an integer{bound}, got {text!r}")
+        if (
+            value is None
+            or (minimum is not None and value < minimum)
+            or (maximum is not None and value > maximum)
+        ):
+            if maximum is not None:
+                bound = f" in [{minimum}, {maximum}]"
+            else:
+                bound = f" >= {minimum}" if minimum is not None else ""
+            raise argparse.ArgumentTypeError(f"must be an integer{bound}, got {_short(text)}")
         return value
 
     return parse
@@ -36,5 +44,20 @@ def tolerance(text: str) -> float:
     except ValueError:
         value = math.nan
     if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"must be a number in (0, 1), got {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a number in (0, 1), got {_short(text)}")
     return value
+
+
+def _short(text: str) -> str:
+    s = repr(text)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def printable(text: str) -> str:
+    """``text`` with every control character but newlines and tabs escaped (``\\x1b``, ...),
+    so that names from a scene cannot move the cursor or recolour a terminal."""
+    if text.isprintable():
+        return text
+    return "".join(
+        c if c.isprintable() or c in "\n\t" else repr(c)[1:-1] if c != "\\" else c for c in text
+    )

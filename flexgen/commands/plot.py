@@ -1,15 +1,15 @@
 """`flexgen plot SCENE -o FILE.png|svg`: draw the unloaded and loaded scene with its compliance
-ellipses (flexgen/plot.py). Exit codes as `flexgen solve`: 1 no equilibrium, 2 bad input."""
+ellipses (flexgen/plot.py). Exit codes as `flexgen solve`: 1 no equilibrium (or matplotlib
+missing, or the file could not be written: nothing is left behind), 2 bad input (including an
+output path that is a folder, a symbolic link, a FIFO, or has another suffix than .png/.svg)."""
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-from flexgen.commands.common import UsageError
-from flexgen.commands.solve import add_model_options, solve_args
-
-SUFFIXES = (".png", ".svg")
+from flexgen.commands.common import UsageError, printable
+from flexgen.commands.solve import add_model_options, one_line, solve_args
 
 
 def register(sub) -> None:
@@ -36,14 +36,31 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    if args.output.suffix.lower() not in SUFFIXES:
-        raise UsageError(f"-o: the plot file must end in .png or .svg, got {str(args.output)!r}")
+    import importlib.util
+
+    from flexgen.plot import INSTALL_HINT, PlotError, check_output
+
+    try:  # every output problem before the solve: nothing is solved for a plot not written
+        check_output(args.output)
+    except PlotError as exc:
+        raise UsageError(str(exc)) from None
+    if importlib.util.find_spec("matplotlib") is None:
+        print(f"flexgen: {INSTALL_HINT}", file=sys.stderr)
+        return 1
     scene, result, exact = solve_args(args)
     if not result.converged:
-        reason = " ".join(str(result.reason or "not converged").split())
-        print(f"flexgen: no equilibrium: {reason}", file=sys.stderr)
+        print(f"flexgen: no equilibrium: {one_line(result.reason)}", file=sys.stderr)
         return 1
     from flexgen.plot import draw
 
-    print(draw(scene, result, args.output, exact_solution=exact))
+    try:
+        path = draw(scene, result, args.output, exact_solution=exact)
+    except PlotError as exc:
+        print(f"flexgen: {one_line(exc)}", file=sys.stderr)
+        return 1
+    except OSError as exc:  # e.g. a full disk: the temporary file is gone, the target untouched
+        where = printable(str(exc.filename or args.output))
+        print(f"flexgen: cannot write {where}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
+    print(printable(str(path)))
     return 0

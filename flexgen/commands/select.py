@@ -12,7 +12,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from flexgen.commands.common import integer, tolerance
+from flexgen.commands.common import integer, printable, tolerance
+from flexgen.commands.solve import one_line
 
 
 def register(sub) -> None:
@@ -59,12 +60,15 @@ def run(args) -> int:
     if args.json:
         print(res.to_json(indent=2))
     else:
-        print(report(scene, sel, args.repeat))
+        print(printable(report(scene, sel, args.repeat)))
     if not res.converged:
-        print(f"flexgen: {args.scene}: no equilibrium: {res.reason}", file=sys.stderr)
+        print(
+            f"flexgen: {printable(str(args.scene))}: no equilibrium: {one_line(res.reason)}",
+            file=sys.stderr,
+        )
         return 1
     if not sel.reached:
-        print(f"flexgen: {sel.message}", file=sys.stderr)
+        print(f"flexgen: {one_line(sel.message)}", file=sys.stderr)
         return 1
     return 0
 

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import sys
 
-from flexgen.commands.common import UsageError, integer, tolerance
+from flexgen.commands.common import UsageError, integer, printable, tolerance
 from flexgen.models.registry import MODEL_KINDS as KINDS
+from flexgen.scene import MAX_ELEMENTS, MAX_MODES
 
 
 def add_model_options(p) -> None:
@@ -29,16 +30,16 @@ def add_model_options(p) -> None:
     )
     p.add_argument(
         "--modes",
-        type=integer(1),
+        type=integer(1, MAX_MODES),
         metavar="N",
         help="scm: Legendre curvature modes of every flexure (overrides the scene; "
         "1..8 with the checked-in kernels)",
     )
     p.add_argument(
         "--elements",
-        type=integer(1),
+        type=integer(1, MAX_ELEMENTS),
         metavar="N",
-        help="fem: rigid elements per flexure (overrides the scene)",
+        help=f"fem: rigid elements per flexure, 1..{MAX_ELEMENTS} (overrides the scene)",
     )
     p.add_argument(
         "--tol",
@@ -99,9 +100,13 @@ def register(sub) -> None:
 
 def run(args) -> int:
     _, result, _ = solve_args(args)
-    print(result.to_json(indent=2) if args.json else result.table())
+    print(result.to_json(indent=2) if args.json else printable(result.table()))
     if not result.converged:
-        reason = " ".join(str(result.reason or "not converged").split())
-        print(f"flexgen: no equilibrium: {reason}", file=sys.stderr)
+        print(f"flexgen: no equilibrium: {one_line(result.reason)}", file=sys.stderr)
         return 1
     return 0
+
+
+def one_line(reason) -> str:
+    """A failure reason as one printable line."""
+    return printable(" ".join(str(reason or "not converged").split()))

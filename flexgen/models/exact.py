@@ -34,6 +34,9 @@ from scipy.special import ellipe, ellipk, ellipkm1
 
 RTOL = 1e-13
 ATOL = 1e-14
+# the largest nondimensional unknown (F L^2/EI, M L/EI) the shooting integrates: the integration
+# costs steps in proportion to the turns of the curve, so beyond it a solve could run for hours
+MAX_LOAD = 1e3
 
 
 # ----------------------------------------------------------------------------------------------
@@ -383,22 +386,20 @@ class _SceneProblem:
         for l in scene.links:
             if l.parent not in self.flex:
                 raise ValueError(f"link {l.name!r}: parent {l.parent!r} is not a flexure")
-        # topological order of the flexures (parents first)
-        order, seen = [], set()
-
-        def visit(name, stack=()):
-            if name in seen:
-                return
-            if name in stack:
-                raise ValueError(f"flexure {name!r}: parent chain is a cycle")
-            own = self.owner(self.flex[name].parent)
-            if own != "base":
-                visit(own, stack + (name,))
-            seen.add(name)
-            order.append(name)
-
+        # topological order of the flexures (parents first), without recursion
+        order = []
+        seen = set()
         for f in scene.flexures:
-            visit(f.name)
+            trail = []
+            name = f.name
+            while name != "base" and name not in seen:
+                if name in trail:
+                    raise ValueError(f"flexure {name!r}: parent chain is a cycle")
+                trail.append(name)
+                name = self.owner(self.flex[name].parent)
+            for n in reversed(trail):
+                seen.add(n)
+                order.append(n)
         self.order = order
         self.index = {n: i for i, n in enumerate(order)}
         self.n = len(order)
@@ -470,6 +471,8 @@ class _SceneProblem:
         """Z: (K, 3n) unknowns. Returns residual (K, 3n), point world xy (K, P, 2),
         tip frames (K, n, 3) and (for row 0) shapes if shapes_num."""
         Z = np.atleast_2d(Z)
+        if not np.max(np.abs(Z)) <= MAX_LOAD:  # also NaN: the continuation takes a smaller step
+            raise RuntimeError(f"nondimensional load beyond {MAX_LOAD:g} (or not finite)")
         K = Z.shape[0]
         n = self.n
         tips = np.zeros((K, n, 3))
@@ -582,6 +585,14 @@ class _SceneProblem:
 
 
 def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
+    """See ``_solve_exact``. Floating-point overflow on the way (a hostile scene's huge or tiny
+    numbers) is expected and shows in the answer (not converged, or non-finite compliance, which
+    the JSON writes as null), so NumPy does not warn about it."""
+    with np.errstate(all="ignore"):
+        return _solve_exact(scene, num, max_step)
+
+
+def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     """Exact elastica equilibrium of a whole scene (tree of flexures and links).
 
     Unknowns: for every flexure, the force transmitted through it (world frame) and its root
