@@ -444,7 +444,7 @@ def load_level(scene: Scene) -> float:
     )
     moments = sum(abs(ld.moment) for ld in scene.loads)
     return (
-        max(f.length**2 / f.EI for f in scene.flexures) * total
+        max(f.length * f.length / f.EI for f in scene.flexures) * total
         + max(f.length / f.EI for f in scene.flexures) * moments
     )
 
