@@ -15,7 +15,7 @@ import pytest
 
 import flexgen
 from flexgen.codegen.controller import controller_files
-from flexgen.kernels import GENERATED
+from flexgen.kernels import GENERATED, load_numpy
 
 ROOT = GENERATED.parent
 FOLDER = ROOT / "examples" / "controller" / "two_link_finger"
@@ -40,12 +40,13 @@ int main(int argc, char **argv)
         in.tension[0] = atof(argv[k]);
         in.load[TWO_LINK_FINGER_LOAD_FINGERTIP_PAD][1] = atof(argv[k + 1]);
         status = two_link_finger_solve(&in, &state, &out);
-        printf("%d %d %.17g %.17g %.17g %.17g %d %d %.17g\n", status, out.failure,
+        printf("%d %d %.17g %.17g %.17g %.17g %d %d %.17g %.17g\n", status, out.failure,
                out.pose[TWO_LINK_FINGER_OUT_FINGERTIP_PAD][0],
                out.pose[TWO_LINK_FINGER_OUT_FINGERTIP_PAD][1],
                out.compliance[TWO_LINK_FINGER_OUT_FINGERTIP_PAD][1][1],
                out.bend[TWO_LINK_FINGER_FLEX_DISTAL], out.kernel[TWO_LINK_FINGER_FLEX_DISTAL],
-               out.flags, out.failure_load_factor);
+               out.flags, out.failure_load_factor,
+               out.kernel_error[TWO_LINK_FINGER_FLEX_DISTAL]);
     }
     return 0;
 }
@@ -72,7 +73,7 @@ def test_control_loop_agrees_with_flexgen_solve(tmp_path):
     kernels_seen = set()
     failures = 0
     for (tension, fy), row in zip(cases, rows):
-        status, failure, x, y, cyy, bend, kernel, flags, lam = row.split()
+        status, failure, x, y, cyy, bend, kernel, flags, lam, kerr = row.split()
         s = replace(
             scene,
             tendons=(replace(scene.tendons[0], tension=tension),),
@@ -91,6 +92,9 @@ def test_control_loop_agrees_with_flexgen_solve(tmp_path):
         assert float(cyy) == pytest.approx(ref.compliance[1][1], rel=1e-10)
         assert float(bend) == pytest.approx(r.bend["distal"], rel=1e-12)
         kernels_seen.add(int(kernel))
+        # the kernel's certified pose bound times the distal flexure's length (15 mm)
+        bound = {1: load_numpy("scm3"), 3: load_numpy("scm3_gauss25")}[int(kernel)].ERROR_BOUND
+        assert float(kerr) == pytest.approx(bound * 0.015, rel=1e-6)
         warned = " ".join(r.warnings)
         past = "error bound does not hold" in warned or "wrong by any amount" in warned
         assert bool(int(flags) & 1) == past, (tension, warned)  # 60 N: proximal past 180 deg

@@ -228,6 +228,8 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
                 "gamma": float(f.gamma),
                 "poly": poly,
                 "gauss": gauss,
+                "poly_bound": f"{poly.upper()}_ERROR_BOUND" if poly else "0",
+                "gauss_bound": f"{gauss.upper()}_ERROR_BOUND" if gauss else "0",
             }
         )
     return rows

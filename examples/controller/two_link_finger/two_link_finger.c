@@ -2944,6 +2944,11 @@ static const fg_real two_link_finger_stiffness[6] = {
     0.017777777777777785
 };
 
+/* each flexure's kernel error bounds (body order): its tip pose error, in units of its length,
+ * certified on the kernel's range (the kernels' *_ERROR_BOUND); 0: not a kernel model */
+static const fg_real two_link_finger_poly_bound[2] = {SCM3_ERROR_BOUND, SCM3_ERROR_BOUND};
+static const fg_real two_link_finger_gauss_bound[2] = {SCM3_GAUSS25_ERROR_BOUND, SCM3_GAUSS25_ERROR_BOUND};
+
 /* bend beyond which no accuracy is claimed (flexgen/validity.py), per flexure in body order */
 static const fg_real two_link_finger_claim_limit[2] = {3.141592653589793, 3.141592653589793};
 
@@ -3091,6 +3096,10 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
             out->flags |= TWO_LINK_FINGER_FLAG_PAST_RANGE;
         if (switched[j])
             out->notes |= TWO_LINK_FINGER_NOTE_GAUSS;
+        out->kernel_error[s] = kernel[j] == FG_KERNEL_POLY    ? two_link_finger_poly_bound[j] * two_link_finger_flexures[j].length
+                               : kernel[j] == FG_KERNEL_GAUSS ? two_link_finger_gauss_bound[j] * two_link_finger_flexures[j].length
+                               : kernel[j] == FG_KERNEL_NONE  ? 0
+                                                              : (fg_real)INFINITY;
         if (!(bend[j] <= two_link_finger_claim_limit[j]))
             out->flags |= TWO_LINK_FINGER_FLAG_NO_CLAIM;
     }

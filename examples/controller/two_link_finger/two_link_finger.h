@@ -131,6 +131,10 @@ typedef struct {
     double q[TWO_LINK_FINGER_NDOF];                /* the equilibrium's coordinates */
     double bend[TWO_LINK_FINGER_NFLEXURES];             /* largest |angle| along each flexure from its root, rad */
     int kernel[TWO_LINK_FINGER_NFLEXURES];              /* TWO_LINK_FINGER_KERNEL_* of each flexure at the answer */
+    double kernel_error[TWO_LINK_FINGER_NFLEXURES];  /* bound on the error of each flexure's tip pose that
+                                         * its kernel adds at the answer (scene length units;
+                                         * certified; infinite past the kernel's range; 0 for
+                                         * fem and prb, which have no kernel) */
     double energy;                 /* potential energy at the equilibrium */
     double residual;               /* relative residual of the equilibrium equations */
     int stable;                    /* 1: a stable equilibrium */
