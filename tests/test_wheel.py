@@ -75,6 +75,8 @@ def test_wheel_ships_the_core_the_kernels_and_the_templates(installed):
         "generated/c/scm3_gauss25.h",
         "templates/c/kernel.c.jinja",
         "templates/numpy/kernel.py.jinja",
+        "templates/controller/controller.c.jinja",
+        "compiled/chain_solver.c",
         "py.typed",
     ):
         assert f"flexgen/{rel}" in names, rel
@@ -125,5 +127,17 @@ def test_installed_cli_generates_a_kernel_and_reports_its_version(installed, tmp
     # the regenerated kernel equals the one shipped in the package, byte for byte
     gen = Path(shipped.stdout.strip())
     assert (tmp_path / "X" / "c" / "scm4.c").read_text() == (gen / "c" / "scm4.c").read_text()
+    # a scene's controller from the installed package: the same files as from this checkout
+    scene = next(s for s in EXAMPLES if s.name == "two_link_finger.toml")
+    out = run(
+        [venv / "bin" / "flexgen", "generate", "--scene", scene, "--out", "C"],
+        cwd=tmp_path,
+        env=env,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    from flexgen.codegen.controller import controller_files
+
+    for name, text in controller_files(scene).items():
+        assert (tmp_path / "C" / name).read_text() == text, name
     version = run([venv / "bin" / "flexgen", "--version"], cwd=tmp_path, env=env)
     assert version.returncode == 0 and version.stdout.startswith("flexgen ")
