@@ -137,7 +137,9 @@ class Solver:
         ``tensions`` (one per ``[[tendon]]``; None: the scene's). ``q0`` ({flexure:
         coordinates}, e.g. the previous answer's ``q``) is a warm start: Newton at the full load
         from q0, accepted if it converges to a stable equilibrium within ``max_dq`` of it, else
-        the solve starts from the unloaded state. ``estimate=True`` adds the error estimate
+        the solve starts from the unloaded state (a flexure's coordinates are padded with zeros
+        or cut to its model's count, so an answer of another mode count also serves; a flexure
+        left out starts at zero; an unknown flexure is a ValueError). ``estimate=True`` adds the error estimate
         (``flexgen.estimate``: the richer model solved from this answer; ``flexgen.solve`` asks
         for it by default): ``Result.error_estimate`` and each point's ``error_estimate``."""
         status = self.run(loads, tensions, q0)
@@ -167,6 +169,9 @@ class Solver:
             )
         ws = self.workspace
         if q0 is not None:
+            unknown = [name for name in q0 if name not in p.chain.slices]
+            if unknown:
+                raise ValueError(f"q0: unknown flexure {unknown[0]!r}")
             ws.q0[:] = 0.0
             for name, sl in self._slices:
                 v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]

@@ -4,6 +4,7 @@ its defaults are the solver's, and it rejects what the solver cannot run with.""
 import math
 import re
 from dataclasses import fields
+from pathlib import Path
 
 import pytest
 
@@ -83,3 +84,21 @@ def test_max_lag_is_the_headers():
     assert int(found.group(1)) == settings.MAX_LAG
     with pytest.raises(ValueError, match=r"settings.stagnation_lag: must be at most 64"):
         SolverSettings(stagnation_lag=65, stagnation_after=100)
+
+
+def test_prepared_solver_refuses_a_warm_start_for_an_unknown_flexure():
+    """A q0 naming no flexure of the scene is an error (a typo would otherwise be a silent cold
+    solve); coordinates of another mode count are padded or cut, a warm start like any other."""
+    import numpy as np
+
+    import flexgen
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "cantilever_tip_load.toml"
+    solver = flexgen.Solver(scene)
+    with pytest.raises(ValueError, match="q0: unknown flexure 'bem'"):
+        solver.solve(q0={"bem": [0.1, 0.0, 0.0]})
+    r = solver.solve()
+    for q0 in (list(r.q["beam"]) + [0.0, 0.0], list(r.q["beam"])[:2]):
+        again = solver.solve(q0={"beam": q0})
+        assert again.converged
+        np.testing.assert_allclose(again.q["beam"], r.q["beam"], rtol=0, atol=1e-12)
