@@ -24,7 +24,7 @@ import numpy as np
 
 from flexgen.scene import Scene, load_scene, scene_from_dict
 
-from .honesty import _alpha_for_bend, honesty_suite
+from .honesty import _alpha_for_bend, cantilever, honesty_suite
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
@@ -47,29 +47,6 @@ MODELS: tuple[tuple[str, dict[str, Any]], ...] = (
 
 def _examples() -> list[tuple[str, Scene]]:
     return [(p.stem, load_scene(p)) for p in sorted(EXAMPLES.glob("*.toml"))]
-
-
-def _cantilevers(rng: np.random.Generator, count: int) -> list[tuple[str, Scene]]:
-    out = []
-    for k in range(count):
-        L = float(10 ** rng.uniform(-2, 0))
-        EI = float(10 ** rng.uniform(-3, 0))
-        kind = ("force", "moment", "both")[k % 3]
-        bend = float(rng.uniform(0.05, 1.0)) * math.radians(150)
-        force, moment = [0.0, 0.0], 0.0
-        if kind in ("force", "both"):
-            ang = float(rng.uniform(-0.8, 0.8) * math.pi)
-            alpha = _alpha_for_bend(bend * (0.6 if kind == "both" else 1.0), ang)
-            force = [alpha * EI / L**2 * math.cos(ang), alpha * EI / L**2 * math.sin(ang)]
-        if kind in ("moment", "both"):
-            moment = (bend * (0.4 if kind == "both" else 1.0)) * EI / L * float(rng.choice([-1, 1]))
-        d: dict[str, Any] = {
-            "name": f"cantilever {k} ({kind})",
-            "flexure": [{"name": "beam", "length": L, "EI": EI}],
-            "load": [{"point": "beam.tip", "force": force, "moment": moment}],
-        }
-        out.append((d["name"], scene_from_dict(d)))
-    return out
 
 
 def _three_link(rng: np.random.Generator, k: int) -> tuple[str, Scene]:
@@ -110,7 +87,7 @@ def estimate_scenes(
     about 150 deg), two-flexure chains (``honesty_suite``'s, bends up to about 120 deg, with and
     without a tendon) and ``three`` three-flexure chains; seeded. -> [(label, Scene)]."""
     rng = np.random.default_rng(seed)
-    out = _examples() + _cantilevers(rng, cantilevers)
+    out = _examples() + [cantilever(rng, k, math.radians(150), 0.05) for k in range(cantilevers)]
     two = honesty_suite(
         seed, cantilevers=0, chains=chains, tendons=tendons, max_bend=math.radians(120)
     )

@@ -42,33 +42,13 @@ def honesty_suite(
     below it). -> [(label, Scene)]."""
     rng = np.random.default_rng(seed)
     out: list[tuple[str, Scene]] = []
-    for k in range(cantilevers):
-        L = float(10 ** rng.uniform(-2, 0))
-        EI = float(10 ** rng.uniform(-3, 0))
-        kind = ("force", "moment", "both")[k % 3]
-        bend = float(rng.uniform(0.2, 1.0)) * max_bend
-        force, moment = [0.0, 0.0], 0.0
-        if kind in ("force", "both"):
-            # directions away from the axial compressive one (no bifurcation in the suite)
-            ang = float(rng.uniform(-0.8, 0.8) * math.pi)
-            alpha = _alpha_for_bend(bend * (0.6 if kind == "both" else 1.0), ang)
-            force = [alpha * EI / L**2 * math.cos(ang), alpha * EI / L**2 * math.sin(ang)]
-        if kind in ("moment", "both"):
-            moment = (bend * (0.4 if kind == "both" else 1.0)) * EI / L * float(rng.choice([-1, 1]))
-        d: dict[str, Any] = {
-            "name": f"cantilever {k} ({kind})",
-            "model": {"kind": "scm"},
-            "flexure": [{"name": "beam", "length": L, "EI": EI}],
-            "load": [{"point": "beam.tip", "force": force, "moment": moment}],
-            "output": {"points": ["beam.tip"]},
-        }
-        out.append((d["name"], scene_from_dict(d)))
+    out += [cantilever(rng, k, max_bend, 0.2) for k in range(cantilevers)]
     for k in range(chains + tendons):
         L1, L2 = float(rng.uniform(0.5, 1.5)), float(rng.uniform(0.4, 1.2))
         EI1, EI2 = float(rng.uniform(0.5, 2.0)), float(rng.uniform(0.3, 1.5))
         gap = float(rng.uniform(0.2, 1.0))
         bend = float(rng.uniform(0.3, 1.0)) * max_bend
-        d = {
+        d: dict[str, Any] = {
             "model": {"kind": "scm"},
             "base": {"points": {"r0": [-0.2, 0.1]}},
             "flexure": [
@@ -114,6 +94,31 @@ def honesty_suite(
             d["load"] = [{"point": "tip.pad", "force": [0.0, -0.2 * T * 0.1 / Ltot]}]
         out.append((d["name"], scene_from_dict(d)))
     return out
+
+
+def cantilever(rng: np.random.Generator, k: int, max_bend: float, low: float) -> tuple[str, Scene]:
+    """The k-th seeded cantilever of a suite: random length and EI, a tip force (directions away
+    from the axial compressive one: no bifurcation), a tip moment or both (kind by k % 3), drawn
+    so that the estimated bend is between ``low`` and 1 times ``max_bend``."""
+    L = float(10 ** rng.uniform(-2, 0))
+    EI = float(10 ** rng.uniform(-3, 0))
+    kind = ("force", "moment", "both")[k % 3]
+    bend = float(rng.uniform(low, 1.0)) * max_bend
+    force, moment = [0.0, 0.0], 0.0
+    if kind in ("force", "both"):
+        ang = float(rng.uniform(-0.8, 0.8) * math.pi)
+        alpha = _alpha_for_bend(bend * (0.6 if kind == "both" else 1.0), ang)
+        force = [alpha * EI / L**2 * math.cos(ang), alpha * EI / L**2 * math.sin(ang)]
+    if kind in ("moment", "both"):
+        moment = (bend * (0.4 if kind == "both" else 1.0)) * EI / L * float(rng.choice([-1, 1]))
+    d: dict[str, Any] = {
+        "name": f"cantilever {k} ({kind})",
+        "model": {"kind": "scm"},
+        "flexure": [{"name": "beam", "length": L, "EI": EI}],
+        "load": [{"point": "beam.tip", "force": force, "moment": moment}],
+        "output": {"points": ["beam.tip"]},
+    }
+    return d["name"], scene_from_dict(d)
 
 
 def _alpha_for_bend(bend: float, direction: float) -> float:
