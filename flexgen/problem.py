@@ -61,6 +61,7 @@ class Problem:
                 + self.outputs
             )
         )
+        self.points = refs  # the fg_point array's order: what each index names
         pindex = {ref: i for i, ref in enumerate(refs)}
         self._keep: list[Any] = []  # what the structs point into
 

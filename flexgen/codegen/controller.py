@@ -316,13 +316,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "flexure_slices": [(name, slices[name].start, slices[name].stop) for name in slices],
         "flexures": rows,
         "points": points,
-        "point_names": list(
-            dict.fromkeys(
-                [ld.point for ld in scene.loads]
-                + [r for t in scene.tendons for r in t.route]
-                + list(problem.outputs)
-            )
-        ),
+        "point_names": list(problem.points),
         "load_point": ints(p.load_point, int(p.nloads)),
         "route_start": ints(p.route_start, int(p.ntendons)),
         "route_len": ints(p.route_len, int(p.ntendons)),
