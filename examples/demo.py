@@ -21,7 +21,7 @@ sys.path.insert(0, str(ROOT))
 
 import flexgen  # noqa: E402
 from flexgen.api import as_scene, override, solve_scene  # noqa: E402
-from flexgen.plot import draw  # noqa: E402
+from flexgen.drawing import draw  # noqa: E402
 
 EX = ROOT / "examples"
 DOCS = ROOT / "docs"

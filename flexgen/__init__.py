@@ -7,6 +7,7 @@ Public API::
     flexgen.Solver(scene_or_path, ...) -> a prepared solver: .solve(loads=..., tensions=...)
     flexgen.SolverSettings(...)       every solver default and tuning constant (frozen)
     flexgen.generate(modes, kernel="poly", ...) -> {relative path: text}   (needs SymPy)
+    flexgen.plot(scene_or_path, result=None, ax=None) -> matplotlib Axes  (needs matplotlib)
 
 See docs/solve.md and docs/scene.md.
 """
@@ -45,6 +46,17 @@ def generate(
     return generate_files(KernelSpec(modes, kernel, range_deg, degree, nodes, tol), tuple(langs))
 
 
+def plot(scene, result=None, ax=None, *, title: str | None = None):
+    """Draw a scene on a matplotlib Axes and return it: the mechanism unloaded (links as bodies,
+    base, flexures, tendons, loads), or at ``result``'s equilibrium (``flexgen.solve(scene)``)
+    with stress colouring and compliance ellipses. ``ax``: draw there (its figure is used);
+    None: a new pyplot figure. Writes and shows nothing (a notebook displays the figure;
+    ``flexgen plot SCENE -o FILE`` writes one). See ``flexgen.drawing``."""
+    from .drawing import plot as _plot
+
+    return _plot(scene, result, ax, title=title)
+
+
 __all__ = [
     "load_scene",
     "scene_from_dict",
@@ -52,6 +64,7 @@ __all__ = [
     "Solver",
     "SolverSettings",
     "generate",
+    "plot",
     "SceneError",
     "__version__",
 ]

@@ -1,17 +1,29 @@
-"""Draw a solved scene (as the paper's Fig. 7): unloaded (dashed) and loaded shapes of every
-flexure, rigid links (lines from the link's frame origin to its points), tendons, load arrows and
-the compliance ellipses of the output points.
+"""Drawings of a scene: the mechanism as bodies, and its equilibrium under a result.
+
+``plot(scene, result=None, ax=None)`` (``flexgen.plot``) draws on a matplotlib Axes and returns
+it (a new pyplot figure when no Axes is given; nothing is written or shown), for a notebook;
+``draw(scene, result, path)`` writes the drawing of a solved scene to a PNG, SVG or PDF file
+(``flexgen plot``). What is drawn:
+
+- rigid links as bodies: a filled outline (``geometry.outline``) through the link's frame origin
+  (its parent flexure's tip), its named points and the roots of its child flexures, with its
+  name, so a link that has no length (a child flexure whose ``at`` was left out) is seen as one;
+- the base as a hatched block through its points and the clamped roots;
+- flexures: the unloaded centrelines dashed; the loaded ones coloured by bending stress (or by
+  curvature when a section is unknown) from ``result.flexures``, with a colour bar and the
+  largest value marked;
+- tendons along their route, dead loads as arrows to a scale the legend states (moments as curved
+  arrows), and the compliance ellipse of every output point.
 
 A compliance ellipse is the set of displacements ``C f`` of its point under a force of fixed
 magnitude ``F`` in every direction: semi-axes ``F * major`` and ``F * minor`` along the
-eigenvectors of the 2x2 compliance. ``F`` is chosen so that the largest ellipse is a fifth of the
+eigenvectors of the 2x2 compliance. ``F`` is chosen so that the largest ellipse is a tenth of the
 drawing; the legend states it.
 
-matplotlib (Agg, no pyplot) is imported only when drawing; without it ``draw`` raises
-``PlotError`` saying how to install it. The file is written to a temporary name in its folder and
-renamed, so a failed write (a full disk) leaves nothing behind and an existing file is replaced
-whole; an existing folder, symbolic link, FIFO or other non-regular file at the path is refused
-(``check_output``).
+matplotlib is imported only when drawing; without it ``draw`` raises ``PlotError`` saying how to
+install it. The file is written to a temporary name in its folder and renamed, so a failed write
+(a full disk) leaves nothing behind and an existing file is replaced whole; an existing folder,
+symbolic link, FIFO or other non-regular file at the path is refused (``check_output``).
 """
 
 from __future__ import annotations
@@ -22,16 +34,17 @@ import stat
 import tempfile
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .geometry import Geometry, loaded, outline, unloaded
 from .result import Result
-from .scene import BASE, Scene
+from .scene import BASE, Scene, as_scene
 
-SUFFIXES = (".png", ".svg")
+SUFFIXES = (".png", ".svg", ".pdf")
 INSTALL_HINT = (
     "flexgen plot needs matplotlib: pip install 'flexgen[plot]' (or pip install matplotlib)"
 )
@@ -42,12 +55,12 @@ class PlotError(ValueError):
 
 
 def check_output(path: str | os.PathLike[str]) -> Path:
-    """The plot path if a plot may be written there: a .png or .svg name whose folder exists
+    """The plot path if a plot may be written there: a .png, .svg or .pdf name whose folder exists
     (or can be created) and that is not an existing folder, symbolic link, FIFO or other
     non-regular file. PlotError otherwise; nothing is written."""
     path = Path(path)
     if path.suffix.lower() not in SUFFIXES:
-        raise PlotError(f"-o: the plot file must end in .png or .svg, got {str(path)!r}")
+        raise PlotError(f"-o: the plot file must end in .png, .svg or .pdf, got {str(path)!r}")
     try:
         info = os.lstat(path)
     except FileNotFoundError:
@@ -98,80 +111,6 @@ def _save(fig, path: Path) -> None:
         raise
 
 
-@dataclass
-class Geometry:
-    """World geometry of a scene in one configuration."""
-
-    frames: dict[str, np.ndarray]  # body -> (x, y, angle) of its frame (links: parent's tip)
-    roots: dict[str, np.ndarray]  # flexure -> (x, y, angle) of its root frame
-    shapes: dict[str, np.ndarray]  # flexure -> (num, 2) centreline, root first
-
-    def point(self, scene: Scene, ref: str) -> np.ndarray:
-        body, (px, py) = scene.resolve_point(ref)
-        x, y, th = self.frames[body]
-        c, s = math.cos(th), math.sin(th)
-        return np.array([x + c * px - s * py, y + s * px + c * py])
-
-
-def _compose(a, x, y, th) -> np.ndarray:
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return np.array([a[0] + c * x - s * y, a[1] + s * x + c * y, a[2] + th])
-
-
-def _with_links(scene: Scene, frames: dict) -> dict:
-    for link in scene.links:
-        frames[link.name] = frames[link.parent]
-    return frames
-
-
-def _roots(scene: Scene, frames: dict) -> dict:
-    return {f.name: _compose(frames[f.parent], *f.at) for f in scene.flexures}
-
-
-def unloaded(scene: Scene, num: int = 2) -> Geometry:
-    """Every flexure straight along its root frame."""
-    frames: dict[str, np.ndarray] = {BASE: np.zeros(3)}
-    roots, shapes = {}, {}
-    for f in scene.flexure_order():
-        parent = f.parent if scene.body_kind(f.parent) != "link" else scene.link(f.parent).parent
-        root = _compose(frames[parent], *f.at)
-        roots[f.name] = root
-        frames[f.name] = _compose(root, f.length, 0.0, 0.0)
-        t = np.linspace(0.0, f.length, num)[:, None]
-        shapes[f.name] = root[:2] + t * np.array([math.cos(root[2]), math.sin(root[2])])
-    return Geometry(_with_links(scene, frames), roots, shapes)
-
-
-def loaded(scene: Scene, result: Result, exact_solution=None, num: int = 64) -> Geometry:
-    """The equilibrium geometry: from the result's q through the chain models (the scene must be
-    the one solved, overrides applied), or from the exact solver's solution."""
-    if exact_solution is not None:
-        frames = {BASE: np.zeros(3)}
-        frames.update({n: np.asarray(v, float) for n, v in exact_solution.tip_frames.items()})
-        frames = _with_links(scene, frames)
-        shapes = {n: np.asarray(v, float) for n, v in exact_solution.shapes.items()}
-        return Geometry(frames, _roots(scene, frames), shapes)
-    from .chain import Chain
-    from .models.registry import build_models
-
-    scene = _as_solved(scene, result)
-    chain = Chain(scene, build_models(scene))
-    q = chain.pack(result.q)
-    frames = {b: np.asarray(k.pose, float) for b, k in chain.frames(q).items()}
-    return Geometry(frames, _roots(scene, frames), chain.shapes(q, num))
-
-
-def _as_solved(scene: Scene, result: Result) -> Scene:
-    """The scene with each flexure's modes as the result has them (--tol chooses them)."""
-    flexures = []
-    for f in scene.flexures:
-        modes = result.model.get(f.name, {}).get("modes")
-        if modes is not None and modes != f.model.modes:
-            f = replace(f, model=replace(f.model, modes=modes, tolerance=None))
-        flexures.append(f)
-    return replace(scene, flexures=tuple(flexures))
-
-
 def _model_label(result: Result) -> str:
     labels = []
     for spec in result.model.values():
@@ -186,93 +125,362 @@ def _xy(v: np.ndarray | Sequence[float]) -> tuple[float, float]:
     return (float(v[0]), float(v[1]))
 
 
-def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | None = None) -> Path:
-    """Draw ``scene`` at ``result``'s equilibrium into ``path`` (.png or .svg); returns the path."""
-    path = check_output(path)
-    if not result.converged:
-        raise PlotError(f"no equilibrium to draw: {result.reason}")
+FIGSIZE = (8.0, 6.0)
+# fractions of the drawing's size: the half-width added around a rigid body's points, the longest
+# load arrow, the largest compliance ellipse's semi-major axis
+BODY_MARGIN, ARROW_LENGTH, ELLIPSE_SIZE = 0.012, 0.18, 0.1
+LINK_FACE, LINK_EDGE, BASE_FACE = "#dbe4f0", "#44546a", "0.85"
+COLOURMAP = "viridis"
+
+
+def _require_matplotlib() -> None:
     try:
-        import matplotlib
+        import matplotlib  # noqa: F401
     except ImportError:
         raise PlotError(INSTALL_HINT) from None
 
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Ellipse
 
-    g0 = unloaded(scene)
-    g1 = loaded(scene, result, exact_solution)
-    pts = np.vstack(
-        [s for g in (g0, g1) for s in g.shapes.values()]
-        + [
-            g.point(scene, r)
-            for g in (g0, g1)
-            for l in scene.links
-            for r in (f"{l.name}.{p}" for p in l.points)
-        ]
-        + [g0.point(scene, f"base.{p}") for p in scene.base_points]
-    ).reshape(-1, 2)
-    size = float(np.max(np.ptp(pts, axis=0))) or 1.0
+def _unit(scene: Scene, quantity: str) -> str:
+    """The unit label of ``quantity`` when the scene states its units, else "".
+    getattr: ``Scene.units`` lands in parallel (issue 11); a scene without it has no units."""
+    units = getattr(scene, "units", None)
+    return str(units.label(quantity)) if units is not None else ""
 
-    fig = Figure(figsize=(7.5, 6.0), layout="constrained")
-    ax = fig.add_subplot()
-    handles = []
-    unloaded_style: dict[str, Any] = dict(color="0.6", ls="--", lw=1.2)
-    loaded_style: dict[str, Any] = dict(color="C0", ls="-", lw=2.2)
-    for g, style, label in ((g0, unloaded_style, "unloaded"), (g1, loaded_style, "loaded")):
-        for shape in g.shapes.values():
-            ax.plot(shape[:, 0], shape[:, 1], **style)
-        for link in scene.links:
-            o = g.frames[link.name][:2]
-            for p in link.points:
-                xy = g.point(scene, f"{link.name}.{p}")
-                ax.plot(
-                    [o[0], xy[0]],
-                    [o[1], xy[1]],
-                    color="0.2" if g is g1 else "0.7",
-                    ls=style["ls"],
-                    lw=1.5 if g is g1 else 1.0,
-                )
-        handles.append(Line2D([], [], **style, label=f"{label} flexures"))
-    if scene.links:
-        handles.append(Line2D([], [], color="0.2", lw=1.5, label="rigid links (loaded)"))
-    roots = [g1.roots[f.name][:2] for f in scene.flexures if f.parent == BASE]
-    if roots:
-        r = np.array(roots)
-        ax.plot(r[:, 0], r[:, 1], "ks", ms=7)
-        handles.append(Line2D([], [], color="k", marker="s", ls="", label="clamped roots"))
-    for t in scene.tendons:
-        route = np.array([g1.point(scene, ref) for ref in t.route])
-        ax.plot(route[:, 0], route[:, 1], color="C3", lw=1.2, marker=".", ms=6)
-    if scene.tendons:
-        tensions = ", ".join(f"{t.tension:g}" for t in scene.tendons)
-        handles.append(
-            Line2D([], [], color="C3", lw=1.2, marker=".", label=f"tendon (tension {tensions})")
+
+def _with_unit(name: str, unit: str) -> str:
+    return f"{name} [{unit}]" if unit else name
+
+
+@dataclass
+class Colouring:
+    """What the loaded flexures are coloured by: |bending stress| when every flexure's section is
+    known, else |curvature| (from ``result.flexures``, ``FlexureStress`` per flexure)."""
+
+    label: str  # colour bar label, with its unit
+    symbol: str  # for the marker of the largest value
+    unit: str
+    along: dict[str, tuple[np.ndarray, np.ndarray]]  # flexure -> (s / L, |value|)
+    peak: tuple[str, float, float]  # (flexure, s / L, value) of the largest value
+
+
+def colouring(scene: Scene, result: Result | None) -> Colouring | None:
+    """How to colour ``result``'s flexures; None when it has no stress data for every flexure."""
+    # getattr: Result.flexures (the stress along each flexure) lands in parallel (issue 11)
+    data = getattr(result, "flexures", None) if result is not None else None
+    if not data or any(data.get(f.name) is None for f in scene.flexures):
+        return None
+    entries = {f.name: data[f.name] for f in scene.flexures}
+    by_stress = all(e.stress is not None for e in entries.values())
+    along = {}
+    for f in scene.flexures:
+        e = entries[f.name]
+        values = e.stress if by_stress else e.curvature
+        along[f.name] = (
+            np.asarray(e.s, float) / f.length,
+            np.abs(np.asarray(values, float)),
+        )
+    peak_of = {
+        n: abs(float(e.max_stress if by_stress else e.max_curvature)) for n, e in entries.items()
+    }
+    name = max(peak_of, key=lambda n: peak_of[n])
+    peak = (name, float(entries[name].at), peak_of[name])
+    length = _unit(scene, "length")
+    if by_stress:
+        return Colouring("|bending stress|", "|σ|", "", along, peak)
+    unit = f"1/{length}" if length else ""
+    return Colouring(_with_unit("|curvature|", unit), "|κ|", unit, along, peak)
+
+
+def _arc_fraction(shape: np.ndarray) -> np.ndarray:
+    """s / L of each point of a drawn centreline (its points need not be evenly spaced)."""
+    seg = np.hypot(*np.diff(shape, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    return s / s[-1] if s[-1] > 0 else s
+
+
+def _size(scene: Scene, geometries: list[Geometry]) -> float:
+    pts = [s for g in geometries for s in g.shapes.values()]
+    pts += [g.body_points(scene, lk.name) for g in geometries for lk in scene.links]
+    pts += [geometries[0].body_points(scene, BASE)]
+    return float(np.max(np.ptp(np.vstack(pts).reshape(-1, 2), axis=0))) or 1.0
+
+
+def _check_result(scene: Scene, result: Result) -> None:
+    if not result.converged:
+        raise PlotError(f"no equilibrium to draw: {result.reason}")
+    names = {f.name for f in scene.flexures}
+    if result.scene != scene.name or set(result.model) != names:
+        raise PlotError(
+            f"the result is of scene {result.scene!r} (flexures {', '.join(result.model)}), "
+            f"not of {scene.name!r}; pass the scene that was solved"
         )
 
+
+def plot(
+    scene: Scene | str | os.PathLike[str],
+    result: Result | None = None,
+    ax: Any = None,
+    *,
+    title: str | None = None,
+) -> Any:
+    """Draw ``scene`` (a Scene, dict or TOML path) on ``ax`` and return the Axes: unloaded when
+    ``result`` is None (the mechanism as written: links, base, flexures, tendons, loads), else at
+    ``result``'s equilibrium (``flexgen.solve`` of this scene) over the unloaded shape. Without
+    ``ax`` a new pyplot figure is made (``plt.show()`` or a notebook displays it); nothing is
+    written or shown here. An exact-model result is solved again for its shapes (a Result keeps
+    only the root loads of the exact solver)."""
+    sc = as_scene(scene)
+    _require_matplotlib()
+    exact = None
+    if result is not None:
+        _check_result(sc, result)
+        if result.solver == "exact":
+            from .models.exact import solve_exact
+
+            exact = solve_exact(sc)
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=FIGSIZE, layout="constrained")
+    draw_on(ax, sc, result, exact, title)
+    return ax
+
+
+def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | None = None) -> Path:
+    """Draw ``scene`` at ``result``'s equilibrium into ``path`` (.png, .svg or .pdf); returns the
+    path. No pyplot: a Figure of its own, whatever backend the caller uses."""
+    path = check_output(path)
+    _check_result(scene, result)
+    _require_matplotlib()
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=FIGSIZE, layout="constrained")
+    draw_on(fig.add_subplot(), scene, result, exact_solution, title)
+    _save(fig, path)
+    return path
+
+
+def draw_on(ax, scene: Scene, result: Result | None, exact_solution=None, title=None) -> None:
+    """Every artist of the drawing on ``ax`` (see the module docstring). Artists a reader may
+    look for carry a gid: "base", "link:NAME", "link-unloaded:NAME", "link-name:NAME",
+    "flexure:NAME", "tendon:I", "load:I:force", "load:I:moment", "ellipse:POINT", "peak"."""
+    from matplotlib.lines import Line2D
+
+    g0 = unloaded(scene)
+    g1 = loaded(scene, result, exact_solution) if result is not None else None
+    shown = g1 if g1 is not None else g0  # where links, tendons and loads are drawn
+    size = _size(scene, [g0] + ([g1] if g1 is not None else []))
+    handles: list[Any] = []
+    _base(ax, scene, g0, BODY_MARGIN * size, handles)
+    if g1 is not None:
+        _links(ax, scene, g0, BODY_MARGIN * size, unloaded_outline=True)
+    _links(ax, scene, shown, BODY_MARGIN * size, unloaded_outline=False)
+    if scene.links:
+        handles.append(_patch_handle(LINK_FACE, LINK_EDGE, "rigid links"))
+    dashed: dict[str, Any] = dict(color="0.55", ls="--", lw=1.2)
+    for shape in g0.shapes.values():
+        ax.plot(shape[:, 0], shape[:, 1], **dashed, zorder=2)
+    if g1 is None:
+        handles.append(Line2D([], [], **dashed, label="flexures (unloaded)"))
+    else:
+        handles.append(Line2D([], [], **dashed, label="unloaded flexures"))
+        handles += _loaded_flexures(ax, scene, g1, colouring(scene, result))
+    handles += _tendons(ax, scene, shown)
+    handles += _loads(ax, scene, shown, size)
+    if result is not None:
+        handles += _ellipses(ax, result, size)
+    length = _unit(scene, "length")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    ax.set_xlabel(_with_unit("x", length))
+    ax.set_ylabel(_with_unit("y", length))
+    state = f"{_model_label(result)}" if result is not None else "unloaded"
+    ax.set_title(_text(title or f"{scene.name} ({state})"))
+    ax.legend(handles=handles, fontsize=8, loc="best")
+
+
+def _patch_handle(face, edge, label, hatch=None):
+    from matplotlib.patches import Patch
+
+    return Patch(facecolor=face, edgecolor=edge, hatch=hatch, label=label)
+
+
+def _base(ax, scene: Scene, g: Geometry, margin: float, handles: list) -> None:
+    from matplotlib.patches import Polygon
+
+    pts = g.body_points(scene, BASE)
+    if not len(pts):
+        return
+    poly = Polygon(
+        outline(pts, margin),
+        closed=True,
+        facecolor=BASE_FACE,
+        edgecolor="0.3",
+        hatch="////",
+        lw=1.0,
+        zorder=1,
+        gid="base",
+    )
+    ax.add_patch(poly)
+    handles.append(_patch_handle(BASE_FACE, "0.3", "base (clamped roots)", hatch="////"))
+
+
+def _links(ax, scene: Scene, g: Geometry, margin: float, unloaded_outline: bool) -> None:
+    """Each link as a filled body with its name, or (``unloaded_outline``) as the dashed outline
+    of where it was before loading."""
+    from matplotlib.patches import Polygon
+
+    for link in scene.links:
+        pts = g.body_points(scene, link.name)
+        if unloaded_outline:
+            ax.add_patch(
+                Polygon(
+                    outline(pts, margin),
+                    closed=True,
+                    fill=False,
+                    edgecolor="0.6",
+                    ls="--",
+                    lw=0.9,
+                    zorder=1,
+                    gid=f"link-unloaded:{link.name}",
+                )
+            )
+            continue
+        ax.add_patch(
+            Polygon(
+                outline(pts, margin),
+                closed=True,
+                facecolor=LINK_FACE,
+                edgecolor=LINK_EDGE,
+                lw=1.2,
+                alpha=0.9,
+                zorder=1.5,
+                gid=f"link:{link.name}",
+            )
+        )
+        named = np.array([g.local(link.name, *xy) for xy in link.points.values()]).reshape(-1, 2)
+        ax.plot(named[:, 0], named[:, 1], ".", color=LINK_EDGE, ms=4, zorder=3)
+        centre = pts.mean(axis=0)
+        ax.text(
+            *_xy(centre),
+            _text(link.name),
+            ha="center",
+            va="center",
+            fontsize=8,
+            color=LINK_EDGE,
+            zorder=6,
+            gid=f"link-name:{link.name}",
+            bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.7),
+        )
+
+
+def _loaded_flexures(ax, scene: Scene, g: Geometry, colour: Colouring | None) -> list:
+    """The loaded centrelines: one colour, or coloured along their length with a colour bar and
+    the largest value marked."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import Normalize
+    from matplotlib.lines import Line2D
+
+    if colour is None:
+        for name, shape in g.shapes.items():
+            ax.plot(shape[:, 0], shape[:, 1], color="C0", lw=2.4, zorder=4, gid=f"flexure:{name}")
+        return [Line2D([], [], color="C0", lw=2.4, label="loaded flexures")]
+    norm = Normalize(0.0, colour.peak[2] or 1.0)
+    lines = None
+    for name, shape in g.shapes.items():
+        t = _arc_fraction(shape)
+        mid = 0.5 * (t[1:] + t[:-1])
+        s_rel, values = colour.along[name]
+        segments = np.stack([shape[:-1], shape[1:]], axis=1)
+        lines = LineCollection(
+            list(segments), cmap=COLOURMAP, norm=norm, lw=3.0, zorder=4, gid=f"flexure:{name}"
+        )
+        lines.set_array(np.interp(mid, s_rel, values))
+        ax.add_collection(lines)
+    if lines is not None:
+        ax.figure.colorbar(lines, ax=ax, label=colour.label, shrink=0.85, pad=0.02)
+    name, at, value = colour.peak
+    shape = g.shapes[name]
+    t = _arc_fraction(shape)
+    x, y = np.interp(at, t, shape[:, 0]), np.interp(at, t, shape[:, 1])
+    ax.plot([x], [y], "o", mfc="red", mec="black", ms=7, zorder=7, gid="peak")
+    unit = f" {colour.unit}" if colour.unit else ""
+    ax.annotate(
+        f"max {colour.symbol} = {value:.3g}{unit}\n({_text(name)}, s/L = {at:.2f})",
+        (float(x), float(y)),
+        xytext=(8, 8),
+        textcoords="offset points",
+        fontsize=8,
+        color="darkred",
+        zorder=7,
+        bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8),
+    )
+    return [
+        Line2D([], [], color="C0", lw=3.0, label=f"loaded flexures, coloured by {colour.label}")
+    ]
+
+
+def _tendons(ax, scene: Scene, g: Geometry) -> list:
+    from matplotlib.lines import Line2D
+
+    for i, t in enumerate(scene.tendons):
+        route = np.array([g.point(scene, ref) for ref in t.route])
+        ax.plot(
+            route[:, 0],
+            route[:, 1],
+            color="C3",
+            lw=1.2,
+            marker=".",
+            ms=6,
+            zorder=5,
+            gid=f"tendon:{i}",
+        )
+    if not scene.tendons:
+        return []
+    tensions = ", ".join(f"{t.tension:g}" for t in scene.tendons)
+    return [Line2D([], [], color="C3", lw=1.2, marker=".", label=f"tendon (tension {tensions})")]
+
+
+def _loads(ax, scene: Scene, g: Geometry, size: float) -> list:
+    """Forces as arrows to one scale (the longest ``ARROW_LENGTH`` of the drawing; the legend
+    states the scale), moments as curved arrows with their value."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import FancyArrowPatch
+
     fmax = max((math.hypot(*ld.force) for ld in scene.loads), default=0.0)
-    for ld in scene.loads:
-        xy = g1.point(scene, ld.point)
+    scale = ARROW_LENGTH * size / fmax if fmax > 0 else 0.0  # drawing length per unit force
+    for i, ld in enumerate(scene.loads):
+        xy = g.point(scene, ld.point)
         f = np.asarray(ld.force, float)
-        if fmax > 0 and np.any(f):
-            tail = xy - 0.18 * size * f / fmax
-            ax.annotate(
-                "",
-                xy=_xy(xy),
-                xytext=_xy(tail),
-                arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.8),
+        if scale and np.any(f):
+            ax.add_patch(
+                FancyArrowPatch(
+                    _xy(xy - scale * f),
+                    _xy(xy),
+                    arrowstyle="-|>",
+                    mutation_scale=14,
+                    color="C2",
+                    lw=1.8,
+                    zorder=6,
+                    gid=f"load:{i}:force",
+                )
             )
         if ld.moment:
             sgn = 1.0 if ld.moment > 0 else -1.0
-            a, b = xy + 0.05 * size * np.array([1, -sgn]), xy + 0.05 * size * np.array([1, sgn])
-            ax.annotate(
-                "",
-                xy=_xy(b),
-                xytext=_xy(a),
-                arrowprops=dict(
-                    arrowstyle="-|>", color="C2", lw=1.5, connectionstyle=f"arc3,rad={sgn * 0.9}"
-                ),
+            r = 0.05 * size
+            a, b = xy + r * np.array([1, -sgn]), xy + r * np.array([1, sgn])
+            ax.add_patch(
+                FancyArrowPatch(
+                    _xy(a),
+                    _xy(b),
+                    arrowstyle="-|>",
+                    mutation_scale=12,
+                    connectionstyle=f"arc3,rad={sgn * 0.9}",
+                    color="C2",
+                    lw=1.5,
+                    zorder=6,
+                    gid=f"load:{i}:moment",
+                )
             )
             ax.annotate(
                 f"M = {ld.moment:.4g}",
@@ -282,65 +490,62 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
                 color="C2",
                 fontsize=8,
             )
-    if scene.loads:
-        handles.append(
-            Line2D(
-                [],
-                [],
-                color="C2",
-                lw=1.8,
-                marker=">",
-                label="dead loads" + (f" (largest force {fmax:.3g})" if fmax > 0 else ""),
-            )
+    if not scene.loads:
+        return []
+    label = "dead loads"
+    if fmax > 0:
+        length, force = _unit(scene, "length"), _unit(scene, "force")
+        label += (
+            f": an arrow {scale * fmax:.3g}{' ' + length if length else ''} long is a force of "
+            f"{fmax:.3g}{' ' + force if force else ''}"
         )
+    return [Line2D([], [], color="C2", lw=1.8, marker=">", label=label)]
+
+
+def _ellipses(ax, result: Result, size: float) -> list:
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Ellipse
 
     majors = [
         p.ellipse["major"]
         for p in result.points.values()
         if math.isfinite(p.ellipse["major"]) and p.ellipse["major"] > 0
     ]
-    if majors:
-        F = 0.1 * size / max(majors)
-        for ref, point in result.points.items():
-            e = point.ellipse
-            if not (math.isfinite(e["major"]) and e["major"] > 0):
-                continue
-            ax.add_patch(
-                Ellipse(
-                    _xy(point.pose),
-                    2 * F * e["major"],
-                    2 * F * max(e["minor"], 0.0),
-                    angle=math.degrees(e["angle"]),
-                    fill=False,
-                    color="C1",
-                    lw=1.6,
-                )
-            )
-            ax.plot(*point.pose[:2], "o", color="C1", ms=3)
-            ax.annotate(
-                _text(ref),
+    if not majors:
+        return []
+    F = ELLIPSE_SIZE * size / max(majors)
+    for ref, point in result.points.items():
+        e = point.ellipse
+        if not (math.isfinite(e["major"]) and e["major"] > 0):
+            continue
+        ax.add_patch(
+            Ellipse(
                 _xy(point.pose),
-                xytext=(6, -12),
-                textcoords="offset points",
-                fontsize=8,
-                color="C1",
-            )
-        handles.append(
-            Line2D(
-                [],
-                [],
+                2 * F * e["major"],
+                2 * F * max(e["minor"], 0.0),
+                angle=math.degrees(e["angle"]),
+                fill=False,
                 color="C1",
                 lw=1.6,
-                label=(
-                    f"compliance ellipses: displacement under a force of {F:.3g} in every direction"
-                ),
+                zorder=6,
+                gid=f"ellipse:{ref}",
             )
         )
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(True, lw=0.4, alpha=0.5)
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
-    ax.set_title(_text(title or f"{scene.name} ({_model_label(result)})"))
-    ax.legend(handles=handles, fontsize=8, loc="best")
-    _save(fig, path)
-    return path
+        ax.plot(*point.pose[:2], "o", color="C1", ms=3, zorder=6)
+        ax.annotate(
+            _text(ref),
+            _xy(point.pose),
+            xytext=(6, -12),
+            textcoords="offset points",
+            fontsize=8,
+            color="C1",
+        )
+    return [
+        Line2D(
+            [],
+            [],
+            color="C1",
+            lw=1.6,
+            label=f"compliance ellipses: displacement under a force of {F:.3g} in every direction",
+        )
+    ]
