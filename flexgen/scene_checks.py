@@ -32,9 +32,9 @@ def scene_notes(scene: Scene) -> list[str]:
         joined = min(f.length, scene.flexure(link.parent).length)
         if reach > joined:
             notes.append(
-                f"flexure {f.name!r} starts at the origin of link {link.name!r} (its parent "
-                f"{link.parent!r}'s tip) while the link's point {name!r} lies {reach:.4g} from "
-                f"it: a link has no length, so if {f.name!r} should start further along, give "
-                f"its at = [x, y, angle] in {link.name!r}'s frame"
+                f"flexure {f.name!r} starts at the origin of link {link.name!r} (the tip of "
+                f"flexure {link.parent!r}) while the link's point {name!r} lies {reach:.4g} "
+                f"from that origin: a link has no length; if {f.name!r} should start further "
+                f"along, give it at = [x, y, angle] in the frame of {link.name!r}"
             )
     return notes
