@@ -187,6 +187,9 @@ def plots() -> None:
 
 def main() -> int:
     start = time.perf_counter()
+    if sys.argv[1:] == ["--drawings"]:  # `make drawings`: only the drawings under docs/
+        plots()
+        return 0
     print(
         "flexgen demo: every example scene with cc, prb, scm3, scm5, fem16 and the exact "
         "elastica, beside the paper's numbers"

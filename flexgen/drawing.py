@@ -263,7 +263,7 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
 def draw_on(ax, scene: Scene, result: Result | None, exact_solution=None, title=None) -> None:
     """Every artist of the drawing on ``ax`` (see the module docstring). Artists a reader may
     look for carry a gid: "base", "link:NAME", "link-unloaded:NAME", "link-name:NAME",
-    "flexure:NAME", "tendon:I", "load:I:force", "load:I:moment", "ellipse:POINT", "peak"."""
+    "flexure:NAME", "flexure-unloaded:NAME", "tendon:I", "load:I:force", "load:I:moment", "ellipse:POINT", "peak"."""
     from matplotlib.lines import Line2D
 
     g0 = unloaded(scene)
@@ -277,13 +277,16 @@ def draw_on(ax, scene: Scene, result: Result | None, exact_solution=None, title=
     _links(ax, scene, shown, BODY_MARGIN * size, unloaded_outline=False)
     if scene.links:
         handles.append(_patch_handle(LINK_FACE, LINK_EDGE, "rigid links"))
-    dashed: dict[str, Any] = dict(color="0.55", ls="--", lw=1.2)
-    for shape in g0.shapes.values():
-        ax.plot(shape[:, 0], shape[:, 1], **dashed, zorder=2)
+    # the unloaded flexures: dashed under a loaded shape, solid when they are the drawing
+    style: dict[str, Any] = (
+        dict(color="C0", lw=2.4) if g1 is None else dict(color="0.55", ls="--", lw=1.2)
+    )
+    for name, shape in g0.shapes.items():
+        ax.plot(shape[:, 0], shape[:, 1], **style, zorder=2, gid=f"flexure-unloaded:{name}")
     if g1 is None:
-        handles.append(Line2D([], [], **dashed, label="flexures (unloaded)"))
+        handles.append(Line2D([], [], **style, label="flexures (unloaded)"))
     else:
-        handles.append(Line2D([], [], **dashed, label="unloaded flexures"))
+        handles.append(Line2D([], [], **style, label="unloaded flexures"))
         handles += _loaded_flexures(ax, scene, g1, colouring(scene, result))
     handles += _tendons(ax, scene, shown)
     handles += _loads(ax, scene, shown, size)
