@@ -24,7 +24,8 @@ def register(sub) -> None:
             "arrows to a scale the legend states, and the compliance ellipses of the output "
             "points (scaled to be visible; the legend gives the scale). Notes about the scene "
             "(e.g. a flexure that starts at its link's origin: a forgotten `at`) are printed "
-            "by `flexgen solve`."
+            "by `flexgen solve`. In Python, flexgen.plot(scene, result) draws on a matplotlib "
+            "Axes and returns it (docs/solve.md)."
         ),
     )
     add_model_options(p)
