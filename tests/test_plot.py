@@ -231,3 +231,30 @@ def test_no_note_for_the_examples_or_a_short_pad():
     short = _thirty_mm_links(None)
     short["link"][0]["points"] = {"pad": [0.004, -0.003]}  # a pad near the joint: a design
     assert scene_notes(flexgen.scene_from_dict(short)) == []
+
+
+def test_exact_result_note_and_drawing():
+    result = flexgen.solve(_thirty_mm_links(None), model="exact")
+    assert [n for n in result.notes if "starts at the origin" in n]
+    arc = EX / "arc_moment.toml"
+    exact = flexgen.solve(arc, model="exact")
+    ax = flexgen.plot(arc, exact, ax=Figure().add_subplot())
+    (beam,) = ax.findobj(lambda a: a.get_gid() == "flexure:beam")
+    tip = np.asarray(beam.get_xydata())[-1]
+    assert tip == pytest.approx(exact.points["beam.tip"].pose[:2], abs=1e-6)
+
+
+class StandInUnits:
+    """Test double of the scene units another branch adds (Scene.units.label(quantity))."""
+
+    def label(self, quantity: str) -> str:
+        return {"length": "mm", "force": "N"}[quantity]
+
+
+def test_axis_labels_state_the_length_unit_when_the_scene_has_units():
+    scene = flexgen.load_scene(FINGER)
+    ax = flexgen.plot(scene, ax=Figure().add_subplot())
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x", "y")
+    object.__setattr__(scene, "units", StandInUnits())  # frozen Scene: only a test sets this
+    ax = flexgen.plot(scene, ax=Figure().add_subplot())
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x [mm]", "y [mm]")
