@@ -33,7 +33,7 @@ import os
 import stat
 import tempfile
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -217,7 +217,7 @@ def _check_result(scene: Scene, result: Result) -> None:
 
 
 def plot(
-    scene: Scene | str | os.PathLike[str],
+    scene: Scene | Mapping[str, Any] | str | os.PathLike[str],
     result: Result | None = None,
     ax: Any = None,
     *,
