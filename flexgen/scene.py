@@ -26,13 +26,14 @@ from typing import Any
 
 from .models.registry import MODEL_KINDS
 from .tomlorder import array_table_headers
+from .units import Units, UnitsError, normalise
 
 KERNELS = ("auto", "poly", "gauss")
 BASE = "base"
 TIP = "tip"
 
 MODEL_KEYS = ("kind", "modes", "elements", "kernel", "tolerance")
-TOP_KEYS = ("name", "model", "base", "flexure", "link", "load", "tendon", "output")
+TOP_KEYS = ("name", "units", "model", "base", "flexure", "link", "load", "tendon", "output")
 BASE_KEYS = ("points",)
 STIFFNESS_KEYS = ("EI", "E", "I", "width", "thickness")
 FLEXURE_KEYS = ("name", "parent", "at", "length") + STIFFNESS_KEYS + ("model",) + MODEL_KEYS
@@ -108,6 +109,9 @@ class Scene:
     outputs: tuple[str, ...] = field(default=())
     # Names of flexures and links in file (declaration) order. Empty: flexures, then links.
     declaration_order: tuple[str, ...] = ()
+    # The units of every number above and of the answers (flexgen/units.py); None: the scene
+    # gave none (plain numbers in any consistent set)
+    units: Units | None = None
 
     # -- lookups (built lazily; the dataclass fields stay the single source of truth) ---------
 
@@ -317,8 +321,16 @@ def scene_from_dict(
     "link" (``load_scene`` passes it). A dict keeps flexures and links in separate lists, so
     without ``order`` a default parent is only inferred where it does not depend on how they
     interleave (the first flexure's, and every flexure's when there are no links).
+
+    Values may carry units (``"20 mm"``): they are converted first, into the scene's ``units``
+    choice (SI by default), by ``flexgen.units.normalise``; docs/scene.md, "Units".
     """
-    return _Parser(d, order, default_name).scene
+    try:
+        plain, units = normalise(d, MAX_MAGNITUDE)
+    except UnitsError as e:
+        raise SceneError(str(e)) from None
+    scene = _Parser(plain, order, default_name).scene
+    return scene if units is None else replace(scene, units=units)
 
 
 # -- validation helpers ----------------------------------------------------------------------
