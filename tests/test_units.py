@@ -263,3 +263,20 @@ def test_wrong_units_warn():
 def test_wrong_units_in_a_failed_solve_say_so_in_the_reason():
     r = flexgen.solve(E200, model="exact")  # the elastica gives up past a load of 1e3
     assert not r.converged and "check the units" in r.reason
+
+
+def test_plot_axes_name_the_units(tmp_path):
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    from flexgen.plot import draw
+
+    matplotlib.use("Agg")
+    texts = {}
+    with matplotlib.rc_context({"svg.fonttype": "none"}):  # text as text, to be read back
+        for name, d in (("plain", SI), ("mm", MM)):
+            sc = scene_from_dict(d)
+            path = draw(sc, flexgen.solve(sc, estimate=False), tmp_path / f"{name}.svg")
+            texts[name] = path.read_text()
+    assert "x [mm]" in texts["mm"] and "y [mm]" in texts["mm"] and " N in every" in texts["mm"]
+    assert "x [" not in texts["plain"] and "[m]" not in texts["plain"]
