@@ -261,8 +261,11 @@ def _replaced(d: Mapping, values: dict[tuple, float]) -> dict:
 def _parse_unit(text: str) -> pint.Unit:
     """pint's Unit for ``text``; UnitsError's message (without the key) if it is none."""
     rest = _RECIPROCAL.sub("", _EXPONENT.sub("", text))
-    # superscripts are digits too: only a single ² or ³ ("mm²")
-    if any(c.isdigit() and c not in "²³" for c in rest) or re.search(r"[²³]{2}|\*\*|\^", rest):
+    # superscripts are digits too: one at a time ("mm⁴", "m⁻¹"; pint reads "m⁹⁹⁹" as m**999)
+    sup = "⁰¹²³⁴⁵⁶⁷⁸⁹"
+    if any(c.isdigit() and c not in sup for c in rest) or re.search(
+        f"[{sup}]{{2}}|\\*\\*|\\^", rest
+    ):
         raise UnitsError(f"cannot read the unit {text!r} (numbers only as small exponents)")
     ureg = registry()
     try:

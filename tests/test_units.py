@@ -133,6 +133,8 @@ def test_units_choice_labels_a_plain_scene():
     f = scene_from_dict(d).flexures[0]
     assert f.length == pytest.approx(20.0, rel=1e-14)
     assert f.EI == pytest.approx(200.0, rel=1e-14)
+    d["flexure"][0]["I"] = "1 cm⁴"  # a superscript exponent: 1e4 mm^4
+    assert scene_from_dict(d).flexures[0].EI == pytest.approx(200.0 * 1e4, rel=1e-14)
 
 
 def test_labels_and_the_json_units_object():
