@@ -121,17 +121,22 @@ def safety_factor(flexure: Flexure, max_stress: float | None) -> tuple[float | N
 
 
 def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list[str]:
-    """One warning per flexure whose safety factor is below 1 (stressed past a strength)."""
+    """One warning per flexure whose safety factor is below 1, naming every strength its
+    largest stress exceeds."""
     out = []
     for f in scene.flexures:
         st = stresses.get(f.name)
         if st is None or st.safety_factor is None or st.safety_factor >= 1.0:
             continue
-        assert st.limited_by is not None and st.max_stress is not None
-        strength = strengths(f)[st.limited_by]
+        assert st.max_stress is not None
+        exceeded = " and ".join(
+            f"{name} strength {value:.4g}"
+            for name, value in strengths(f).items()
+            if value < st.max_stress
+        )
         out.append(
             f"flexure {f.name!r}: max stress {st.max_stress:.4g} at s/L = {st.at:.3g} exceeds "
-            f"its {st.limited_by} strength {strength:.4g} (safety factor {st.safety_factor:.3g})"
+            f"its {exceeded} (safety factor {st.safety_factor:.3g})"
         )
     return out
 

@@ -272,6 +272,24 @@ def test_compliance3_and_stiffness_in_json_against_finite_differences():
     np.testing.assert_allclose(C3, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(C3)))
 
 
+# ---- the steel finger example: its root stress by hand --------------------------------------
+
+
+def test_steel_finger_root_stress_is_the_pad_force_times_its_lever_arm():
+    """Statics at the deformed pose: the proximal root carries M = F x_pad (root at the origin,
+    force along -y), sigma = 6 M/(w t^2), whatever the deflection."""
+    path = ROOT / "examples" / "steel_finger.toml"
+    for model, rel in (("exact", 1e-8), ("scm", 1e-2)):
+        r = flexgen.solve(path, model=model)
+        x_pad = r.points["fingertip.pad"].pose[0]
+        sigma = 6.0 * 10.0 * x_pad / (0.010 * 0.0003**2)
+        st = r.flexures["proximal"]
+        assert st.at == 0.0 and st.max_stress == pytest.approx(sigma, rel=rel)
+        assert st.safety_factor == pytest.approx(5e8 / st.max_stress, rel=1e-12)
+        assert st.limited_by == "fatigue"
+        assert any("'proximal'" in w and "yield strength" in w for w in r.warnings)
+
+
 # ---- laziness, pickling, units -------------------------------------------------------------------
 
 
