@@ -141,10 +141,9 @@ def _require_matplotlib() -> None:
 
 
 def _unit(scene: Scene, quantity: str) -> str:
-    """The unit label of ``quantity`` when the scene states its units, else "".
-    getattr: ``Scene.units`` lands in parallel (issue 11); a scene without it has no units."""
-    units = getattr(scene, "units", None)
-    return str(units.label(quantity)) if units is not None else ""
+    """The unit of ``quantity`` in the scene's units system (every answer is in it), or "" for a
+    scene of plain numbers (any consistent set, unnamed: docs/scene.md, Units)."""
+    return scene.units.label(quantity) if scene.units is not None else ""
 
 
 def _with_unit(name: str, unit: str) -> str:
@@ -165,8 +164,7 @@ class Colouring:
 
 def colouring(scene: Scene, result: Result | None) -> Colouring | None:
     """How to colour ``result``'s flexures; None when it has no stress data for every flexure."""
-    # getattr: Result.flexures (the stress along each flexure) lands in parallel (issue 11)
-    data = getattr(result, "flexures", None) if result is not None else None
+    data = result.flexures if result is not None else None
     if not data or any(data.get(f.name) is None for f in scene.flexures):
         return None
     entries = {f.name: data[f.name] for f in scene.flexures}
@@ -179,16 +177,22 @@ def colouring(scene: Scene, result: Result | None) -> Colouring | None:
             np.asarray(e.s, float) / f.length,
             np.abs(np.asarray(values, float)),
         )
-    peak_of = {
-        n: abs(float(e.max_stress if by_stress else e.max_curvature)) for n, e in entries.items()
-    }
+    peak_of = {n: _largest(e, by_stress) for n, e in entries.items()}
     name = max(peak_of, key=lambda n: peak_of[n])
     peak = (name, float(entries[name].at), peak_of[name])
-    length = _unit(scene, "length")
     if by_stress:
-        return Colouring("|bending stress|", "|σ|", "", along, peak)
-    unit = f"1/{length}" if length else ""
+        unit = _unit(scene, "stress")
+        return Colouring(_with_unit("|bending stress|", unit), "|σ|", unit, along, peak)
+    unit = _unit(scene, "curvature")
     return Colouring(_with_unit("|curvature|", unit), "|κ|", unit, along, peak)
+
+
+def _largest(e: Any, by_stress: bool) -> float:
+    """A flexure's largest |stress| (or |curvature|), as its FlexureStress states it."""
+    value = e.max_stress if by_stress else e.max_curvature
+    if value is None:  # a stress profile without its maximum: the profile's own
+        value = float(np.max(np.abs(np.asarray(e.stress, float))))
+    return abs(float(value))
 
 
 def _arc_fraction(shape: np.ndarray) -> np.ndarray:
@@ -291,7 +295,7 @@ def draw_on(ax, scene: Scene, result: Result | None, exact_solution=None, title=
     handles += _tendons(ax, scene, shown)
     handles += _loads(ax, scene, shown, size)
     if result is not None:
-        handles += _ellipses(ax, result, size)
+        handles += _ellipses(ax, result, size, _unit(scene, "force"))
     length = _unit(scene, "length")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.4, alpha=0.5)
@@ -505,7 +509,7 @@ def _loads(ax, scene: Scene, g: Geometry, size: float) -> list:
     return [Line2D([], [], color="C2", lw=1.8, marker=">", label=label)]
 
 
-def _ellipses(ax, result: Result, size: float) -> list:
+def _ellipses(ax, result: Result, size: float, force: str) -> list:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Ellipse
 
@@ -549,6 +553,9 @@ def _ellipses(ax, result: Result, size: float) -> list:
             [],
             color="C1",
             lw=1.6,
-            label=f"compliance ellipses: displacement under a force of {F:.3g} in every direction",
+            label=(
+                f"compliance ellipses: displacement under a force of {F:.3g}"
+                f"{' ' + force if force else ''} in every direction"
+            ),
         )
     ]
