@@ -303,7 +303,14 @@ def draw_on(ax, scene: Scene, result: Result | None, exact_solution=None, title=
     ax.set_ylabel(_with_unit("y", length))
     state = f"{_model_label(result)}" if result is not None else "unloaded"
     ax.set_title(_text(title or f"{scene.name} ({state})"))
-    ax.legend(handles=handles, fontsize=8, loc="best")
+    # below the Axes: inside, "best" still covers links or labels of a mechanism that fills it
+    ax.legend(
+        handles=handles,
+        fontsize=8,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.09),
+        frameon=False,
+    )
 
 
 def _patch_handle(face, edge, label, hatch=None):
@@ -411,12 +418,17 @@ def _loaded_flexures(ax, scene: Scene, g: Geometry, colour: Colouring | None) ->
     t = _arc_fraction(shape)
     x, y = np.interp(at, t, shape[:, 0]), np.interp(at, t, shape[:, 1])
     ax.plot([x], [y], "o", mfc="red", mec="black", ms=7, zorder=7, gid="peak")
+    # the label towards the middle of the drawing, so that it stays inside the Axes
+    middle = np.mean(np.vstack(list(g.shapes.values())), axis=0)
+    right, up = x <= middle[0], y <= middle[1]
     unit = f" {colour.unit}" if colour.unit else ""
     ax.annotate(
         f"max {colour.symbol} = {value:.3g}{unit}\n({_text(name)}, s/L = {at:.2f})",
         (float(x), float(y)),
-        xytext=(8, 8),
+        xytext=(8 if right else -8, 8 if up else -8),
         textcoords="offset points",
+        ha="left" if right else "right",
+        va="bottom" if up else "top",
         fontsize=8,
         color="darkred",
         zorder=7,
