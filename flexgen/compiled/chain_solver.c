@@ -2184,18 +2184,19 @@ FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, cons
         return FG_ESTIMATE_NO_EVALUATION;
     /* plain Newton from T q: every state's stiffness factored (positive definite, else the
      * caller solves), its step d. The answer's difference to the richer equilibrium is that of
-     * the first state where Newton is seen to converge (an equilibrium to the solver's tol, or
-     * a step at most FG_ESTIMATE_CONTRACTION of the one before), along the last step linearized;
+     * the first state where Newton is seen to converge (an equilibrium to the solver's tol, T q
+     * itself included, or a step at most FG_ESTIMATE_CONTRACTION of the one before), along the
+     * last step linearized;
      * the compliance is taken at that state. Not converging within max_iterations steps and
      * max_dq of T q: FG_ESTIMATE_FAR. */
-    last = INFINITY;
+    last = 0.0;
     for (k = 0;; ++k) {
         fg_real step;
         if (!cholesky(rich, st->K, w->la, n))
             return FG_ESTIMATE_UNSTABLE;
         cholesky_solve(rich, w->la, n, st->r, d);
         step = norm_inf(d, n);
-        if (k > 0 && (st->rel <= rich->settings.tol || step <= FG_ESTIMATE_CONTRACTION * last))
+        if (st->rel <= rich->settings.tol || (k > 0 && step <= FG_ESTIMATE_CONTRACTION * last))
             break;
         if (k == rich->settings.max_iterations)
             return FG_ESTIMATE_FAR;

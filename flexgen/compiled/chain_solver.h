@@ -276,8 +276,8 @@ enum {
  * by plain Newton from the answer instead of by a solve. The answer: q (nbase coordinates),
  * pose (3 noutputs) and compliance (9 noutputs) as fg_solve wrote them; T (rich->ndof x nbase,
  * row-major) maps q to the richer model's coordinates. Newton from T q (each stiffness positive
- * definite) until it is seen to converge: a state q_k (k >= 1) that is an equilibrium to
- * settings.tol or whose step d_k is at most 0.1 of the step before; the richer pose is the
+ * definite) until it is seen to converge: a state q_k that is an equilibrium to settings.tol
+ * (T q itself, where the maps are exact) or whose step d_k is at most 0.1 of the step before; the richer pose is the
  * first-order pose(q_k) - J d_k, the richer compliance J K^-1 J^T at q_k (off by O(|d_k|); at
  * T q alone, off by O(|d_0|), measured too far off to be honest). Usually two evaluations of the
  * richer model. Per output j: out[2 j] = max(|r_j - r_j,rich| / scale[j], |angle_j -

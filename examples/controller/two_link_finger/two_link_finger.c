@@ -358,8 +358,8 @@ enum {
  * by plain Newton from the answer instead of by a solve. The answer: q (nbase coordinates),
  * pose (3 noutputs) and compliance (9 noutputs) as fg_solve wrote them; T (rich->ndof x nbase,
  * row-major) maps q to the richer model's coordinates. Newton from T q (each stiffness positive
- * definite) until it is seen to converge: a state q_k (k >= 1) that is an equilibrium to
- * settings.tol or whose step d_k is at most 0.1 of the step before; the richer pose is the
+ * definite) until it is seen to converge: a state q_k that is an equilibrium to settings.tol
+ * (T q itself, where the maps are exact) or whose step d_k is at most 0.1 of the step before; the richer pose is the
  * first-order pose(q_k) - J d_k, the richer compliance J K^-1 J^T at q_k (off by O(|d_k|); at
  * T q alone, off by O(|d_0|), measured too far off to be honest). Usually two evaluations of the
  * richer model. Per output j: out[2 j] = max(|r_j - r_j,rich| / scale[j], |angle_j -
@@ -2496,18 +2496,19 @@ FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, cons
         return FG_ESTIMATE_NO_EVALUATION;
     /* plain Newton from T q: every state's stiffness factored (positive definite, else the
      * caller solves), its step d. The answer's difference to the richer equilibrium is that of
-     * the first state where Newton is seen to converge (an equilibrium to the solver's tol, or
-     * a step at most FG_ESTIMATE_CONTRACTION of the one before), along the last step linearized;
+     * the first state where Newton is seen to converge (an equilibrium to the solver's tol, T q
+     * itself included, or a step at most FG_ESTIMATE_CONTRACTION of the one before), along the
+     * last step linearized;
      * the compliance is taken at that state. Not converging within max_iterations steps and
      * max_dq of T q: FG_ESTIMATE_FAR. */
-    last = INFINITY;
+    last = 0.0;
     for (k = 0;; ++k) {
         fg_real step;
         if (!cholesky(rich, st->K, w->la, n))
             return FG_ESTIMATE_UNSTABLE;
         cholesky_solve(rich, w->la, n, st->r, d);
         step = norm_inf(d, n);
-        if (k > 0 && (st->rel <= rich->settings.tol || step <= FG_ESTIMATE_CONTRACTION * last))
+        if (st->rel <= rich->settings.tol || (k > 0 && step <= FG_ESTIMATE_CONTRACTION * last))
             break;
         if (k == rich->settings.max_iterations)
             return FG_ESTIMATE_FAR;
