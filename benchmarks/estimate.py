@@ -6,8 +6,10 @@
 Cost, per example scene and model, best of --repeat rounds of --number calls each, one process:
 
 - solve:     ``Solver.run()``, the compiled solve (the core call, answer left in the workspace);
-- estimate:  ``solver.estimator().estimate(solver)`` on that answer: the richer model's warm-started core
-             call and the per-point differences;
+- estimate:  ``solver.estimator().estimate(solver)`` on that answer: one core call
+             (``fg_estimate``: Newton on the richer model from the answer, the per-point
+             differences), the richer model's solve where Newton does not converge (cc, prb
+             under large loads), the margins;
 - ratio:     estimate / solve;
 - Result:    ``Solver.solve()`` and ``Solver.solve(estimate=True)`` (with the Result built).
 

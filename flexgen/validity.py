@@ -1,59 +1,35 @@
-"""When a model's answer is past its validity, and the stability sweep's error classes.
+"""When a model's answer is past its validity: the warnings ``flexgen.solve`` adds to it.
 
 ``flexgen.api.solve_scene`` (the path of ``flexgen solve`` and ``flexgen.solve``) calls ``check``
-on every converged chain-model result: it appends the validity warnings (prb past 64 deg or
-outside its fitted case, a kernel past its certified range, a bend past 180 deg, a load near a
-critical one). What an answer claims is its own error estimate (``flexgen.estimate``); the
-CLAIMS table below no longer enters ``flexgen.solve`` (``check`` assesses with
-``calibrated=False``). ``flexgen_tools.stability`` still assesses its sweep with the table
-(``assess(..., calibrated=True)``) and ``python -m flexgen_tools.stability --calibrate`` still
-rewrites it: left in place for that tool, unused by the runtime.
-
-The indicative error class
---------------------------
-Without a requested tolerance no model estimates its own error a posteriori. Every result instead
-carries an indicative error class: an upper bound of its pose error (relative to the flexure
-length, as in ``flexgen_tools.bench``) and of its compliance error (relative, spectral norm), by
-model, by load level lambda (``load_level``) and by bend beta = max |phi(s)| over every flexure
-(the angle relative to the flexure's root frame). The classes are ``CLAIMS`` below, calibrated on
-the sweep of ``flexgen stability`` (``python -m flexgen_tools.stability --calibrate`` rewrites
-the block): 3x the worst unwarned error per band, rounded up to a half decade, monotone in beta
-and lambda.
-A model without its own row borrows a calibrated neighbour that is no more accurate (``scmN
-auto`` -> ``scmN gauss``; scm with more modes -> the largest calibrated N below; fem with other
-element counts -> the largest calibrated count below). The Python API exposes the class as
-``result.error_class = {"pose": p, "compliance": c}`` (inf where nothing is claimed); it is not
-part of the JSON contract.
+on every converged chain-model result: it appends the validity warnings below. What an answer
+claims is its own error estimate (``flexgen.estimate``: per output point, its difference to a
+richer model); these warnings say where that estimate, or the model itself, cannot be trusted.
+``flexgen_tools.stability`` assesses its sweep with the same ``assess`` and holds each answer to
+its estimate against the exact elastica.
 
 The warnings (``validity_warnings``)
 ------------------------------------
 * prb past 64 deg of pin rotation (Howell's validity limit), or used outside its one-flexure
   tip-force case (no end moment, link lever arm or tendon);
 * a polynomial scm kernel past its range (the answer is an interpolant outside its interval);
-  with kernel "auto" the solver switches to the Gauss kernel and already says so, so nothing is
+  with kernel "auto" the solver switches to the Gauss kernel and notes it, so nothing is
   added here;
 * a Gauss kernel past its certified range (|phi| > 180 deg);
-* any model bent past 180 deg (the error classes end there);
+* any model bent past 180 deg (``BEND_LIMIT``: the Gauss kernels, which the estimate's richer
+  models use, are certified to there);
 * the stiffness near singular: the margin to a critical load (the smallest generalized eigenvalue
   of the stiffness K at the equilibrium against the elastic Hessian, 1 - P/P_cr on an axial
-  load) below 5 % (near a critical load the compliance error is amplified by 1/margin; the
-  compliance class is divided by the margin);
-* a load level above 30 (the classes end there);
-* a band in which the model has no calibrated class (nothing is claimed);
+  load) below 5 % (near a critical load the compliance error is amplified by 1/margin);
 * (``check`` only) a flexure bent past 90 deg at a load level above 1e3, which no elastic
   flexure survives: nearly always a scene in the wrong units (``units_warning``; a failed solve
   at such a load says so in its reason: ``units_reason``, added by ``flexgen.api``).
 
-With a requested tolerance (``flexgen.select``) the claim is the a-posteriori ``error_estimate``
-instead: the calibration-table warnings (load level, bands) are then not given, the others are.
 ``exact`` is the reference and is not assessed; a result that did not converge already says so.
 """
 
 from __future__ import annotations
 
 import math
-import re
-from bisect import bisect_left
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
@@ -63,348 +39,8 @@ from flexgen.scene import Scene
 
 PRB_LIMIT = math.radians(64.0)
 NEAR_SINGULAR = 0.05
-BANDS = (
-    math.radians(30),
-    math.radians(60),
-    math.radians(90),
-    math.radians(120),
-    math.radians(150),
-    math.pi,
-)
-LOAD_BANDS = (1.0, 3.0, 10.0, 30.0)  # load level lambda (see load_level)
-
-# label -> table[load band][bend band] = (pose bound, compliance bound) or (None, None) where
-# nothing is claimed. Calibrated (``flexgen_tools.stability.calibrate``) on the full sweep of
-# `flexgen stability`; the block between the markers is rewritten by
-# `python -m flexgen_tools.stability --calibrate`.
-# CLAIMS-BEGIN
-CLAIMS: dict = {
-    "cc": (
-        ((0.32, 1.0), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
-        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
-        ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (None, None), (None, None), (None, None)),
-    ),
-    "fem16": (
-        ((0.001, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((0.0032, 0.01), (0.0032, 0.01), (0.01, 0.01), (None, None), (None, None), (None, None)),
-        ((0.0032, 0.01), (0.01, 0.01), (0.032, 0.01), (0.032, 0.01), (0.032, 0.01), (0.032, 0.01)),
-        ((0.01, 0.01), (0.01, 0.01), (0.032, 0.01), (0.032, 0.01), (0.032, 0.01), (0.032, 0.032)),
-    ),
-    "fem32": (
-        ((0.00032, 0.001), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (0.001, 0.0032),
-            (0.001, 0.0032),
-            (0.0032, 0.0032),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (0.001, 0.0032),
-            (0.0032, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-        ),
-        (
-            (0.001, 0.0032),
-            (0.0032, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-            (0.01, 0.0032),
-        ),
-    ),
-    "fem4": (
-        ((0.032, 0.1), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (None, None), (None, None), (None, None)),
-        ((0.1, 0.1), (0.1, 0.1), (0.32, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32)),
-        ((0.1, 0.32), (0.1, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32), (0.32, 0.32)),
-    ),
-    "fem64": (
-        ((0.0001, 0.00032), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (0.00032, 0.00032),
-            (0.00032, 0.00032),
-            (0.00032, 0.001),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (0.00032, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-        ),
-        (
-            (0.00032, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-            (0.001, 0.001),
-        ),
-    ),
-    "fem8": (
-        ((0.01, 0.032), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((0.032, 0.032), (0.032, 0.032), (0.032, 0.032), (None, None), (None, None), (None, None)),
-        ((0.032, 0.032), (0.032, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032), (0.1, 0.032)),
-        ((0.032, 0.1), (0.032, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1), (0.1, 0.1)),
-    ),
-    "prb": (
-        ((1.0, 0.32), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((1.0, 0.32), (3.2, 1.0), (3.2, 1.0), (None, None), (None, None), (None, None)),
-        ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None)),
-        ((1.0, 0.32), (3.2, 1.0), (None, None), (None, None), (None, None), (None, None)),
-    ),
-    "scm2 gauss": (
-        ((0.0032, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((0.032, 0.032), (0.032, 0.1), (0.032, 0.1), (None, None), (None, None), (None, None)),
-        ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32), (0.1, 0.32)),
-        ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (0.32, 0.32), (1.0, 0.32), (1.0, 1.0)),
-    ),
-    "scm2 poly": (
-        ((0.0032, 0.01), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((0.032, 0.032), (0.032, 0.1), (0.032, 0.1), (None, None), (None, None), (None, None)),
-        ((0.1, 0.1), (0.1, 0.1), (0.1, 0.32), (None, None), (None, None), (None, None)),
-        ((0.1, 0.1), (0.32, 0.1), (0.32, 0.32), (None, None), (None, None), (None, None)),
-    ),
-    "scm3 auto": (
-        ((3.2e-05, 0.00032), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((0.001, 0.001), (0.001, 0.0032), (0.0032, 0.01), (None, None), (None, None), (None, None)),
-        (
-            (0.0032, 0.0032),
-            (0.0032, 0.01),
-            (0.0032, 0.01),
-            (0.01, 0.032),
-            (0.01, 0.032),
-            (0.032, 0.032),
-        ),
-        ((0.032, 0.032), (0.032, 0.032), (0.032, 0.032), (0.032, 0.1), (0.032, 0.1), (0.032, 0.1)),
-    ),
-    "scm3 gauss": (
-        ((3.2e-05, 0.00032), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((0.001, 0.001), (0.001, 0.0032), (0.0032, 0.01), (None, None), (None, None), (None, None)),
-        (
-            (0.0032, 0.0032),
-            (0.0032, 0.01),
-            (0.0032, 0.01),
-            (0.01, 0.032),
-            (0.01, 0.032),
-            (0.032, 0.032),
-        ),
-        ((0.032, 0.032), (0.032, 0.032), (0.032, 0.032), (0.032, 0.1), (0.032, 0.1), (0.032, 0.1)),
-    ),
-    "scm3 poly": (
-        ((3.2e-05, 0.00032), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        ((0.001, 0.001), (0.001, 0.0032), (0.0032, 0.01), (None, None), (None, None), (None, None)),
-        (
-            (0.0032, 0.0032),
-            (0.0032, 0.01),
-            (0.0032, 0.01),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        ((0.032, 0.032), (0.032, 0.032), (0.032, 0.032), (None, None), (None, None), (None, None)),
-    ),
-    "scm4 gauss": (
-        ((1e-06, 3.2e-05), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (1e-06, 3.2e-05),
-            (3.2e-05, 0.00032),
-            (0.00032, 0.001),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (0.0001, 0.0001),
-            (0.0001, 0.00032),
-            (0.00032, 0.001),
-            (0.001, 0.01),
-            (0.0032, 0.01),
-            (0.0032, 0.01),
-        ),
-        (
-            (0.001, 0.001),
-            (0.0032, 0.0032),
-            (0.0032, 0.0032),
-            (0.0032, 0.01),
-            (0.0032, 0.032),
-            (0.01, 0.032),
-        ),
-    ),
-    "scm4 poly": (
-        ((1e-06, 3.2e-05), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (1e-06, 3.2e-05),
-            (3.2e-05, 0.00032),
-            (0.00032, 0.001),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (0.0001, 0.0001),
-            (0.0001, 0.00032),
-            (0.00032, 0.001),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (0.001, 0.001),
-            (0.0032, 0.0032),
-            (0.0032, 0.0032),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-    ),
-    "scm5 auto": (
-        ((1e-08, 3.2e-07), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (1e-07, 3.2e-07),
-            (3.2e-06, 3.2e-05),
-            (3.2e-06, 3.2e-05),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (1e-06, 3.2e-06),
-            (3.2e-06, 3.2e-05),
-            (3.2e-05, 0.00032),
-            (0.0001, 0.001),
-            (0.00032, 0.0032),
-            (0.00032, 0.0032),
-        ),
-        (
-            (0.0001, 0.0001),
-            (0.0001, 0.0001),
-            (0.0001, 0.001),
-            (0.001, 0.0032),
-            (0.0032, 0.01),
-            (0.0032, 0.01),
-        ),
-    ),
-    "scm5 gauss": (
-        ((1e-08, 3.2e-07), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (1e-07, 3.2e-07),
-            (3.2e-06, 3.2e-05),
-            (3.2e-06, 3.2e-05),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (1e-06, 3.2e-06),
-            (3.2e-06, 3.2e-05),
-            (3.2e-05, 0.00032),
-            (0.0001, 0.001),
-            (0.00032, 0.0032),
-            (0.00032, 0.0032),
-        ),
-        (
-            (0.0001, 0.0001),
-            (0.0001, 0.0001),
-            (0.0001, 0.001),
-            (0.001, 0.0032),
-            (0.0032, 0.01),
-            (0.0032, 0.01),
-        ),
-    ),
-    "scm5 poly": (
-        ((1e-08, 3.2e-07), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (1e-07, 3.2e-07),
-            (3.2e-06, 3.2e-05),
-            (3.2e-06, 3.2e-05),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (1e-06, 3.2e-06),
-            (3.2e-06, 3.2e-05),
-            (3.2e-05, 0.00032),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (0.0001, 0.0001),
-            (0.0001, 0.0001),
-            (0.0001, 0.001),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-    ),
-    "scm6 gauss": (
-        ((1e-10, 1e-08), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (1e-09, 1e-08),
-            (1e-07, 1e-06),
-            (1e-06, 3.2e-06),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (1e-08, 3.2e-07),
-            (1e-06, 1e-05),
-            (3.2e-06, 3.2e-05),
-            (1e-05, 0.0001),
-            (1e-05, 0.0001),
-            (3.2e-05, 0.0001),
-        ),
-        (
-            (1e-06, 3.2e-06),
-            (3.2e-06, 3.2e-05),
-            (3.2e-05, 0.00032),
-            (0.00032, 0.001),
-            (0.00032, 0.0032),
-            (0.001, 0.0032),
-        ),
-    ),
-    "scm6 poly": (
-        ((3.2e-10, 1e-08), (None, None), (None, None), (None, None), (None, None), (None, None)),
-        (
-            (1e-09, 1e-08),
-            (1e-07, 1e-06),
-            (1e-06, 3.2e-06),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (1e-08, 3.2e-07),
-            (1e-06, 1e-05),
-            (3.2e-06, 3.2e-05),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-        (
-            (1e-06, 3.2e-06),
-            (3.2e-06, 3.2e-05),
-            (3.2e-05, 0.00032),
-            (None, None),
-            (None, None),
-            (None, None),
-        ),
-    ),
-}
-# CLAIMS-END
+# the largest bend of any flexure the estimate is trusted at (the Gauss kernels' certified range)
+BEND_LIMIT = math.pi
 
 
 # -- what a result claims ----------------------------------------------------------------------
@@ -412,44 +48,13 @@ CLAIMS: dict = {
 
 @dataclass
 class Claim:
-    pose: float  # claimed bound on the pose error (inf: nothing claimed)
-    comp: float  # claimed bound on the compliance error (inf: nothing claimed)
+    """The validity assessment of an answer (``assess``)."""
+
     beta: float  # largest bend (rad)
     margin: float  # margin to a critical load (stiffness_margin)
     out_of_range: bool  # a kernel past its valid (poly) or certified (gauss) range
     switched: bool  # an auto kernel moved from poly to gauss
     warnings: list = field(default_factory=list)  # validity warnings (added to solve's)
-    uncalibrated: bool = False  # one of those warnings: no error class for this bend and load
-
-    @property
-    def error_class(self) -> dict[str, float]:
-        return {"pose": self.pose, "compliance": self.comp}
-
-
-_LOAD_EDGES = [e * (1 + 1e-12) for e in LOAD_BANDS]
-_BEND_EDGES = [e + 1e-12 for e in BANDS]
-
-
-def band_index(beta: float, lam: float) -> tuple[int, int] | None:
-    """(load band, bend band) of an answer, None past the last of either."""
-    i, j = bisect_left(_LOAD_EDGES, lam), bisect_left(_BEND_EDGES, beta)
-    return None if i == len(_LOAD_EDGES) or j == len(_BEND_EDGES) else (i, j)
-
-
-def load_level(scene: Scene) -> float:
-    """lambda = max over flexures of L^2/EI x (sum of |force| of the loads + 2 x sum of tendon
-    tensions) + max over flexures of L/EI x sum of |moment|: a bound of the nondimensional load
-    through any flexure (alpha for a cantilever with one tip force). The calibration sweep has no
-    moment loads; a moment counts as much as the force that would exert it at one flexure length
-    (checked against exact on cantilevers with tip moments and forces: no answer above its class)."""
-    total = sum(math.hypot(*ld.force) for ld in scene.loads) + 2 * sum(
-        t.tension for t in scene.tendons
-    )
-    moments = sum(abs(ld.moment) for ld in scene.loads)
-    return (
-        max(f.length * f.length / f.EI for f in scene.flexures) * total
-        + max(f.length / f.EI for f in scene.flexures) * moments
-    )
 
 
 # A scene in the wrong units: above this load level a flexure bent past UNITS_BEND is far past
@@ -464,7 +69,8 @@ UNITS_BEND = math.pi / 2
 
 
 def flexure_load_levels(scene: Scene) -> dict[str, float]:
-    """``load_level`` per flexure: L^2/EI x (forces + 2 x tensions) + L/EI x moments."""
+    """The load level of each flexure (how far its loads are from small deflection):
+    L^2/EI x (forces + 2 x tensions) + L/EI x moments."""
     total = sum(math.hypot(*ld.force) for ld in scene.loads) + 2 * sum(
         t.tension for t in scene.tendons
     )
@@ -512,15 +118,15 @@ def units_reason(scene: Scene) -> str | None:
 _SCENE_CONSTANTS: dict[int, tuple] = {}
 
 
-def _scene_constants(scene: Scene) -> tuple[float, str | None]:
-    """(load_level, _prb_case_problem) of a scene, kept for the last scenes checked (a Scene
-    is immutable; the entry holds the scene, so its id is not reused while kept)."""
+def _scene_constants(scene: Scene) -> str | None:
+    """_prb_case_problem of a scene, kept for the last scenes checked (a Scene is immutable;
+    the entry holds the scene, so its id is not reused while kept)."""
     got = _SCENE_CONSTANTS.get(id(scene))
     if got is None or got[0] is not scene:
         if len(_SCENE_CONSTANTS) >= 64:
             _SCENE_CONSTANTS.clear()
-        got = _SCENE_CONSTANTS[id(scene)] = (scene, load_level(scene), _prb_case_problem(scene))
-    return got[1], got[2]
+        got = _SCENE_CONSTANTS[id(scene)] = (scene, _prb_case_problem(scene))
+    return got[1]
 
 
 def prb_load_case(scene: Scene) -> bool:
@@ -544,37 +150,10 @@ def _prb_case_problem(scene: Scene) -> str | None:
 
 
 def model_label(model) -> str:
-    """The CLAIMS label of a flexure model: "cc", "prb", "scm3 auto", "fem16", ..."""
+    """The label of a flexure model in warnings: "cc", "prb", "scm3 auto", "fem16", ..."""
     from flexgen.models.registry import kind_of
 
     return kind_of(model).label(model)
-
-
-def claim_table(label: str) -> tuple[tuple | None, str | None]:
-    """(table, the label it was calibrated for) for a model label: its own row of CLAIMS or a
-    calibrated neighbour that is no more accurate (see the module docstring); (None, None) if
-    there is none."""
-    if label in CLAIMS:
-        return CLAIMS[label], label
-    m = re.fullmatch(r"scm(\d+) (auto|poly|gauss)", label)
-    if m:
-        n, kernel = int(m[1]), m[2]
-        for k in range(n, 1, -1):
-            for cand in (
-                (f"scm{k} auto", f"scm{k} gauss") if kernel == "auto" else (f"scm{k} {kernel}",)
-            ):
-                if cand in CLAIMS:
-                    return CLAIMS[cand], cand
-        return None, None
-    m = re.fullmatch(r"fem(\d+)", label)
-    if m:
-        calibrated = sorted(
-            (int(k[3:]) for k in CLAIMS if re.fullmatch(r"fem\d+", k)), reverse=True
-        )
-        e = next((e for e in calibrated if e <= int(m[1])), None)
-        if e is not None:
-            return CLAIMS[f"fem{e}"], f"fem{e}"
-    return None, None
 
 
 def _deg(x: float) -> str:
@@ -627,8 +206,6 @@ class _Context:
     labels: dict[str, str]
     scm: tuple[str, ...]  # smooth curvature flexures
     prb: tuple[str, ...]
-    by_label: tuple[tuple[str, tuple[str, ...], tuple | None], ...]  # label, flexures, table
-    load_level: float
     prb_problem: str | None
 
 
@@ -644,17 +221,11 @@ def _context(scene: Scene, models: Mapping, label) -> _Context:
         name: (label if isinstance(label, str) else (label or {}).get(name) or model_label(m))
         for name, m in models.items()
     }
-    groups: dict[str, list[str]] = {}
-    for name, lab in labels.items():
-        groups.setdefault(lab, []).append(name)
-    lam, prb_problem = _scene_constants(scene)
     ctx = _Context(
         labels,
         tuple(n for n, m in models.items() if getattr(m, "kind", "") == "scm"),
         tuple(n for n, m in models.items() if getattr(m, "kind", "") == "prb"),
-        tuple((lab, tuple(names), claim_table(lab)[0]) for lab, names in groups.items()),
-        lam,
-        prb_problem,
+        _scene_constants(scene),
     )
     if len(_CONTEXTS) >= 64:
         _CONTEXTS.clear()
@@ -667,15 +238,12 @@ def assess(
     result,
     models: Mapping,
     label: str | Mapping[str, str] | None = None,
-    calibrated: bool = True,
 ) -> Claim:
-    """The claim and the validity warnings of a converged ``solve`` result whose flexure models
-    are ``models`` ({flexure: model}, as passed to solve). ``label``: the CLAIMS label of every
-    flexure's model (a str for all, or {flexure: label}; default ``model_label`` of each).
-    ``calibrated=False`` (a tolerance was requested: the claim is the error estimate) leaves out
-    the warnings that only say the calibration table ends (load level, bands) and claims nothing
-    from the table. The bend and kernel at the equilibrium are the core's (``Result.bend``,
-    ``kernel``), and so is the stability margin where the result carries it."""
+    """The validity warnings of a converged ``solve`` result whose flexure models are
+    ``models`` ({flexure: model}, as passed to solve). ``label``: the label of every flexure's
+    model in the warnings (a str for all, or {flexure: label}; default ``model_label`` of each).
+    The bend and kernel at the equilibrium are the core's (``Result.bend``, ``kernel``), and so
+    is the stability margin where the result carries it."""
     ctx = _context(scene, models, label)
     labels = ctx.labels
     warnings: list[str] = []
@@ -683,7 +251,6 @@ def assess(
     bends = result.bend  # the core's, per flexure
     beta_at = max(bends, key=bends.__getitem__)
     beta = bends[beta_at]
-    unclaimed: set[str] = set()  # flexures already warned that nothing is claimed
     kernels = result.kernel  # the core's: the kernel evaluating each scm flexure there
     for name in ctx.scm:
         m = models[name]
@@ -705,23 +272,21 @@ def assess(
             )
     for name in ctx.prb:
         if bends[name] > PRB_LIMIT:
-            unclaimed.add(name)
             warnings.append(
                 f"flexure {name!r} (prb): pin rotation {_deg(bends[name])} is past the pseudo-"
                 f"rigid-body model's {_deg(PRB_LIMIT)} validity; no accuracy is claimed for it"
             )
     if ctx.prb and ctx.prb_problem is not None:
-        unclaimed.update(ctx.prb)
         warnings.append(
             f"{_names(ctx.prb)} (prb): the pseudo-rigid-body constants are fitted for a force at "
             f"the tip of a single flexure, and this scene has {ctx.prb_problem}; no accuracy is "
             f"claimed"
         )
-    if beta > BANDS[-1]:
-        unclaimed.update(models)
+    if beta > BEND_LIMIT:
         warnings.append(
             f"flexure {beta_at!r} ({labels[beta_at]}): bent {_deg(beta)}, past the "
-            f"{_deg(BANDS[-1])} the error classes cover; no accuracy is claimed"
+            f"{_deg(BEND_LIMIT)} to which the error estimate's Gauss kernels are certified; "
+            f"no accuracy is claimed"
         )
     margin = getattr(result, "stability_margin", None)
     if margin is None:
@@ -733,43 +298,14 @@ def assess(
             f"{NEAR_SINGULAR:.0%}), so the compliance at {pts} amplifies any model error by "
             f"about {1 / max(margin, 1e-300):.3g}x"
         )
-    lam = ctx.load_level
-    if calibrated and lam > LOAD_BANDS[-1]:
-        unclaimed.update(models)
-        warnings.append(
-            f"load level {lam:.3g} (largest force x L^2/EI over the flexures) is above the "
-            f"calibrated {LOAD_BANDS[-1]:g}; no accuracy is claimed"
-        )
-    pose = comp = math.inf
-    uncalibrated = False
-    idx = band_index(beta, lam)
-    if calibrated and idx is not None:
-        pose = comp = 0.0
-        for lab, names, table in ctx.by_label:
-            pe, ce = (None, None) if table is None else table[idx[0]][idx[1]]
-            if pe is None:
-                pose = comp = math.inf
-                if not unclaimed.issuperset(names):  # else already warned: nothing claimed
-                    uncalibrated = True
-                    warnings.append(
-                        f"{_names(names)} ({lab}): no calibrated error class at {_deg(beta)} of "
-                        f"bend and load level {lam:.3g} (load x L^2/EI); no accuracy is claimed"
-                    )
-            else:
-                assert ce is not None  # a CLAIMS cell is (pose, compliance) or (None, None)
-                pose, comp = max(pose, pe), max(comp, ce)
-    if unclaimed:
-        pose = comp = math.inf
-    if math.isfinite(comp):
-        comp = comp / max(min(margin, 1.0), 1e-300)
-    return Claim(pose, comp, beta, margin, oor, switched, warnings, uncalibrated)
+    return Claim(beta, margin, oor, switched, warnings)
 
 
 def validity_warnings(scene: Scene, models: Mapping, result) -> list[str]:
     """The validity warnings of a converged result (``assess``); [] if it did not converge."""
     if not result.converged:
         return []
-    return assess(scene, result, models, calibrated=result.tolerance is None).warnings
+    return assess(scene, result, models).warnings
 
 
 def models_of(scene: Scene, result, models: Mapping | None = None, model_factory=None) -> Mapping:
@@ -794,15 +330,14 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
 def check(scene: Scene, result, models: Mapping | None = None, model_factory=None):
     """Append the validity warnings of a converged chain-model ``result`` to
     ``result.warnings`` (no duplicates): a model past its validity (prb past 64 deg or outside
-    its fitted case, a kernel past its certified range), a load near a critical one, or a bend
-    at a load level that suggests the wrong units (``units_warning``). What the
-    answer claims is its error estimate (``flexgen.estimate``), not the CLAIMS table: the
-    table's warnings (load level, bands, bends past its last band) are not given here. Returns
-    the Claim (None if the result did not converge)."""
+    its fitted case, a kernel past its certified range, a bend past ``BEND_LIMIT``), a load
+    near a critical one, or a bend at a load level that suggests the wrong units
+    (``units_warning``). What the answer claims is its error estimate (``flexgen.estimate``).
+    Returns the Claim (None if the result did not converge)."""
     if not result.converged or not scene.flexures:
         return None
     ms = models_of(scene, result, models, model_factory)
-    claim = assess(scene, result, ms, calibrated=False)
+    claim = assess(scene, result, ms)
     units = units_warning(scene, result.bend)
     for w in claim.warnings + ([units] if units else []):
         if w not in result.warnings:

@@ -5,9 +5,8 @@ the tests, the scripts under ``benchmarks/`` and, lazily, by the commands ``flex
 ``flexgen stability`` (``flexgen/commands/bench.py``, ``flexgen/commands/stability.py``):
 
     flexgen_tools.bench      accuracy against speed of every model (``flexgen bench``)
-    flexgen_tools.stability  load sweeps, what each model claims, buckling loads
-                             (``flexgen stability``; ``python -m flexgen_tools.stability
-                             --calibrate`` rewrites the CLAIMS block of flexgen/validity.py)
+    flexgen_tools.stability  load sweeps, each answer against its error estimate, buckling
+                             loads (``flexgen stability``)
     flexgen_tools.honesty    the seeded suite that measures the mode selection (flexgen.select)
                              against the exact elastica (benchmarks/selection.py, the tests)
     flexgen_tools.timing     how a solve is timed: through ``flexgen.solve``, a prepared

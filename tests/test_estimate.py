@@ -145,3 +145,63 @@ def test_the_honesty_check_can_fail(monkeypatch):
     monkeypatch.setattr(E, "COARSE_FACTOR", 0.5)
     cases = estimate_cases(estimate_scenes(0)[:4], MODELS[2:7] + MODELS[9:])
     assert estimate_rates(cases)["covered"] < 0.95
+
+
+@pytest.mark.parametrize(
+    "scene, kw",
+    [
+        ("two_link_finger", {}),
+        ("two_link_finger", {"modes": 5}),
+        ("two_link_finger", {"model": "fem", "elements": 16}),
+        ("cantilever_tip_load", {}),
+        ("rectangular_elastica", {"modes": 4}),
+    ],
+)
+def test_the_newton_estimate_is_the_solved_richer_models(scene, kw):
+    """fg_estimate's Newton from the answer (no solve) gives the differences the richer model's
+    own solve gives at its equilibrium: the pose to 1e-3 of itself, the compliance (taken a step
+    short of the equilibrium) to 10 %."""
+    from flexgen import core
+
+    s = flexgen.Solver(EX / f"{scene}.toml", **kw)
+    assert s.run() == core.SOLVED
+    est = s.estimator()
+    assert core.lib.fg_estimate(*est._args) == core.lib.FG_ESTIMATED  # the fast path
+    fast = est.out.copy()
+    est.out[:] = math.nan
+    assert est._solve_richer(s) == core.lib.FG_ESTIMATED  # the richer model solved
+    solved = est.out.copy()
+    assert np.all(np.isfinite(solved)) and np.all(solved > 0)
+    assert fast[0::2] == pytest.approx(solved[0::2], rel=1e-3)
+    assert fast[1::2] == pytest.approx(solved[1::2], rel=0.1)
+
+
+def test_fg_estimate_refuses_a_malformed_call():
+    from flexgen import core
+
+    s = flexgen.Solver(FINGER)
+    s.run()
+    args = list(s.estimator()._args)
+    args[1] = core.ffi.NULL  # no q map
+    assert core.lib.fg_estimate(*args) == core.lib.FG_ESTIMATE_MALFORMED
+
+
+def test_a_coarse_answer_far_from_the_richer_one_is_solved_for():
+    """prb under a large tip load: Newton from its answer does not reach scm3's equilibrium
+    (FG_ESTIMATE_FAR), so the richer model is solved; the estimate is finite and covers the
+    true error against the exact elastica."""
+    from flexgen import core
+    from flexgen.select import error_components, length_scales, outputs_of
+
+    path = EX / "cantilever_tip_load.toml"
+    s = flexgen.Solver(path, model="prb")
+    s.run()
+    assert core.lib.fg_estimate(*s.estimator()._args) == core.lib.FG_ESTIMATE_FAR
+    r = s.solve(estimate=True)
+    assert math.isfinite(r.error_estimate)
+    ex = outputs_of(flexgen.solve(path, model="exact"))
+    assert ex is not None
+    got = outputs_of(r)
+    assert got is not None
+    true = error_components(got, ex, length_scales(flexgen.load_scene(path), ex))
+    assert float(true.max()) <= r.error_estimate

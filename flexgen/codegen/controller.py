@@ -237,15 +237,15 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
 
 def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
     """The bend of each flexure (body order) past which flexgen/validity.py claims no accuracy:
-    the last error-class band; for prb, its pin-rotation validity, or -1 (never claimed) in a
+    BEND_LIMIT; for prb, its pin-rotation validity, or -1 (never claimed) in a
     scene its constants are not fitted for."""
     from flexgen.models.registry import model_info
-    from flexgen.validity import BANDS, PRB_LIMIT, _context
+    from flexgen.validity import BEND_LIMIT, PRB_LIMIT, _context
 
     prb_problem = _context(scene, models, None).prb_problem
     limits = []
     for name in order:
-        limit = BANDS[-1]
+        limit = BEND_LIMIT
         if model_info(models[name])["kind"] == "prb":
             limit = -1.0 if prb_problem is not None else min(limit, PRB_LIMIT)
         limits.append(float(limit))

@@ -18,8 +18,9 @@ def register(sub) -> None:
         description=(
             "Sweep a dead load's magnitude (alpha = P L^2/EI up to 20) and direction (0-360 deg) "
             "on a cantilever and on the two-link finger; for every model record converged, kernel"
-            " out of range, stable/buckled, error against exact and the model's claim; check that"
-            " no answer is silently wrong; report the first three buckling loads of scm 3..8. "
+            " out of range, stable/buckled, error against exact and the answer's error estimate;"
+            " check that no answer is wrong beyond its estimate without a warning; report the "
+            "first three buckling loads of scm 3..8. "
             "Writes stability-map.png and stability.md into --out. Exit 1 if a silent failure is "
             "found. Needs a source checkout (examples/)."
         ),

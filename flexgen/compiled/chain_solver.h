@@ -260,6 +260,35 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out);
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch);
 
+/* fg_estimate's status */
+enum {
+    FG_ESTIMATED = 0,               /* out holds the differences */
+    FG_ESTIMATE_NO_EVALUATION = 1,  /* the richer model cannot be evaluated near the answer */
+    FG_ESTIMATE_UNSTABLE = 2,       /* its stiffness is not positive definite there */
+    FG_ESTIMATE_UNDEFINED = 3,      /* a difference is not finite */
+    FG_ESTIMATE_FAR = 4,            /* Newton from the answer does not converge to it (within
+                                     * max_iterations and max_dq): solve the richer model */
+    FG_ESTIMATE_MALFORMED = 5       /* a malformed problem or a missing array */
+};
+
+/* The error estimate of an answer: its differences to a richer model of the same scene (the
+ * same points, loads, tendons and outputs, richer flexure models), whose equilibrium is found
+ * by plain Newton from the answer instead of by a solve. The answer: q (nbase coordinates),
+ * pose (3 noutputs) and compliance (9 noutputs) as fg_solve wrote them; T (rich->ndof x nbase,
+ * row-major) maps q to the richer model's coordinates. Newton from T q (each stiffness positive
+ * definite) until it is seen to converge: a state q_k that is an equilibrium to settings.tol
+ * (T q itself, where the maps are exact) or whose step d_k is at most 0.1 of the step before; the richer pose is the
+ * first-order pose(q_k) - J d_k, the richer compliance J K^-1 J^T at q_k (off by O(|d_k|); at
+ * T q alone, off by O(|d_0|), measured too far off to be honest). Usually two evaluations of the
+ * richer model. Per output j: out[2 j] = max(|r_j - r_j,rich| / scale[j], |angle_j -
+ * angle_j,rich|) and out[2 j + 1] = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position
+ * compliances, spectral norm). FG_ESTIMATE_FAR: no convergence within settings.max_iterations
+ * steps and settings.max_dq of T q. Workspace: the richer problem's (fg_work_size,
+ * fg_iwork_size); nothing is kept between calls. */
+FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, const fg_real *q,
+                       const fg_real *pose, const fg_real *compliance, const fg_real *scale,
+                       fg_real *work, int *iwork, fg_real *out);
+
 #ifdef __cplusplus
 }
 #endif

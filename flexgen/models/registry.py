@@ -57,7 +57,8 @@ class ModelKind:
     build: Callable[[Flexure, Any], FlexureModel] | None
     chain: bool  # a chain model: the core solves it (its class fills its fg_flexure)
     info: Callable[[Any], dict[str, Any]]  # the Result's "model" entry of a flexure
-    label: Callable[[Any], str]  # "scm3 auto", "cc", "fem16", "prb": validity's CLAIMS rows
+    # "scm3 auto", "cc", "fem16", "prb": the model in validity's warnings
+    label: Callable[[Any], str]
 
 
 def _scm_label(m: Any) -> str:

@@ -342,6 +342,35 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out);
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch);
 
+/* fg_estimate's status */
+enum {
+    FG_ESTIMATED = 0,               /* out holds the differences */
+    FG_ESTIMATE_NO_EVALUATION = 1,  /* the richer model cannot be evaluated near the answer */
+    FG_ESTIMATE_UNSTABLE = 2,       /* its stiffness is not positive definite there */
+    FG_ESTIMATE_UNDEFINED = 3,      /* a difference is not finite */
+    FG_ESTIMATE_FAR = 4,            /* Newton from the answer does not converge to it (within
+                                     * max_iterations and max_dq): solve the richer model */
+    FG_ESTIMATE_MALFORMED = 5       /* a malformed problem or a missing array */
+};
+
+/* The error estimate of an answer: its differences to a richer model of the same scene (the
+ * same points, loads, tendons and outputs, richer flexure models), whose equilibrium is found
+ * by plain Newton from the answer instead of by a solve. The answer: q (nbase coordinates),
+ * pose (3 noutputs) and compliance (9 noutputs) as fg_solve wrote them; T (rich->ndof x nbase,
+ * row-major) maps q to the richer model's coordinates. Newton from T q (each stiffness positive
+ * definite) until it is seen to converge: a state q_k that is an equilibrium to settings.tol
+ * (T q itself, where the maps are exact) or whose step d_k is at most 0.1 of the step before; the richer pose is the
+ * first-order pose(q_k) - J d_k, the richer compliance J K^-1 J^T at q_k (off by O(|d_k|); at
+ * T q alone, off by O(|d_0|), measured too far off to be honest). Usually two evaluations of the
+ * richer model. Per output j: out[2 j] = max(|r_j - r_j,rich| / scale[j], |angle_j -
+ * angle_j,rich|) and out[2 j + 1] = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position
+ * compliances, spectral norm). FG_ESTIMATE_FAR: no convergence within settings.max_iterations
+ * steps and settings.max_dq of T q. Workspace: the richer problem's (fg_work_size,
+ * fg_iwork_size); nothing is kept between calls. */
+FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, const fg_real *q,
+                       const fg_real *pose, const fg_real *compliance, const fg_real *scale,
+                       fg_real *work, int *iwork, fg_real *out);
+
 #ifdef __cplusplus
 }
 #endif
@@ -371,6 +400,11 @@ FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, 
 #define FG_JACOBI_SMALL 1e-18
 #define FG_JACOBI_SWEEPS 100
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
+/* fg_estimate's Newton is seen to converge when a step is at most this fraction of the one
+ * before (quadratic convergence from within its basin): the compliance taken there is then off
+ * by about this fraction of the distance to the richer equilibrium, which the margins of
+ * flexgen/estimate.py cover (measured: one state, T q itself, is not enough) */
+#define FG_ESTIMATE_CONTRACTION 0.1
 
 typedef struct {
     fg_real *q, *gU, *QL, *QT, *S;   /* load-independent parts (S: load Hessian at lam = 1) */
@@ -2093,14 +2127,12 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
 }
 
 /* the problem can be run: counts and indices in range, the arrays there (FG_MODEL_ERROR if not) */
-static int well_formed(const fg_problem *p, const fg_answer *out)
+static int problem_well_formed(const fg_problem *p)
 {
     int i, j;
     if (p->ndof < 0 || p->nflex < 0 || p->npoints < 0 || p->nloads < 0 || p->ntendons < 0
-        || p->noutputs < 0 || out == NULL || (p->ndof > 0 && (out->q == NULL
-                                                                || p->stiffness == NULL))
-        || (p->noutputs > 0 && (out->pose == NULL || out->compliance == NULL
-                                || p->outputs == NULL))
+        || p->noutputs < 0 || (p->ndof > 0 && p->stiffness == NULL)
+        || (p->noutputs > 0 && p->outputs == NULL)
         || (p->nflex > 0 && p->flex == NULL) || (p->npoints > 0 && p->points == NULL)
         || (p->nloads > 0 && (p->load_point == NULL || p->load == NULL))
         || (p->ntendons > 0 && (p->tension == NULL || p->route_start == NULL
@@ -2142,6 +2174,14 @@ static int well_formed(const fg_problem *p, const fg_answer *out)
         }
     }
     return 1;
+}
+
+/* ... and the answer buffers fg_solve fills are there */
+static int well_formed(const fg_problem *p, const fg_answer *out)
+{
+    return out != NULL && (p->ndof <= 0 || out->q != NULL)
+           && (p->noutputs <= 0 || (out->pose != NULL && out->compliance != NULL))
+           && problem_well_formed(p);
 }
 
 /* K at lam = 0 is the diagonal elastic stiffness (at_lambda: 0 S + diag): positive definite
@@ -2282,6 +2322,24 @@ static fg_real flexure_bend(const fg_flexure *f, const fg_real *q, int samples, 
     return fabs(q[0]);
 }
 
+/* the workspace bound for a solve of p, with what is fixed for it: the loads' force
+ * magnitudes and which tip frames' rotations are read */
+static void prepare(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
+{
+    int i;
+    bind(w, p, work, iwork);
+    for (i = 0; i < p->nloads; ++i)
+        w->hf[i] = hypot(p->load[3 * i], p->load[3 * i + 1]);
+    for (i = 0; i < p->nflex; ++i)
+        w->rotated[i] = 0;
+    for (i = 0; i < p->nflex; ++i)
+        if (p->flex[i].parent >= 0)
+            w->rotated[p->flex[i].parent] = 1;
+    for (i = 0; i < p->npoints; ++i)
+        if (p->points[i].frame >= 0 && (p->points[i].x != 0.0 || p->points[i].y != 0.0))
+            w->rotated[p->points[i].frame] = 1;
+}
+
 /* What the validity of an answer depends on, at the equilibrium (fg_answer.bend, kernel):
  * each flexure's largest bend and the kernel that evaluates it there. (The margin to a critical
  * load costs an eigen-decomposition, O(n^3): fg_margin, on request.) */
@@ -2351,6 +2409,129 @@ FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, 
     return flexure_tip(f, q, pose, J, H, scratch, &switched, -1, &poly);
 }
 
+/* ---- the error estimate: one Newton step of a richer model from an answer ---------------- */
+
+/* ||A||_2 of the symmetric 2 x 2 [[a, b], [b, c]]: its largest |eigenvalue| */
+static fg_real sym2_norm(fg_real a, fg_real b, fg_real c)
+{
+    return fabs(0.5 * (a + c)) + hypot(0.5 * (a - c), b);
+}
+
+/* The differences of an answer (pose, compliance per output) to the richer model at state st,
+ * whose stiffness's Cholesky factor is in w->la, linearized along -d (st's q minus d is the
+ * richer model's equilibrium to first order; d NULL: st is taken as it): out[2 j] =
+ * max(|r_j - r_j,rich| / scale[j], |angle_j - angle_j,rich|), out[2 j + 1] =
+ * ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position compliances). 0 if one is not
+ * finite. */
+static int estimate_differences(fg_ws *w, const fg_state *st, const fg_real *d,
+                                const fg_real *pose, const fg_real *compliance,
+                                const fg_real *scale, fg_real *out)
+{
+    const fg_problem *p = w->p;
+    int n = w->n, j, a, i, m;
+    for (j = 0; j < p->noutputs; ++j) {
+        const fg_real *o = st->out + (size_t)j * (3 + 3 * (size_t)n), *J = o + 3;
+        const fg_real *P = pose + 3 * j, *C = compliance + 9 * j;
+        fg_real R[3], X[4], Cr[4], dpos, dth, nr, nd;
+        fg_real *col = w->lc;
+        for (a = 0; a < 3; ++a) {
+            R[a] = o[a];
+            if (d != NULL)
+                R[a] -= dot(J + (size_t)a * (size_t)n, d, n);
+        }
+        /* C_rich = J K^-1 J^T, position rows only */
+        for (a = 0; a < 2; ++a)
+            cholesky_solve(p, w->la, n, J + (size_t)a * (size_t)n, col + (size_t)a * (size_t)n);
+        for (a = 0; a < 2; ++a)
+            for (i = 0; i < 2; ++i) {
+                fg_real sum = 0.0;
+                for (m = 0; m < n; ++m)
+                    sum += J[(size_t)a * (size_t)n + m] * col[(size_t)i * (size_t)n + m];
+                X[2 * a + i] = sum;
+            }
+        Cr[0] = X[0];
+        Cr[1] = Cr[2] = 0.5 * (X[1] + X[2]);
+        Cr[3] = X[3];
+        dpos = hypot(P[0] - R[0], P[1] - R[1]) / scale[j];
+        dth = fabs(remainder(P[2] - R[2], 2.0 * FG_PI));
+        nr = sym2_norm(Cr[0], Cr[1], Cr[3]);
+        nd = sym2_norm(C[0] - Cr[0], 0.5 * (C[1] + C[3]) - Cr[1], C[4] - Cr[3]);
+        out[2 * j] = dpos > dth ? dpos : dth;
+        out[2 * j + 1] = nr > 0.0 ? nd / nr : nd;
+        if (!isfinite(dpos) || !isfinite(dth) || !isfinite(out[2 * j + 1]))
+            return 0;
+    }
+    return 1;
+}
+
+FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, const fg_real *q,
+                       const fg_real *pose, const fg_real *compliance, const fg_real *scale,
+                       fg_real *work, int *iwork, fg_real *out)
+{
+    fg_ws ws, *w = &ws;
+    fg_state *st, *prev, *swap;
+    fg_real *q0, *d, *dprev, *tmp, last;
+    int n, i, k;
+    if (rich == NULL || !problem_well_formed(rich) || nbase < 0 || (nbase > 0 && q == NULL)
+        || (rich->ndof > 0 && T == NULL)
+        || (rich->noutputs > 0 && (pose == NULL || compliance == NULL || scale == NULL
+                                   || out == NULL)))
+        return FG_ESTIMATE_MALFORMED;
+    n = rich->ndof;
+    prepare(w, rich, work, iwork);
+    clear_switched(w);
+    st = &w->st[0];
+    prev = &w->st[1];
+    q0 = w->qplus;       /* (evaluate uses vec1, vec2 for tendons) */
+    d = w->qminus;
+    dprev = w->t0;
+    for (i = 0; i < n; ++i) {        /* q mapped to the richer model's coordinates */
+        const fg_real *Ti = T + (size_t)i * (size_t)nbase;
+        fg_real sum = 0.0;
+        for (k = 0; k < nbase; ++k)
+            sum += Ti[k] * q[k];
+        q0[i] = sum;
+    }
+    if (!evaluate(w, q0, 1.0, st))
+        return FG_ESTIMATE_NO_EVALUATION;
+    /* plain Newton from T q: every state's stiffness factored (positive definite, else the
+     * caller solves), its step d. The answer's difference to the richer equilibrium is that of
+     * the first state where Newton is seen to converge (an equilibrium to the solver's tol, T q
+     * itself included, or a step at most FG_ESTIMATE_CONTRACTION of the one before), along the
+     * last step linearized;
+     * the compliance is taken at that state. Not converging within max_iterations steps and
+     * max_dq of T q: FG_ESTIMATE_FAR. */
+    last = 0.0;
+    for (k = 0;; ++k) {
+        fg_real step;
+        if (!cholesky(rich, st->K, w->la, n))
+            return FG_ESTIMATE_UNSTABLE;
+        cholesky_solve(rich, w->la, n, st->r, d);
+        step = norm_inf(d, n);
+        if (st->rel <= rich->settings.tol || (k > 0 && step <= FG_ESTIMATE_CONTRACTION * last))
+            break;
+        if (k == rich->settings.max_iterations)
+            return FG_ESTIMATE_FAR;
+        for (i = 0; i < n; ++i) {
+            w->t1[i] = st->q[i] - d[i];
+            w->vec4[i] = w->t1[i] - q0[i];
+        }
+        if (!(norm_inf(w->vec4, n) <= rich->settings.max_dq))
+            return FG_ESTIMATE_FAR;
+        swap = prev;
+        prev = st;
+        st = swap;
+        tmp = dprev;
+        dprev = d;
+        d = tmp;
+        last = step;
+        if (!evaluate(w, w->t1, 1.0, st))
+            return FG_ESTIMATE_NO_EVALUATION;
+    }
+    return estimate_differences(w, st, d, pose, compliance, scale, out) ? FG_ESTIMATED
+                                                                        : FG_ESTIMATE_UNDEFINED;
+}
+
 /* Solve: the warm start, else the unloaded state, the direct solve, else the continuation;
  * always to an answer (FG_SOLVED) or to the reason there is none (FG_NO_EQUILIBRIUM:
  * out->failure, last_error*, model_error*). */
@@ -2364,17 +2545,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
     if (p == NULL || !well_formed(p, out))
         return FG_MODEL_ERROR;
     n = p->ndof;
-    bind(w, p, work, iwork);
-    for (i = 0; i < p->nloads; ++i)
-        w->hf[i] = hypot(p->load[3 * i], p->load[3 * i + 1]);
-    for (i = 0; i < p->nflex; ++i)
-        w->rotated[i] = 0;
-    for (i = 0; i < p->nflex; ++i)
-        if (p->flex[i].parent >= 0)
-            w->rotated[p->flex[i].parent] = 1;
-    for (i = 0; i < p->npoints; ++i)
-        if (p->points[i].frame >= 0 && (p->points[i].x != 0.0 || p->points[i].y != 0.0))
-            w->rotated[p->points[i].frame] = 1;
+    prepare(w, p, work, iwork);
     st0 = &w->st[0];
     cur = &w->st[1];
     spare = &w->st[2];
@@ -3048,6 +3219,7 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     /* the core's entry points this controller does not call */
     (void)fg_margin;
     (void)fg_flexure_tip;
+    (void)fg_estimate;   /* the error estimate is flexgen's (Python), not the controller's */
     (void)fg_work_size;   /* its sizes are TWO_LINK_FINGER_NWORK, _NIWORK */
     (void)fg_iwork_size;
     p.load = &in->load[0][0];
