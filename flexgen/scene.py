@@ -108,6 +108,10 @@ class Scene:
     outputs: tuple[str, ...] = field(default=())
     # Names of flexures and links in file (declaration) order. Empty: flexures, then links.
     declaration_order: tuple[str, ...] = ()
+    # The mapping this scene was validated from (deep-frozen; flexgen/scenepath.py), so that
+    # ``with_value`` re-validates a changed copy with the same rules and derived values. None for
+    # a Scene built by hand.
+    source: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
 
     # -- lookups (built lazily; the dataclass fields stay the single source of truth) ---------
 
@@ -141,6 +145,14 @@ class Scene:
             "order": order,
             "children": {k: tuple(v) for k, v in children.items()},
         }
+
+    def with_value(self, path: str, value: Any) -> Scene:
+        """A new validated Scene with the value at the dotted ``path`` (``"flexure.proximal.
+        thickness"``, ``"load.0.force.1"``, ``"tendon.0.tension"``, ``"model.modes"``) replaced;
+        see flexgen/scenepath.py. A one-line SceneError naming the path otherwise."""
+        from .scenepath import with_value
+
+        return with_value(self, path, value)
 
     def _known(self, name: str) -> None:
         if name not in self._index["kinds"]:
@@ -318,7 +330,9 @@ def scene_from_dict(
     without ``order`` a default parent is only inferred where it does not depend on how they
     interleave (the first flexure's, and every flexure's when there are no links).
     """
-    return _Parser(d, order, default_name).scene
+    from .scenepath import freeze
+
+    return replace(_Parser(d, order, default_name).scene, source=freeze(d))
 
 
 # -- validation helpers ----------------------------------------------------------------------
