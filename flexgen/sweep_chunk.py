@@ -1,0 +1,161 @@
+"""One chunk of a study, solved where it is sent: in this process, a worker process or a Dask
+worker. Top-level and picklable (spawn-safe); imports neither pandas nor Dask.
+
+A chunk prepares its scene once, and its Solver once per design (a load key changes only the
+Solver's loads and tensions). Each case is warm-started from its nearest solved neighbour in the
+chunk (``Solver.run(q0=...)``; the core falls back to the full load path when Newton from there
+does not land on a stable equilibrium close by):
+
+- the chunk's first case: cold (so a chunk's numbers depend on nothing outside it);
+- within a row (the fastest-varying key): the case before it;
+- a row's first case: the previous row's first case (one step along the next-slower key),
+  else the case before it.
+
+Only a converged, stable neighbour is used; otherwise the case solves cold. The answer is read
+from the Solver's workspace, exactly the numbers ``Solver.solve`` puts in a Result (the same
+arrays; no Result is built).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from . import core
+from .estimate import estimate_answer
+from .reasons import failure_reason
+from .scene import Scene, SceneError, scene_from_dict
+from .scenepath import with_values
+from .settings import SolverSettings
+from .solver import Solver
+
+POINT_FIELDS = ("x", "y", "angle", "major", "minor", "ellipse_angle", "error_estimate")
+FLEXURE_FIELDS = ("max_stress", "safety_factor")
+CASE_FIELDS = ("converged", "stable", "iterations")
+
+# Prepared Solvers kept per process, by (study, design): the chunks of a load study that land in
+# one process prepare its Solver and error estimator (~2 ms) once. A Solver keeps nothing
+# between solves but its buffers (docs/architecture.md, "Model, data, algorithm"), so a reused
+# one gives the same numbers as a fresh one.
+KEEP = 8
+_prepared: OrderedDict[tuple, Solver | str] = OrderedDict()
+_scenes: OrderedDict[str, Scene] = OrderedDict()
+
+
+@dataclass(frozen=True)
+class Chunk:
+    study: str  # a token naming the study (the key of what a process keeps prepared)
+    source: dict[str, Any]  # the scene's source mapping (plain dicts and lists: picklable)
+    order: list[str] | None  # scene_from_dict's order=
+    name: str
+    settings: SolverSettings | None
+    keys: tuple[str, ...]
+    targets: tuple[tuple[str, int, int] | None, ...]
+    values: np.ndarray  # cases x keys, in solve order
+    first: int  # solve index of the first case (rows start at multiples of row_length)
+    row_length: int
+    estimate: bool
+
+
+def columns(points: list[str], flexures: list[str]) -> int:
+    return len(CASE_FIELDS) + len(POINT_FIELDS) * len(points) + len(FLEXURE_FIELDS) * len(flexures)
+
+
+def run_chunk(chunk: Chunk) -> tuple[np.ndarray, list[str]]:
+    """(cases x columns floats, reasons) for the chunk's cases, in its order. Columns: converged,
+    stable, iterations, then POINT_FIELDS per output point, FLEXURE_FIELDS per flexure."""
+    base = _scenes.get(chunk.study)
+    if base is None:
+        base = scene_from_dict(chunk.source, order=chunk.order, default_name=chunk.name)
+        _keep(_scenes, chunk.study, base)
+    points = list(base.outputs)
+    flexures = [f.name for f in base.flexures]
+    n = chunk.values.shape[0]
+    out = np.full((n, columns(points, flexures)), math.nan)
+    reasons = [""] * n
+    design_cols = [k for k, t in enumerate(chunk.targets) if t is None]
+    load_cols = [(k, t) for k, t in enumerate(chunk.targets) if t is not None]
+    solver: Solver | str | None = None
+    design: tuple[float, ...] | None = None
+    loads = tensions = None
+    answers: list[dict[str, np.ndarray] | None] = [None] * n  # q of each stable answer
+    for c in range(n):
+        row = chunk.values[c]
+        here = tuple(row[design_cols].tolist())
+        if here != design:
+            design = here
+            solver = prepared(chunk, base, {chunk.keys[k]: row[k] for k in design_cols})
+            if isinstance(solver, Solver):
+                loads = solver.problem.loads.copy()
+                tensions = solver.problem.tensions.copy()
+        if not isinstance(solver, Solver):  # this combination of values is not a valid scene
+            out[c, :3] = (0.0, 0.0, 0.0)
+            reasons[c] = str(solver)
+            continue
+        assert loads is not None and tensions is not None
+        for k, (what, i, j) in load_cols:
+            if what == "load":
+                loads[i, j] = row[k]
+            else:
+                tensions[i] = row[k]
+        status = solver.run(loads, tensions, _neighbour(chunk, c, answers))
+        _record(solver, status, chunk.estimate, out[c], reasons, c)
+        ws = solver.workspace
+        if status == core.SOLVED and ws.answer.stable:
+            answers[c] = {name: ws.q[sl].copy() for name, sl in solver.problem.chain.slices.items()}
+    return out, reasons
+
+
+def prepared(chunk: Chunk, base: Scene, design: dict[str, Any]) -> Solver | str:
+    """The Solver of one design (it keeps its error estimator once used), or the
+    SceneError's text when the design's values do not make a valid scene."""
+    key = (chunk.study, tuple(design.values()))
+    solver = _prepared.get(key)
+    if solver is None:
+        try:
+            scene = with_values(base, design) if design else base
+            solver = Solver(scene, settings=chunk.settings)
+        except SceneError as exc:
+            solver = str(exc)
+        _keep(_prepared, key, solver)
+    return solver
+
+
+def _keep(cache: OrderedDict, key: Any, value: Any) -> None:
+    cache[key] = value
+    while len(cache) > KEEP:
+        cache.popitem(last=False)
+
+
+def _neighbour(chunk: Chunk, c: int, answers: list) -> dict[str, np.ndarray] | None:
+    """The warm start of case ``c`` of the chunk (see the module docstring)."""
+    if c == 0:
+        return None
+    if (chunk.first + c) % chunk.row_length == 0 and c >= chunk.row_length:
+        above = answers[c - chunk.row_length]
+        if above is not None:
+            return above
+    return answers[c - 1]
+
+
+def _record(solver: Solver, status: int, estimate: bool, out: np.ndarray, reasons, c) -> None:
+    """One case's row of ``out`` from the answer in ``solver.workspace``."""
+    ws = solver.workspace
+    a = ws.answer
+    if status != core.SOLVED:
+        iterations = a.iterations if status != core.MODEL_ERROR else 0
+        out[:3] = (0.0, 0.0, iterations)
+        reasons[c] = failure_reason(solver, status)
+        return
+    out[:3] = (1.0, float(bool(a.stable)), a.iterations)
+    n = len(solver.problem.outputs)
+    block = out[3 : 3 + 7 * n].reshape(n, 7)
+    block[:, 0:3] = ws.pose[:n]
+    block[:, 3:6] = ws.ellipse[:n]
+    if estimate:
+        est = estimate_answer(solver, status, Solver)
+        block[:, 6] = np.maximum(est.pose, est.compliance)
