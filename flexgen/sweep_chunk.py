@@ -74,26 +74,28 @@ def run_chunk(chunk: Chunk) -> tuple[np.ndarray, list[str]]:
         _keep(_scenes, chunk.study, base)
     points = list(base.outputs)
     flexures = [f.name for f in base.flexures]
-    n = chunk.values.shape[0]
-    out = np.full((n, columns(points, flexures)), math.nan)
-    reasons = [""] * n
+    width = columns(points, flexures)
+    failed_design = [0.0, 0.0, 0.0] + [math.nan] * (width - 3)
+    rows = chunk.values.tolist()  # plain floats: cheaper than NumPy scalars at this size
+    out: list[list[float]] = []
+    reasons = [""] * len(rows)
     design_cols = [k for k, t in enumerate(chunk.targets) if t is None]
     load_cols = [(k, t) for k, t in enumerate(chunk.targets) if t is not None]
     solver: Solver | str | None = None
     design: tuple[float, ...] | None = None
     loads = tensions = None
-    answers: list[dict[str, np.ndarray] | None] = [None] * n  # q of each stable answer
-    for c in range(n):
-        row = chunk.values[c]
-        here = tuple(row[design_cols].tolist())
+    answers: list[dict[str, np.ndarray] | None] = [None] * len(rows)  # q of each stable answer
+    for c, row in enumerate(rows):
+        here = tuple(row[k] for k in design_cols)
         if here != design:
             design = here
             solver = prepared(chunk, base, {chunk.keys[k]: row[k] for k in design_cols})
             if isinstance(solver, Solver):
                 loads = solver.problem.loads.copy()
                 tensions = solver.problem.tensions.copy()
+                slices = list(solver.problem.chain.slices.items())
         if not isinstance(solver, Solver):  # this combination of values is not a valid scene
-            out[c, :3] = (0.0, 0.0, 0.0)
+            out.append(failed_design)
             reasons[c] = str(solver)
             continue
         assert loads is not None and tensions is not None
@@ -103,11 +105,12 @@ def run_chunk(chunk: Chunk) -> tuple[np.ndarray, list[str]]:
             else:
                 tensions[i] = row[k]
         status = solver.run(loads, tensions, _neighbour(chunk, c, answers))
-        _record(solver, status, chunk.estimate, out[c], reasons, c)
+        out.append(_record(solver, status, chunk.estimate, width, reasons, c))
         ws = solver.workspace
         if status == core.SOLVED and ws.answer.stable:
-            answers[c] = {name: ws.q[sl].copy() for name, sl in solver.problem.chain.slices.items()}
-    return out, reasons
+            q = ws.q.copy()
+            answers[c] = {name: q[sl] for name, sl in slices}
+    return np.array(out, dtype=float).reshape(len(rows), width), reasons
 
 
 def prepared(chunk: Chunk, base: Scene, design: dict[str, Any]) -> Solver | str:
@@ -142,20 +145,25 @@ def _neighbour(chunk: Chunk, c: int, answers: list) -> dict[str, np.ndarray] | N
     return answers[c - 1]
 
 
-def _record(solver: Solver, status: int, estimate: bool, out: np.ndarray, reasons, c) -> None:
-    """One case's row of ``out`` from the answer in ``solver.workspace``."""
+def _record(solver: Solver, status: int, estimate: bool, width: int, reasons, c) -> list[float]:
+    """One case's row from the answer in ``solver.workspace`` (see ``run_chunk``)."""
     ws = solver.workspace
     a = ws.answer
     if status != core.SOLVED:
         iterations = a.iterations if status != core.MODEL_ERROR else 0
-        out[:3] = (0.0, 0.0, iterations)
         reasons[c] = failure_reason(solver, status)
-        return
-    out[:3] = (1.0, float(bool(a.stable)), a.iterations)
+        return [0.0, 0.0, float(iterations)] + [math.nan] * (width - 3)
+    row = [1.0, 1.0 if a.stable else 0.0, float(a.iterations)]
     n = len(solver.problem.outputs)
-    block = out[3 : 3 + 7 * n].reshape(n, 7)
-    block[:, 0:3] = ws.pose[:n]
-    block[:, 3:6] = ws.ellipse[:n]
+    poses, ellipses = ws.pose[:n].tolist(), ws.ellipse[:n].tolist()
     if estimate:
         est = estimate_answer(solver, status, Solver)
-        block[:, 6] = np.maximum(est.pose, est.compliance)
+        errors = [max(p, q) for p, q in zip(est.pose, est.compliance)]
+    else:
+        errors = [math.nan] * n
+    for pose, ellipse, error in zip(poses, ellipses, errors):
+        row += pose
+        row += ellipse
+        row.append(error)
+    row += [math.nan] * (width - len(row))  # the flexures' stress: not known here yet
+    return row
