@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .estimate import estimate_answer
-from .scene import Scene, as_scene, scene_from_dict
+from .scene import Scene, SceneError, as_scene, scene_from_dict
 from .scenepath import _kind_order, source_of, thaw
 from .settings import SolverSettings
 from .solver import Solver
@@ -83,6 +83,7 @@ def sweep(
     equilibrium is a row with ``converged`` False and its ``reason``.
     """
     sc = as_scene(scene)
+    _check_scene(sc)
     study = plan(sc, vary, samples, seed)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise ValueError(f"chunk_size: must be an integer >= 1, got {chunk_size!r}")
@@ -100,6 +101,18 @@ def sweep(
     finally:
         bar.close()
     return _table(sc, study, results)
+
+
+def _check_scene(scene: Scene) -> None:
+    """SceneError for what a study does not solve: the exact reference model (Python, a
+    different answer shape) and a tolerance (a mode selection per solve)."""
+    if any(f.model.kind == "exact" for f in scene.flexures):
+        raise SceneError("sweep: the exact model is a reference solver; study a chain model")
+    if scene.model.tolerance is not None or any(f.model.tolerance for f in scene.flexures):
+        raise SceneError(
+            "sweep: the scene asks for a tolerance, which chooses the modes per solve; give "
+            "modes instead (flexgen select SCENE --tol T says which)"
+        )
 
 
 def _chunks(

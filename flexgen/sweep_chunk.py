@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -28,6 +28,7 @@ import numpy as np
 from . import core
 from .estimate import estimate_answer
 from .reasons import failure_reason
+from .result import Result
 from .scene import Scene, SceneError, scene_from_dict
 from .scenepath import with_values
 from .settings import SolverSettings
@@ -156,14 +157,32 @@ def _record(solver: Solver, status: int, estimate: bool, width: int, reasons, c)
     row = [1.0, 1.0 if a.stable else 0.0, float(a.iterations)]
     n = len(solver.problem.outputs)
     poses, ellipses = ws.pose[:n].tolist(), ws.ellipse[:n].tolist()
-    if estimate:
-        est = estimate_answer(solver, status, Solver)
-        errors = [max(p, q) for p, q in zip(est.pose, est.compliance)]
-    else:
-        errors = [math.nan] * n
+    est = estimate_answer(solver, status, Solver) if estimate else None
+    errors = [max(p, q) for p, q in zip(est.pose, est.compliance)] if est else [math.nan] * n
     for pose, ellipse, error in zip(poses, ellipses, errors):
         row += pose
         row += ellipse
         row.append(error)
-    row += [math.nan] * (width - len(row))  # the flexures' stress: not known here yet
+    row += _stress(solver, status, est)
     return row
+
+
+# Result.flexures (per flexure max_stress and safety_factor, None when unknown) comes with the
+# stress answers; a Result without it has no stress to report.
+HAS_STRESS = "flexures" in {f.name for f in fields(Result)}
+
+
+def _stress(solver: Solver, status: int, est: Any) -> list[float]:
+    """max_stress, safety_factor per flexure (scene order) of the answer in the workspace, as
+    the Result gives them (NaN for None)."""
+    names = [f.name for f in solver.scene.flexures]
+    if not HAS_STRESS:
+        return [math.nan] * (len(FLEXURE_FIELDS) * len(names))
+    per_flexure = getattr(solver._result(status, est), "flexures")  # noqa: B009 (see HAS_STRESS)
+    out: list[float] = []
+    for name in names:
+        answer = per_flexure.get(name)
+        for field in FLEXURE_FIELDS:
+            value = getattr(answer, field, None)
+            out.append(math.nan if value is None else float(value))
+    return out

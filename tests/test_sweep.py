@@ -253,6 +253,15 @@ def test_bad_studies_are_one_line_errors_before_solving(finger, vary, kwargs, me
     assert message in str(err.value)
 
 
+@pytest.mark.parametrize(
+    "path, value, message",
+    [("model.kind", "exact", "the exact model"), ("model.tolerance", 1e-4, "asks for a tolerance")],
+)
+def test_scenes_a_study_does_not_solve_are_refused(finger, path, value, message):
+    with pytest.raises(SceneError, match=message):
+        flexgen.sweep(finger.with_value(path, value), {"tendon.0.tension": [1.0]}, workers=1)
+
+
 def test_progress_lines_when_stderr_is_not_a_terminal(finger, capsys):
     flexgen.sweep(finger, {"tendon.0.tension": [1.0, 2.0]}, workers=1, progress=True)
     assert "sweep: 2/2 cases" in capsys.readouterr().err
