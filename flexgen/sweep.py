@@ -29,7 +29,6 @@ import numpy as np
 
 from .estimate import estimate_answer
 from .scene import Scene, SceneError, as_scene, scene_from_dict
-from .scenepath import _kind_order, source_of, thaw
 from .settings import SolverSettings
 from .solver import Solver
 from .sweep_chunk import CASE_FIELDS, FLEXURE_FIELDS, POINT_FIELDS, Chunk, run_chunk
@@ -118,8 +117,8 @@ def _check_scene(scene: Scene) -> None:
 def _chunks(
     scene: Scene, study: Plan, size: int, estimate: bool, settings: SolverSettings | None
 ) -> list[Chunk]:
-    source = thaw(source_of(scene))
-    order = _kind_order(scene)
+    source = scene.editable_source()
+    order = scene._kinds_in_order()
     solve_values = study.values[study.order]
     token = uuid.uuid4().hex
     return [

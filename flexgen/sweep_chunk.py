@@ -30,7 +30,6 @@ from .estimate import estimate_answer
 from .reasons import failure_reason
 from .result import Result
 from .scene import Scene, SceneError, scene_from_dict
-from .scenepath import with_values
 from .settings import SolverSettings
 from .solver import Solver
 
@@ -121,7 +120,7 @@ def prepared(chunk: Chunk, base: Scene, design: dict[str, Any]) -> Solver | str:
     solver = _prepared.get(key)
     if solver is None:
         try:
-            scene = with_values(base, design) if design else base
+            scene = base.with_values(design) if design else base
             solver = Solver(scene, settings=chunk.settings)
         except SceneError as exc:
             solver = str(exc)

@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from .scene import Scene, SceneError, _fmt
-from .scenepath import INTEGER_KEYS, check_path, with_value
+from .scene import TABLE_KEYS, Scene, SceneError, _fmt
+from .scenepath import INTEGER_KEYS, PathError, walk
 
 DISTRIBUTIONS = ("normal", "uniform")
 CHUNK_SIZE = 500  # cases per chunk (a task): see docs/sweep.md, "Chunks"
@@ -133,7 +133,7 @@ def _check_values(scene: Scene, key: str, values: np.ndarray) -> None:
     distinct = np.unique(values)
     probe = distinct if last in INTEGER_KEYS else distinct[[0, -1]]
     for v in probe:
-        with_value(scene, key, float(v))
+        scene.with_value(key, float(v))
 
 
 def plan(
@@ -151,7 +151,10 @@ def plan(
             raise SceneError(
                 f"vary: a key must be a path such as 'tendon.0.tension', got {_fmt(key)}"
             )
-        check_path(scene, key)
+        try:
+            walk(scene.editable_source(), key, TABLE_KEYS)
+        except PathError as exc:
+            raise SceneError(str(exc)) from None
     targets = tuple(load_target(k) for k in keys)
     if samples is None:
         if seed is not None:
