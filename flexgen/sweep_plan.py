@@ -1,6 +1,7 @@
 """A study's cases: the varied keys, their values, the order they are solved in and the chunks.
 
-``plan(scene, vary, samples, seed)`` checks every key (a path of flexgen/scenepath.py) and value
+``plan(scene, vary, samples, seed)`` checks every key (a path as ``Scene.with_value`` reads it)
+and value
 before anything is solved, and returns a ``Plan``:
 
 - grid (``samples`` None): ``{key: (start, stop, count)}`` (``numpy.linspace``) or ``{key:
