@@ -67,7 +67,8 @@ def sweep(
       A path as ``Scene.with_value`` reads it (``tendon.0.tension``, ``flexure.proximal.
       thickness``).
     - ``workers``: processes on this machine (None: every core; 1: this process only). A
-      small study runs in this process anyway (``PARALLEL_AFTER``).
+      study that a probe finds shorter than twice the workers' start-up (``START_UP``) runs in
+      this process anyway.
     - ``client``: a ``dask.distributed.Client``: the chunks run as its tasks instead.
     - ``progress``: True a bar on a terminal, else a plain line every few seconds on stderr;
       False nothing; None (default) the bar only when stderr is a terminal and the study goes
