@@ -52,7 +52,7 @@ from .scene import (
 )
 from .settings import DEFAULT, SolverSettings
 from .solver import Solver, make_settings
-from .validity import check
+from .validity import check, units_reason
 
 
 def _count(value, key: str, maximum: int) -> int | None:
@@ -181,7 +181,25 @@ def solve_scene(
 
     A chain-model result carries its error estimate (``estimate=True``; with a tolerance, the
     selection's) and, when converged, the validity warnings of its models
-    (``flexgen.validity.check``: appended to ``warnings``)."""
+    (``flexgen.validity.check``: appended to ``warnings``). A failed solve at a load level that
+    suggests the wrong units says so at the end of its reason (``validity.units_reason``)."""
+    result, solution = _solve_scene(scene, models, settings, q0, tolerance, estimate, **options)
+    if not result.converged:
+        hint = units_reason(scene)
+        if hint and hint not in (result.reason or ""):
+            result.reason = f"{result.reason or 'not converged'}; {hint}"
+    return result, solution
+
+
+def _solve_scene(
+    scene: Scene,
+    models: Mapping[str, Any] | None,
+    settings: SolverSettings | None,
+    q0: Mapping[str, Any] | None,
+    tolerance: float | None,
+    estimate: bool,
+    **options: Any,
+):
     if q0 is not None or models is not None:
         _check_inputs(scene, models, q0)
     if (

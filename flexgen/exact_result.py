@@ -8,7 +8,11 @@ model), so "exact" applies to every flexure of a scene at once. The Result it be
   root moment; physical units), the exact solver's unknowns;
 - ``points``: pose and 2x2 compliance of the output points (``compliance3`` has the 2x2 block and
   NaN in the angle row and column: the exact solver gives position compliance only);
-- ``critical_load_factors``: the bifurcation or limit point it crossed, if any.
+- ``critical_load_factors``: the bifurcation or limit point it crossed, if any;
+- ``flexures``: curvature, strain and stress along each flexure from the elastica's own curvature
+  (``models.exact.ElasticaProfile``), computed at once (the exact solve costs far more), with
+  the safety-factor warnings;
+- ``stiffness``: None (the shooting unknowns are root loads, not coordinates with an energy).
 """
 
 from __future__ import annotations
@@ -18,7 +22,31 @@ import math
 import numpy as np
 
 from .result import PointResult, Result, ellipse
-from .scene import Scene
+from .scene import BASE, Scene
+from .stress import FlexureStress, flexure_stresses, safety_warnings
+from .units import result_units
+
+
+def root_angle(scene: Scene, sol, name: str) -> float:
+    """The world angle of a flexure's root frame in an exact answer: its parent's frame (the
+    base, a flexure's tip, a link's = its flexure's tip) turned by its ``at`` angle."""
+    f = scene.flexure(name)
+    parent = f.parent
+    if parent != BASE and scene.body_kind(parent) == "link":
+        parent = scene.link(parent).parent
+    base = 0.0 if parent == BASE else float(sol.tip_frames[parent][2])
+    return base + float(f.at[2])
+
+
+def exact_stresses(scene: Scene, sol) -> dict[str, FlexureStress]:
+    """Every flexure's profiles from the elastica's curvature at the exact answer."""
+    from .models.exact import ElasticaProfile
+
+    profiles = {
+        f.name: ElasticaProfile(f.length, f.EI, root_angle(scene, sol, f.name))
+        for f in scene.flexures
+    }
+    return flexure_stresses(scene, profiles, sol.root_loads)
 
 
 def to_result(scene: Scene, sol) -> Result:
@@ -36,6 +64,7 @@ def to_result(scene: Scene, sol) -> Result:
         return Result(
             scene=scene.name,
             solver="exact",
+            units=result_units(scene),
             converged=False,
             stable=False,
             iterations=int(sol.iterations),
@@ -66,9 +95,12 @@ def to_result(scene: Scene, sol) -> Result:
             "determinant changed sign along the load path)"
         )
     q = {name: [float(x) for x in v] for name, v in sol.root_loads.items()}
+    flexures = exact_stresses(scene, sol)
+    warnings.extend(safety_warnings(scene, flexures))
     return Result(
         scene=scene.name,
         solver="exact",
+        units=result_units(scene),
         converged=True,
         stable=bool(sol.stable),
         iterations=int(sol.iterations),
@@ -80,6 +112,7 @@ def to_result(scene: Scene, sol) -> Result:
         reason=None,
         critical_load_factors=critical,
         load_factor=float(sol.load_factor),
+        flexures=flexures,
     )
 
 
@@ -95,6 +128,7 @@ def solve(scene: Scene):
         return Result(
             scene=scene.name,
             solver="exact",
+            units=result_units(scene),
             converged=False,
             stable=False,
             iterations=0,

@@ -336,14 +336,17 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
                 color="C1",
                 lw=1.6,
                 label=(
-                    f"compliance ellipses: displacement under a force of {F:.3g} in every direction"
+                    f"compliance ellipses: displacement under a force of {F:.3g}"
+                    f"{'' if scene.units is None else ' ' + scene.units.force} in every direction"
                 ),
             )
         )
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.4, alpha=0.5)
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
+    # the scene's units (docs/scene.md, Units); none given: any consistent set, unlabelled
+    unit = f" [{scene.units.length}]" if scene.units is not None else ""
+    ax.set_xlabel(f"x{unit}")
+    ax.set_ylabel(f"y{unit}")
     ax.set_title(_text(title or f"{scene.name} ({_model_label(result)})"))
     ax.legend(handles=handles, fontsize=8, loc="best")
     _save(fig, path)

@@ -2,7 +2,8 @@
 
 ``Result.to_json()`` gives exactly the fields of the public contract (``scene-format.md``, plus
 ``"reason"`` when not converged); ``Result`` itself carries a few more for the Python API
-(full 3x3 compliance, critical load factors, the load factor reached).
+(critical load factors, the load factor reached, the flexures' curvature and stress profiles as
+arrays where the JSON has their maxima).
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 import numpy as np
+
+from .stress import FlexureStress
 
 
 def ellipse(C) -> dict[str, float]:
@@ -46,6 +49,7 @@ class PointResult:
         out: dict[str, Any] = {
             "pose": list(self.pose),
             "compliance": [list(r) for r in self.compliance],
+            "compliance3": [[float(x) for x in r] for r in self.compliance3],
             "ellipse": dict(self.ellipse),
         }
         if self.error_estimate is not None:
@@ -115,6 +119,11 @@ class Result:
     bend: dict[str, float] = field(default_factory=dict, compare=False)
     kernel: dict[str, str] = field(default_factory=dict, compare=False)
     notes: list[str] = field(default_factory=list)
+    # each flexure's curvature, strain and stress along it and their maxima (flexgen.stress;
+    # empty when not converged); ``units``: the scene's units by quantity ("length": "m", ...),
+    # None for a scene of plain numbers
+    flexures: dict[str, FlexureStress] = field(default_factory=dict, compare=False, repr=False)
+    units: dict[str, str] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Every field, as plain Python data."""
@@ -130,7 +139,15 @@ class Result:
             "model": {k: dict(v) for k, v in self.model.items()},
             "q": {k: [float(x) for x in v] for k, v in self.q.items()},
             "points": {ref: p.contract() for ref, p in self.points.items()},
+            "flexures": {name: st.contract() for name, st in self.flexures.items()},
+            "stiffness": (
+                None
+                if self.stiffness is None or not self.converged
+                else [[float(x) for x in row] for row in np.asarray(self.stiffness)]
+            ),
         }
+        if self.units is not None:
+            out["units"] = dict(self.units)
         if self.tolerance is not None or self.error_estimate is not None:
             out["error_estimate"] = (
                 math.inf if self.error_estimate is None else float(self.error_estimate)
@@ -148,6 +165,8 @@ class Result:
     def table(self) -> str:
         """A human-readable summary."""
         lines = [f"scene: {self.scene}"]
+        if self.units is not None:
+            lines.append("units: " + ", ".join(f"{k} {v}" for k, v in self.units.items()))
         if self.converged:
             lines.append(
                 f"converged in {self.iterations} Newton iterations; "
@@ -187,6 +206,7 @@ class Result:
                         else ""
                     )
                 )
+        lines += _flexure_lines(self.flexures)
         if self.tolerance is not None or self.error_estimate is not None:
             est = math.inf if self.error_estimate is None else self.error_estimate
             lines.append(
@@ -232,7 +252,32 @@ class LazyResult(Result):
         return (Result, tuple(getattr(self, f.name) for f in fields(Result)))
 
 
-LAZY_FIELDS = frozenset({"model", "q", "points", "stiffness", "bend", "kernel"})
+LAZY_FIELDS = frozenset({"model", "q", "points", "stiffness", "bend", "kernel", "flexures"})
+
+
+def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
+    """The table's flexure section: maxima, where, safety factor ("—" where unknown)."""
+    if not flexures:
+        return []
+
+    def num(v: float | None, fmt: str) -> str:
+        return "—" if v is None or not math.isfinite(v) else format(v, fmt)
+
+    w = max(max(len(n) for n in flexures), len("flexure"))
+    lines = [
+        f"  {'flexure':<{w}}  {'max kappa':>11} {'max strain':>11} {'max stress':>11} "
+        f"{'at s/L':>7} {'safety':>8}"
+    ]
+    for name, st in flexures.items():
+        sf = st.safety_factor
+        safety = "inf" if sf is not None and math.isinf(sf) else num(sf, ".3g")
+        if st.limited_by is not None:
+            safety += f" ({st.limited_by})"
+        lines.append(
+            f"  {name:<{w}}  {num(st.max_curvature, '.5g'):>11} {num(st.max_strain, '.5g'):>11} "
+            f"{num(st.max_stress, '.5g'):>11} {st.at:>7.3f} {safety:>8}"
+        )
+    return lines
 
 
 def _finite(obj):

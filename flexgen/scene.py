@@ -26,16 +26,22 @@ from typing import Any
 
 from .models.registry import MODEL_KINDS
 from .tomlorder import array_table_headers
+from .units import Units, UnitsError, normalise
 
 KERNELS = ("auto", "poly", "gauss")
 BASE = "base"
 TIP = "tip"
 
 MODEL_KEYS = ("kind", "modes", "elements", "kernel", "tolerance")
-TOP_KEYS = ("name", "model", "base", "flexure", "link", "load", "tendon", "output")
+TOP_KEYS = ("name", "units", "model", "base", "flexure", "link", "load", "tendon", "output")
 BASE_KEYS = ("points",)
 STIFFNESS_KEYS = ("EI", "E", "I", "width", "thickness")
-FLEXURE_KEYS = ("name", "parent", "at", "length") + STIFFNESS_KEYS + ("model",) + MODEL_KEYS
+# material strengths (stress units): a [model] value is every flexure's default, a flexure's own
+# (directly or in its model subtable) wins; they only give the Result's safety factors
+STRENGTH_KEYS = ("yield_strength", "fatigue_strength")
+FLEXURE_KEYS = (
+    ("name", "parent", "at", "length") + STIFFNESS_KEYS + ("model",) + MODEL_KEYS + STRENGTH_KEYS
+)
 LINK_KEYS = ("name", "parent", "points")
 LOAD_KEYS = ("point", "force", "moment")
 TENDON_KEYS = ("tension", "route")
@@ -86,6 +92,14 @@ class Flexure:
     length: float
     EI: float
     model: ModelSpec
+    # the section as given (None: not given); thickness alone (with EI, or with E and I) only
+    # places the outer fibre at thickness / 2 (docs/scene.md, "Stiffness and section")
+    E: float | None = None
+    width: float | None = None
+    thickness: float | None = None
+    I: float | None = None  # the second moment of area
+    yield_strength: float | None = None
+    fatigue_strength: float | None = None
 
 
 @dataclass(frozen=True)
@@ -120,6 +134,9 @@ class Scene:
     outputs: tuple[str, ...] = field(default=())
     # Names of flexures and links in file (declaration) order. Empty: flexures, then links.
     declaration_order: tuple[str, ...] = ()
+    # The units of every number above and of the answers (flexgen/units.py); None: the scene
+    # gave none (plain numbers in any consistent set)
+    units: Units | None = None
     # The mapping this scene was validated from (deep-frozen; flexgen/scenepath.py), so that
     # ``with_value`` re-validates a changed copy with the same rules and derived values. None for
     # a Scene built by hand.
@@ -383,10 +400,19 @@ def scene_from_dict(
     "link" (``load_scene`` passes it). A dict keeps flexures and links in separate lists, so
     without ``order`` a default parent is only inferred where it does not depend on how they
     interleave (the first flexure's, and every flexure's when there are no links).
+
+    Values may carry units (``"20 mm"``): they are converted first, into the scene's ``units``
+    choice (SI by default), by ``flexgen.units.normalise``; docs/scene.md, "Units".
     """
+    try:
+        plain, units = normalise(d, MAX_MAGNITUDE)
+    except UnitsError as e:
+        raise SceneError(str(e)) from None
     from .scenepath import freeze
 
-    return replace(_Parser(d, order, default_name).scene, source=freeze(d))
+    scene = _Parser(plain, order, default_name).scene
+    # the source as given (units and all): with_value re-reads it through this function
+    return replace(scene, units=units, source=freeze(d))
 
 
 # -- validation helpers ----------------------------------------------------------------------
@@ -558,6 +584,11 @@ def _model_fields(tbl: Mapping[str, Any], prefix: str) -> dict[str, Any]:
     return out
 
 
+def _strengths(tbl: Mapping[str, Any], prefix: str) -> dict[str, float]:
+    """Validated strengths among STRENGTH_KEYS present in ``tbl`` (positive numbers)."""
+    return {k: _number(tbl[k], f"{prefix}{k}", "+") for k in STRENGTH_KEYS if k in tbl}
+
+
 class _Parser:
     def __init__(self, d: Any, order: Sequence[str] | None, default_name: str):
         if not isinstance(d, Mapping):
@@ -566,8 +597,9 @@ class _Parser:
         name = _string(d.get("name", default_name), "name")
 
         model_tbl = _table(d.get("model", {}), "model")
-        _check_keys(model_tbl, "model", MODEL_KEYS)
+        _check_keys(model_tbl, "model", MODEL_KEYS + STRENGTH_KEYS)
         self.model = ModelSpec(**_model_fields(model_tbl, "model."))
+        self.strengths = _strengths(model_tbl, "model.")
 
         base_tbl = _table(d.get("base", {}), "base")
         _check_keys(base_tbl, "base", BASE_KEYS)
@@ -721,36 +753,50 @@ class _Parser:
         if "length" not in tbl:
             raise _fail(f"{prefix}.length", "missing required key")
         length = _number(tbl["length"], f"{prefix}.length", "+")
-        EI = self._stiffness(tbl, prefix)
+        EI, section = self._stiffness(tbl, prefix)
 
         fields = _model_fields(tbl, f"{prefix}.")
+        strengths = self.strengths | _strengths(tbl, f"{prefix}.")
         if "model" in tbl:
             sub = _table(tbl["model"], f"{prefix}.model")
-            _check_keys(sub, f"{prefix}.model", MODEL_KEYS)
+            _check_keys(sub, f"{prefix}.model", MODEL_KEYS + STRENGTH_KEYS)
             for k in sub:
                 if k in tbl:
                     raise _fail(
                         f"{prefix}.model.{k}", f"also given as {prefix}.{k}; give it once", sub[k]
                     )
             fields |= _model_fields(sub, f"{prefix}.model.")
+            strengths |= _strengths(sub, f"{prefix}.model.")
         model = replace(self.model, **fields)
-        return Flexure(name=name, parent=parent, at=at, length=length, EI=EI, model=model)
+        return Flexure(
+            name=name,
+            parent=parent,
+            at=at,
+            length=length,
+            EI=EI,
+            model=model,
+            **section,
+            **strengths,
+        )
 
     @staticmethod
-    def _stiffness(tbl: Mapping[str, Any], prefix: str) -> float:
+    def _stiffness(tbl: Mapping[str, Any], prefix: str) -> tuple[float, dict[str, float]]:
+        """EI and the section values as given (the Flexure fields E, I, width, thickness)."""
         given = {k: _number(tbl[k], f"{prefix}.{k}", "+") for k in STIFFNESS_KEYS if k in tbl}
+        section = {k: v for k, v in given.items() if k != "EI"}
         how = "give EI, or E and I, or E, width and thickness"
         if "EI" in given:
-            for k in ("E", "I", "width", "thickness"):
+            # thickness may come with EI: it only places the outer fibre (strain, not stress)
+            for k in ("E", "I", "width"):
                 if k in given:
                     raise _fail(f"{prefix}.{k}", f"conflicts with EI ({how})", tbl[k])
-            return given["EI"]
+            return given["EI"], section
         if "E" not in given:
             raise _fail(f"{prefix}.EI", f"missing required key ({how})")
         if "I" in given:
-            for k in ("width", "thickness"):
-                if k in given:
-                    raise _fail(f"{prefix}.{k}", f"conflicts with I ({how})", tbl[k])
+            # thickness may come with I: it only places the outer fibre, EI stays E I
+            if "width" in given:
+                raise _fail(f"{prefix}.width", f"conflicts with I ({how})", tbl["width"])
             EI = given["E"] * given["I"]
         else:
             for k in ("width", "thickness"):
@@ -764,7 +810,7 @@ class _Parser:
                 f"computed bending stiffness must be in [{MIN_POSITIVE:g}, {MAX_MAGNITUDE:g}]",
                 EI,
             )
-        return EI
+        return EI, section
 
     def _link(
         self, tbl: Mapping[str, Any], i: int, flex_names: list[str], link_names: list[str]

@@ -33,6 +33,8 @@ from .problem import Problem, Workspace
 from .result import UNSTABLE, LazyResult, Result, point_result
 from .scene import Scene
 from .settings import DEFAULT, SolverSettings
+from .stress import flexure_stresses, has_strengths, safety_warnings
+from .units import result_units
 
 # Why the solve took the side it did past a bifurcation (the core reports the index plus one:
 # chain_solver.h's FG_BUCKLING_*).
@@ -108,6 +110,7 @@ class Solver:
         self.problem = Problem(scene, self.models, self.settings)
         self.workspace = Workspace(self.problem)
         self._info = {name: model_info(m) for name, m in self.models.items()}
+        self._units = result_units(scene)  # the JSON "units" object (None: plain numbers)
         self._scene_loads = self.problem.loads.copy()
         self._scene_tensions = self.problem.tensions.copy()
         self._changed_loads = self._changed_tensions = False
@@ -119,6 +122,9 @@ class Solver:
             getattr(m, "gauss", None) is not None and getattr(m, "poly", None) is not None
             for m in self.models.values()
         )
+        # with a strength given, every answer computes its stresses at once (its safety-factor
+        # warnings belong to the answer); else only when Result.flexures is read
+        self._strengths = has_strengths(scene)
 
     @property
     def outputs(self) -> list[str]:
@@ -227,6 +233,7 @@ class Solver:
             critical_load_factors=critical,
             load_factor=lam,
             error_estimate=None if est is None else math.inf,
+            units=None if self._units is None else dict(self._units),
         )
 
     def _result(self, status: int, est: Any = None) -> Result:
@@ -300,6 +307,10 @@ class Solver:
             est,
         )
         r._build = partial(self._lazy_field, snapshot)
+        r.units = None if self._units is None else dict(self._units)
+        if self._strengths:
+            r.flexures = self._lazy_field(snapshot, "flexures")
+            warnings.extend(safety_warnings(self.scene, r.flexures))
         return r
 
     def _lazy_field(self, snapshot: tuple, name: str) -> Any:
@@ -328,6 +339,9 @@ class Solver:
         if name == "kernel":
             states = kernel.tolist() if kernel is not None else ()
             return {n: KERNEL_STATES[k] for n, k in zip(p.flexure_order, states) if k}
+        if name == "flexures":
+            qs = {n: q[sl] for n, sl in self._slices}
+            return flexure_stresses(self.scene, self.models, qs)
         raise AttributeError(name)
 
     def estimator(self):

@@ -39,7 +39,10 @@ The warnings (``validity_warnings``)
   load) below 5 % (near a critical load the compliance error is amplified by 1/margin; the
   compliance class is divided by the margin);
 * a load level above 30 (the classes end there);
-* a band in which the model has no calibrated class (nothing is claimed).
+* a band in which the model has no calibrated class (nothing is claimed);
+* (``check`` only) a flexure bent past 90 deg at a load level above 1e3, which no elastic
+  flexure survives: nearly always a scene in the wrong units (``units_warning``; a failed solve
+  at such a load says so in its reason: ``units_reason``, added by ``flexgen.api``).
 
 With a requested tolerance (``flexgen.select``) the claim is the a-posteriori ``error_estimate``
 instead: the calibration-table warnings (load level, bands) are then not given, the others are.
@@ -449,6 +452,63 @@ def load_level(scene: Scene) -> float:
     )
 
 
+# A scene in the wrong units: above this load level a flexure bent past UNITS_BEND is far past
+# any elastic material. The elastica of a tip force gives the root curvature
+# kappa L = 2 sqrt(lambda) sin(bend / 2) (its first integral, the tip aligned with the force):
+# at least 45 at lambda = 1e3 and 90 deg, a strain kappa t / 2 of at least 22 t / L, past the
+# ~2 % elastic limit of flexure materials unless L / t > 1100. (An axial load may exceed it with
+# little bend: that is not flagged.) Such a scene is nearly always a stiffness or a length in the
+# wrong unit (E = 200 for 200 GPa in SI makes lambda 1e9 times too large).
+UNITS_LOAD_LEVEL = 1e3
+UNITS_BEND = math.pi / 2
+
+
+def flexure_load_levels(scene: Scene) -> dict[str, float]:
+    """``load_level`` per flexure: L^2/EI x (forces + 2 x tensions) + L/EI x moments."""
+    total = sum(math.hypot(*ld.force) for ld in scene.loads) + 2 * sum(
+        t.tension for t in scene.tendons
+    )
+    moments = sum(abs(ld.moment) for ld in scene.loads)
+    return {f.name: f.length * (f.length * total + moments) / f.EI for f in scene.flexures}
+
+
+def units_hint(scene: Scene) -> str:
+    """The advice that ends the units warning and a failed solve's reason at such a load."""
+    read = (
+        f"in {scene.units.length} and {scene.units.force}"
+        if scene.units is not None
+        else "as one consistent set"
+    )
+    return (
+        "check the units (a stiffness or length given in the wrong unit, e.g. E = 200 meant as "
+        f"200 GPa; flexgen reads plain numbers {read})"
+    )
+
+
+def units_warning(scene: Scene, bends: Mapping[str, float]) -> str | None:
+    """The warning for a flexure bent past UNITS_BEND at a load level above UNITS_LOAD_LEVEL
+    (the one bent most, if several), else None."""
+    levels = flexure_load_levels(scene)
+    suspects = [
+        n for n, b in bends.items() if b > UNITS_BEND and levels.get(n, 0.0) > UNITS_LOAD_LEVEL
+    ]
+    if not suspects:
+        return None
+    name = max(suspects, key=lambda n: bends[n])
+    return (
+        f"flexure {name!r}: load level {levels[name]:.3g} (force x L^2/EI) and a bend of "
+        f"{_deg(bends[name])}, far past what an elastic flexure survives: {units_hint(scene)}"
+    )
+
+
+def units_reason(scene: Scene) -> str | None:
+    """What a failed solve's reason adds when a load level is above UNITS_LOAD_LEVEL, else None."""
+    level = max(flexure_load_levels(scene).values(), default=0.0)
+    if level <= UNITS_LOAD_LEVEL:
+        return None
+    return f"load level {level:.3g} (force x L^2/EI): {units_hint(scene)}"
+
+
 _SCENE_CONSTANTS: dict[int, tuple] = {}
 
 
@@ -734,7 +794,8 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
 def check(scene: Scene, result, models: Mapping | None = None, model_factory=None):
     """Append the validity warnings of a converged chain-model ``result`` to
     ``result.warnings`` (no duplicates): a model past its validity (prb past 64 deg or outside
-    its fitted case, a kernel past its certified range) or a load near a critical one. What the
+    its fitted case, a kernel past its certified range), a load near a critical one, or a bend
+    at a load level that suggests the wrong units (``units_warning``). What the
     answer claims is its error estimate (``flexgen.estimate``), not the CLAIMS table: the
     table's warnings (load level, bands, bends past its last band) are not given here. Returns
     the Claim (None if the result did not converge)."""
@@ -742,7 +803,8 @@ def check(scene: Scene, result, models: Mapping | None = None, model_factory=Non
         return None
     ms = models_of(scene, result, models, model_factory)
     claim = assess(scene, result, ms, calibrated=False)
-    for w in claim.warnings:
+    units = units_warning(scene, result.bend)
+    for w in claim.warnings + ([units] if units else []):
         if w not in result.warnings:
             result.warnings.append(w)
     return claim

@@ -411,11 +411,13 @@ def test_json_contract_fields_and_ellipse_convention():
         "model",
         "q",
         "points",
+        "flexures",
+        "stiffness",
         "warnings",
         "notes",
     }
     assert out["model"] == {"f": {"kind": "scm", "modes": 3}}
-    assert set(out["points"]["f.tip"]) == {"pose", "compliance", "ellipse"}
+    assert set(out["points"]["f.tip"]) == {"pose", "compliance", "compliance3", "ellipse"}
     e = ellipse(np.array([[1.0, 0.0], [0.0, 3.0]]))  # major axis along y -> angle pi/2
     assert e["major"] == 3.0 and e["minor"] == 1.0 and e["angle"] == pytest.approx(math.pi / 2)
     e = ellipse(np.array([[2.0, -1.0], [-1.0, 2.0]]))  # major axis along (1, -1)

@@ -26,6 +26,8 @@ CONTRACT = {
     "model",
     "q",
     "points",
+    "flexures",  # issue 11: per flexure max curvature, strain, stress, safety factor
+    "stiffness",  # issue 11: the generalized stiffness (null for exact)
     "warnings",
     "notes",
 }
@@ -75,7 +77,8 @@ def test_json_has_exactly_the_contract_fields_and_types(finger_json):
     assert all(len(v) == 3 and all(map(is_number, v)) for v in d["q"].values())
     assert set(d["points"]) == {"middle.pad", "fingertip.pad"}
     for p in d["points"].values():
-        assert set(p) == {"pose", "compliance", "ellipse", "error_estimate"}
+        assert set(p) == {"pose", "compliance", "compliance3", "ellipse", "error_estimate"}
+        assert [r[:2] for r in p["compliance3"][:2]] == p["compliance"]
         assert set(p["error_estimate"]) == {"pose", "compliance"}
         assert all(0 < v < 1e-3 for v in p["error_estimate"].values())
         assert max(p["error_estimate"].values()) <= d["error_estimate"]

@@ -105,7 +105,11 @@ def hostile_value(rng: random.Random, depth_ok: bool = True):
     if choice == 1:
         return rng.choice([math.inf, -math.inf])
     if choice == 2:
-        return rng.choice(["nan", "inf", "-inf", "1.0", "1e400", ""])
+        # and unit strings (flexgen/units.py): good, of a wrong dimension, unknown, hostile
+        return rng.choice(
+            ["nan", "inf", "-inf", "1.0", "1e400", ""]
+            + ["20 mm", "3 N", "200 GPa", "30 deg", "1e400 mm", "20 foo", "10**10**10 m"]
+        )
     if choice == 3:
         return int("1" + "0" * rng.choice([20, 309, 400, 1000]))
     if choice == 4:

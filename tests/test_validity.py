@@ -27,6 +27,8 @@ CONTRACT_KEYS = {
     "q",
     "points",
     "error_estimate",
+    "flexures",
+    "stiffness",
     "warnings",
     "notes",
 }

@@ -376,6 +376,51 @@ class SceneSolution:
     warnings: list = field(default_factory=list)
 
 
+class ElasticaProfile:
+    """The curvature along one flexure of an exact answer, from its own elastica: the ODE
+    above integrated from the flexure's root with its solved unknowns, so the curvature is
+    the state mu / L itself (no model in between). ``q`` is the flexure's root loads
+    ``[Fx, Fy, M0]`` (``SceneSolution.root_loads``, the Result's ``q``); ``root_angle`` the
+    world angle of its root frame (the ODE's phi is a world angle)."""
+
+    def __init__(self, length: float, EI: float, root_angle: float):
+        self.length, self.EI, self.root_angle = float(length), float(EI), float(root_angle)
+
+    def _states(self, q, sigma: np.ndarray) -> np.ndarray:
+        """(phi, mu) at the nondimensional arc lengths ``sigma`` (sorted, in [0, 1])."""
+        L, EI = self.length, self.EI
+        fx, fy = float(q[0]) * L**2 / EI, float(q[1]) * L**2 / EI
+
+        def rhs(t, y):
+            return [y[1], fx * math.sin(y[0]) - fy * math.cos(y[0])]
+
+        y0 = [self.root_angle, float(q[2]) * L / EI]
+        sol = solve_ivp(rhs, (0.0, 1.0), y0, method="DOP853", rtol=RTOL, atol=ATOL, t_eval=sigma)
+        if not sol.success:
+            raise RuntimeError(f"elastica integration failed: {sol.message}")
+        return sol.y
+
+    def curvature(self, q, s) -> np.ndarray:
+        """kappa(s) = mu(s/L) / L, 1/length, at the arc lengths ``s``."""
+        s = np.asarray(s, dtype=float)
+        order = np.argsort(s)
+        kappa = np.empty_like(s)
+        kappa[order] = self._states(q, np.clip(s[order] / self.length, 0.0, 1.0))[1]
+        return kappa / self.length
+
+    def curvature_extremes(self, q, num: int = 257) -> np.ndarray:
+        """Both ends and where mu' = fx sin(phi) - fy cos(phi) changes sign between samples of
+        a fine grid (located by linear interpolation): the peaks of |kappa| inside."""
+        L, EI = self.length, self.EI
+        sigma = np.linspace(0.0, 1.0, num)
+        phi = self._states(q, sigma)[0]
+        fx, fy = float(q[0]) * L**2 / EI, float(q[1]) * L**2 / EI
+        d = fx * np.sin(phi) - fy * np.cos(phi)
+        k = np.flatnonzero(d[:-1] * d[1:] < 0.0)
+        roots = sigma[k] + (sigma[k + 1] - sigma[k]) * d[k] / (d[k] - d[k + 1])
+        return np.concatenate([[0.0, L], roots * L])
+
+
 class _SceneProblem:
     """Shooting formulation of a scene: unknowns per flexure (fx, fy, mu0), nondimensional."""
 

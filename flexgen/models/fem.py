@@ -73,6 +73,28 @@ class FEMModel:
     def energy_hessian(self, q: np.ndarray) -> np.ndarray:
         return self.spring * np.eye(self.n_dof)
 
+    def curvature(self, q: np.ndarray, s) -> np.ndarray:
+        """The curvature the chain stands for. At equilibrium joint i carries
+        q[i] = h M(s_i)/EI (module docstring), so q[i]/h is the curvature at the joint
+        s_i = (i + 1/2) h. Between joints the profile is linear, and on the half cells at the
+        ends it is the line through the two nearest joints, extended: a moment linear in s (a
+        tip force, small deflection) is then reproduced exactly, root included, where piecewise
+        constant q[i]/h per cell would miss the root's value by a factor 1 - h/(2L). One
+        element: the constant q[0]/L."""
+        kappa = np.asarray(q, dtype=float).reshape(self.n_dof) / self.h
+        s = np.asarray(s, dtype=float)
+        if self.n_dof == 1:
+            return np.full(s.shape, kappa[0])
+        # the cell pair (joint j, joint j + 1) whose line gives kappa at s, ends extended
+        t = s / self.h - 0.5  # joint coordinate: t = i at joint i
+        j = np.clip(np.floor(t).astype(int), 0, self.n_dof - 2)
+        w = t - j
+        return (1.0 - w) * kappa[j] + w * kappa[j + 1]
+
+    def curvature_extremes(self, q: np.ndarray) -> np.ndarray:
+        """The joints and both ends: a piecewise linear profile peaks at one of them."""
+        return np.concatenate([[0.0, self.length], (np.arange(self.n_dof) + 0.5) * self.h])
+
     def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
         """The n + 2 joint/end points of the chain (root first); ``num`` is ignored."""
         phi = self._angles(q)

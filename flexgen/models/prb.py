@@ -58,6 +58,16 @@ class PRBModel:
     def energy_hessian(self, q: np.ndarray) -> np.ndarray:
         return np.array([[self.stiffness]])
 
+    def curvature(self, q: np.ndarray, s) -> np.ndarray:
+        """The pin's spring torque T = K q[0] is the bending moment the pseudo-rigid body
+        carries; T/EI is the curvature it stands for. The model knows that moment at its pin
+        only, so the profile is that constant along the whole flexure (a tip moment bends a
+        real strip uniformly; under a tip force the root moment is larger, by about 1/gamma,
+        which this model cannot see)."""
+        q = np.asarray(q, dtype=float).reshape(1)
+        kappa = self.stiffness * float(q[0]) / self.EI
+        return np.full(np.shape(s), kappa)
+
     def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
         """(num, 2) points along the two rigid segments (root, pin, tip), root first."""
         q = np.asarray(q, dtype=float).reshape(1)

@@ -144,6 +144,24 @@ class SCMModel:
     def energy_hessian(self, q) -> np.ndarray:
         return np.diag(self.EI / self.length * self.weights)
 
+    def curvature(self, q, s) -> np.ndarray:
+        """kappa(s) = sum q_n P_n(2 s/L - 1) / L at the arc lengths ``s`` (1/length)."""
+        sigma = np.asarray(s, dtype=float) / self.length
+        return legendre.legval(2.0 * sigma - 1.0, np.asarray(q, dtype=float)) / self.length
+
+    def curvature_extremes(self, q) -> np.ndarray:
+        """The arc lengths where |kappa| may peak: both ends and the real roots of kappa' in
+        the flexure (the maximum of |p| of a polynomial p on an interval is at an end or where
+        p' = 0), so the largest curvature is found exactly, not to a grid's resolution."""
+        q = np.asarray(q, dtype=float)
+        ends = np.array([0.0, self.length])
+        if q.size < 3:  # kappa' is a constant: |kappa| peaks at an end
+            return ends
+        roots = legendre.legroots(legendre.legder(q))
+        real = roots[np.abs(roots.imag) <= 1e-12 * (1.0 + np.abs(roots.real))].real
+        inside = real[(real >= -1.0) & (real <= 1.0)]
+        return np.concatenate([ends, (inside + 1.0) * 0.5 * self.length])
+
     def shape(self, q, num: int = 64) -> np.ndarray:
         """Centreline in the root frame: cumulative Gauss integration of cos/sin phi per panel."""
         q = np.asarray(q, dtype=float)
