@@ -49,10 +49,10 @@ OUTPUT_KEYS = ("points",)
 # the keys each kind of table may have, for paths into a scene (flexgen/scenepath.py)
 TABLE_KEYS = {
     "": TOP_KEYS,
-    "model": MODEL_KEYS,
+    "model": MODEL_KEYS + STRENGTH_KEYS,
     "base": BASE_KEYS,
     "flexure": FLEXURE_KEYS,
-    "flexure.model": MODEL_KEYS,
+    "flexure.model": MODEL_KEYS + STRENGTH_KEYS,
     "link": LINK_KEYS,
     "load": LOAD_KEYS,
     "tendon": TENDON_KEYS,

@@ -56,6 +56,7 @@ def sweep(
     progress: bool | None = None,
     *,
     estimate: bool = True,
+    stress: bool = True,
     settings: SolverSettings | None = None,
     chunk_size: int = CHUNK_SIZE,
 ) -> pd.DataFrame:
@@ -75,6 +76,8 @@ def sweep(
       to worker processes or a cluster (long enough to wait for).
     - ``estimate``: each point's ``error_estimate`` (the richer model's solve; False: NaN, and
       the study is about twice as fast).
+    - ``stress``: each flexure's ``max_stress`` and ``safety_factor`` (flexgen/stress.py, about
+      100 us a case for two flexures: four times the solve; False: NaN).
     - ``chunk_size``: cases per chunk (a task); part of the study's definition, since each
       chunk's first case solves cold.
 
@@ -91,7 +94,7 @@ def sweep(
         raise ValueError(f"workers: must be an integer >= 1, got {workers!r}")
     if workers is not None and workers < 1:
         raise ValueError(f"workers: must be an integer >= 1, got {workers}")
-    chunks = _chunks(sc, study, chunk_size, estimate, settings)
+    chunks = _chunks(sc, study, chunk_size, estimate, stress, settings)
     bar = _progress(progress, study.cases, interactive=client is not None)
     try:
         if client is not None:
@@ -116,7 +119,12 @@ def _check_scene(scene: Scene) -> None:
 
 
 def _chunks(
-    scene: Scene, study: Plan, size: int, estimate: bool, settings: SolverSettings | None
+    scene: Scene,
+    study: Plan,
+    size: int,
+    estimate: bool,
+    stress: bool,
+    settings: SolverSettings | None,
 ) -> list[Chunk]:
     source = scene.editable_source()
     order = scene._kinds_in_order()
@@ -135,6 +143,7 @@ def _chunks(
             first=a,
             row_length=study.row_length,
             estimate=estimate,
+            stress=stress,
         )
         for a, b in study.chunks(size)
     ]

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -28,10 +28,10 @@ import numpy as np
 from . import core
 from .estimate import estimate_answer
 from .reasons import failure_reason
-from .result import Result
 from .scene import Scene, SceneError, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver
+from .stress import DEFAULT_SAMPLES, flexure_stresses
 
 POINT_FIELDS = ("x", "y", "angle", "major", "minor", "ellipse_angle", "error_estimate")
 FLEXURE_FIELDS = ("max_stress", "safety_factor")
@@ -59,6 +59,7 @@ class Chunk:
     first: int  # solve index of the first case (rows start at multiples of row_length)
     row_length: int
     estimate: bool
+    stress: bool
 
 
 def columns(points: list[str], flexures: list[str]) -> int:
@@ -105,7 +106,7 @@ def run_chunk(chunk: Chunk) -> tuple[np.ndarray, list[str]]:
             else:
                 tensions[i] = row[k]
         status = solver.run(loads, tensions, _neighbour(chunk, c, answers))
-        out.append(_record(solver, status, chunk.estimate, width, reasons, c))
+        out.append(_record(solver, status, chunk, width, reasons, c))
         ws = solver.workspace
         if status == core.SOLVED and ws.answer.stable:
             q = ws.q.copy()
@@ -145,7 +146,7 @@ def _neighbour(chunk: Chunk, c: int, answers: list) -> dict[str, np.ndarray] | N
     return answers[c - 1]
 
 
-def _record(solver: Solver, status: int, estimate: bool, width: int, reasons, c) -> list[float]:
+def _record(solver: Solver, status: int, chunk: Chunk, width: int, reasons, c) -> list[float]:
     """One case's row from the answer in ``solver.workspace`` (see ``run_chunk``)."""
     ws = solver.workspace
     a = ws.answer
@@ -156,32 +157,32 @@ def _record(solver: Solver, status: int, estimate: bool, width: int, reasons, c)
     row = [1.0, 1.0 if a.stable else 0.0, float(a.iterations)]
     n = len(solver.problem.outputs)
     poses, ellipses = ws.pose[:n].tolist(), ws.ellipse[:n].tolist()
-    est = estimate_answer(solver, status, Solver) if estimate else None
+    est = estimate_answer(solver, status, Solver) if chunk.estimate else None
     errors = [max(p, q) for p, q in zip(est.pose, est.compliance)] if est else [math.nan] * n
     for pose, ellipse, error in zip(poses, ellipses, errors):
         row += pose
         row += ellipse
         row.append(error)
-    row += _stress(solver, status, est)
+    if chunk.stress:
+        row += _stress(solver, solver.workspace.q)
+    else:
+        row += [math.nan] * (width - len(row))
     return row
 
 
-# Result.flexures (per flexure max_stress and safety_factor, None when unknown) comes with the
-# stress answers; a Result without it has no stress to report.
-HAS_STRESS = "flexures" in {f.name for f in fields(Result)}
-
-
-def _stress(solver: Solver, status: int, est: Any) -> list[float]:
-    """max_stress, safety_factor per flexure (scene order) of the answer in the workspace, as
-    the Result gives them (NaN for None)."""
-    names = [f.name for f in solver.scene.flexures]
-    if not HAS_STRESS:
-        return [math.nan] * (len(FLEXURE_FIELDS) * len(names))
-    per_flexure = getattr(solver._result(status, est), "flexures")  # noqa: B009 (see HAS_STRESS)
+def _stress(solver: Solver, q: Any) -> list[float]:
+    """max_stress, safety_factor per flexure (scene order) of the answer ``q`` (the workspace's
+    packed coordinates): ``flexure_stresses`` of the scene, models and q, the call that gives
+    ``Result.flexures`` (NaN for None: no section, no strength)."""
+    models = solver.models
+    # the largest stress is at one of a model's curvature_extremes (flexgen/stress.py), so the
+    # profile's grid adds nothing to it: two samples (the ends) when every model has them
+    exact = all(hasattr(m, "curvature_extremes") for m in models.values())
+    qs = {n: q[sl] for n, sl in solver.problem.chain.slices.items()}
+    stresses = flexure_stresses(solver.scene, models, qs, num=2 if exact else DEFAULT_SAMPLES)
     out: list[float] = []
-    for name in names:
-        answer = per_flexure.get(name)
-        for field in FLEXURE_FIELDS:
-            value = getattr(answer, field, None)
+    for f in solver.scene.flexures:
+        st = stresses.get(f.name)
+        for value in (getattr(st, "max_stress", None), getattr(st, "safety_factor", None)):
             out.append(math.nan if value is None else float(value))
     return out

@@ -56,6 +56,11 @@ def assert_row_is_solve(row, result):
         # the estimate is a difference of two answers: the iterates' difference shows there
         est = max(pr.error_estimate.values())
         assert row[f"{ref}.error_estimate"] == pytest.approx(est, rel=1e-6, abs=1e-12)
+    for name, st in result.flexures.items():
+        for column in ("max_stress", "safety_factor"):
+            want = getattr(st, column)
+            got = row[f"{name}.{column}"]
+            assert math.isnan(got) if want is None else got == pytest.approx(want, rel=1e-9)
 
 
 # -- Scene.with_value -------------------------------------------------------------------------
@@ -90,6 +95,10 @@ def test_with_value_changes_the_value_at_each_path_form(finger, path, value, rea
     assert changed.declaration_order == finger.declaration_order
 
 
+def test_with_value_reads_units_as_the_scene_does(finger):
+    assert finger.with_value("flexure.0.length", "25 mm").flexures[0].length == pytest.approx(0.025)
+
+
 def test_with_value_keeps_what_it_does_not_change(finger):
     changed = finger.with_value("tendon.0.tension", 3.0)
     assert dataclasses.replace(changed, tendons=finger.tendons) == finger
@@ -120,8 +129,8 @@ def test_with_value_keeps_what_it_does_not_change(finger):
         ),
         (
             "tendon.0.tension",
-            "ten",
-            "tendon.0.tension: tendon[0].tension: must be zero or a positive",
+            "ten",  # a string is a number with its unit ("5 N"), as in a scene file
+            "tendon.0.tension: tendon[0].tension: 'ten': expected a number and a unit",
         ),
         ("model.modes", 2.5, "model.modes: model.modes: must be an integer in [1, 8]"),
         ("flexure.proximal.EI", 1e-4, "flexure.proximal.EI: flexure[0].E: conflicts with EI"),
@@ -135,13 +144,14 @@ def test_with_value_errors_name_the_path(finger, path, value, message):
     assert "\n" not in str(err.value)
 
 
-def test_with_value_of_a_scene_given_by_ei_refuses_a_thickness():
+def test_with_value_on_a_flexure_given_by_ei_follows_the_scene_rules():
     scene = flexgen.scene_from_dict({"flexure": [{"name": "beam", "length": 0.02, "EI": 1e-4}]})
     assert scene.with_value("flexure.beam.EI", 2e-4).flexures[0].EI == 2e-4
-    with pytest.raises(
-        SceneError, match="flexure.beam.thickness: flexure\\[0\\].thickness: conflicts with EI"
-    ):
-        scene.with_value("flexure.beam.thickness", 1e-3)
+    # a thickness beside EI is the section for the stress; EI stays as given
+    thick = scene.with_value("flexure.beam.thickness", 1e-3).flexures[0]
+    assert (thick.EI, thick.thickness) == (1e-4, 1e-3)
+    with pytest.raises(SceneError, match="flexure.beam.E: flexure\\[0\\].E: conflicts with EI"):
+        scene.with_value("flexure.beam.E", 2e11)
 
 
 def test_with_value_refuses_a_scene_changed_behind_its_source(finger):
@@ -212,13 +222,33 @@ def test_failed_cases_are_rows_with_their_reason(finger):
     assert "bent past the range of the polynomial kernel" in failed["reason"]
     assert failed["reason"] == flexgen.solve(scene.with_value("tendon.0.tension", 40.0)).reason
     assert not failed["stable"] and math.isnan(failed["fingertip.pad.x"])
+    assert math.isnan(failed["distal.max_stress"])
     assert df.iloc[2]["reason"] == "" and np.isfinite(df.iloc[2]["fingertip.pad.x"])
 
 
-def test_without_the_estimate_its_column_is_empty(finger):
+def test_without_the_estimate_or_stress_their_columns_are_empty(finger):
     df = flexgen.sweep(finger, {"tendon.0.tension": [1.0, 2.0]}, workers=1, estimate=False)
     assert df["fingertip.pad.error_estimate"].isna().all()
-    assert df["fingertip.pad.x"].notna().all()
+    assert df["fingertip.pad.x"].notna().all() and df["distal.max_stress"].notna().all()
+    df = flexgen.sweep(finger, {"tendon.0.tension": [1.0, 2.0]}, workers=1, stress=False)
+    assert df["distal.max_stress"].isna().all() and df["distal.safety_factor"].isna().all()
+    assert df["fingertip.pad.error_estimate"].notna().all()
+
+
+def test_stress_columns_are_the_results_flexures(finger):
+    # a yield strength gives the safety factor; the finger's section (E, width, thickness) the
+    # stress; the tendon at 10 N takes the thin distal flexure past 1.4 GPa
+    scene = finger.with_value("model.yield_strength", 1.4e9)
+    df = flexgen.sweep(scene, {"tendon.0.tension": [2.0, 10.0]}, workers=1)
+    for tension, (_, row) in zip([2.0, 10.0], df.iterrows()):
+        result = flexgen.solve(scene.with_value("tendon.0.tension", tension))
+        assert result.flexures["distal"].max_stress > 0
+        assert_row_is_solve(row, result)
+    assert df["distal.safety_factor"].iloc[1] < 1 < df["distal.safety_factor"].iloc[0]
+    # without a strength the stress is known and the safety factor is not
+    plain = flexgen.sweep(finger, {"tendon.0.tension": [10.0]}, workers=1)
+    assert plain["distal.max_stress"].iloc[0] == df["distal.max_stress"].iloc[1]
+    assert math.isnan(plain["distal.safety_factor"].iloc[0])
 
 
 @pytest.mark.parametrize(

@@ -89,6 +89,13 @@ def register(sub) -> None:
         action="store_false",
         help="skip the error estimate (its column is empty; about twice as fast)",
     )
+    p.add_argument(
+        "--no-stress",
+        dest="stress",
+        action="store_false",
+        help="skip the flexures' stress and safety factor (their columns are empty; the "
+        "stress costs about four times the solve)",
+    )
     p.set_defaults(run=run)
 
 
@@ -180,6 +187,7 @@ def run(args) -> int:
             client=client,
             progress=True,
             estimate=args.estimate,
+            stress=args.stress,
         )
     finally:
         if client is not None:
