@@ -6,7 +6,8 @@ Studies, on the two-link finger (examples/two_link_finger.toml):
 
 - *loads*: 10^4 load cases, tendon tension 0..10 N (100) x pad force 0..-1 N (100), one core
   (``workers=1``): one prepared Solver, each case warm-started from its neighbour; with the
-  error estimate (the default) and without (``estimate=False``). The first study of a fresh
+  error estimate and the stress (the defaults), without the stress (``stress=False``), and
+  without either. The first study of a fresh
   process pays the session's one-time costs (LAPACK and the kernels load): timed separately.
   For reference, the same cases through a prepared ``flexgen.Solver`` in a Python loop
   (``Solver.solve(loads=, tensions=, estimate=True)``, cold starts, a Result per case).
@@ -63,8 +64,15 @@ def main() -> int:
 
     study("10^4 load cases, 1 core, first study of the process", LOADS, workers=1)
     for _ in range(2):
-        study("10^4 load cases, 1 core", LOADS, workers=1)
-    study("10^4 load cases, 1 core, estimate=False", LOADS, workers=1, estimate=False)
+        study("10^4 load cases, 1 core (estimate and stress)", LOADS, workers=1)
+    study("10^4 load cases, 1 core, stress=False", LOADS, workers=1, stress=False)
+    study(
+        "10^4 load cases, 1 core, stress=False, estimate=False",
+        LOADS,
+        workers=1,
+        stress=False,
+        estimate=False,
+    )
 
     solver = flexgen.Solver(scene)
     tensions = np.linspace(*LOADS["tendon.0.tension"][:2], 100)
@@ -79,6 +87,7 @@ def main() -> int:
     rows.append(("reference: 10^4 x Solver.solve(estimate=True) in a loop", t, 0))
 
     study("20 x 20 designs x 10 loads, 1 core", DESIGNS, workers=1)
+    study("20 x 20 designs x 10 loads, 1 core, stress=False", DESIGNS, workers=1, stress=False)
     study("20 x 20 designs x 10 loads, default workers (the probe decides)", DESIGNS)
     sweep_module.START_UP = sweep_module.START_UP_AGAIN = 0.0  # force the worker processes
     study("20 x 20 designs x 10 loads, 2 processes, first pool of the session", DESIGNS, workers=2)

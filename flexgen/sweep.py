@@ -31,7 +31,7 @@ from .estimate import estimate_answer
 from .scene import Scene, SceneError, as_scene, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver
-from .sweep_chunk import CASE_FIELDS, FLEXURE_FIELDS, POINT_FIELDS, Chunk, run_chunk
+from .sweep_chunk import CASE_FIELDS, FLEXURE_FIELDS, POINT_FIELDS, Chunk, run_chunk, stress_columns
 from .sweep_plan import CHUNK_SIZE, Plan, plan
 
 if TYPE_CHECKING:
@@ -208,10 +208,10 @@ def _serial_time(chunks: list[Chunk], probes: int = 5) -> float:
     (the first loads LAPACK and the kernels: a cost of the session, not of each design)."""
     first = chunks[0]
     scene = scene_from_dict(first.source, order=first.order, default_name=first.name)
-    _solve_timed(Solver(scene, settings=first.settings), first.estimate, 1)
+    _solve_timed(Solver(scene, settings=first.settings), first, 1)
     start = time.perf_counter()
     solver = Solver(scene, settings=first.settings)
-    solve = _solve_timed(solver, first.estimate, probes)
+    solve = _solve_timed(solver, first, probes)
     prepare = time.perf_counter() - start - probes * solve
     design = [k for k, t in enumerate(first.targets) if t is None]
     designs = 0
@@ -222,14 +222,17 @@ def _serial_time(chunks: list[Chunk], probes: int = 5) -> float:
     return designs * prepare + cases * solve
 
 
-def _solve_timed(solver: Solver, estimate: bool, probes: int) -> float:
-    """Seconds per solve: one cold, then warm ones from its answer (as most cases are)."""
+def _solve_timed(solver: Solver, chunk: Chunk, probes: int) -> float:
+    """Seconds per case: one cold solve, then warm ones from its answer (as most cases are),
+    each with the estimate and the stress when the study asks for them."""
     start = time.perf_counter()
     q0 = None
     for _ in range(probes):
         status = solver.run(q0=q0)
-        if estimate:
+        if chunk.estimate:
             estimate_answer(solver, status, Solver)
+        if chunk.stress:
+            stress_columns(solver, solver.workspace.q)
         q0 = {n: solver.workspace.q[sl].copy() for n, sl in solver.problem.chain.slices.items()}
     return (time.perf_counter() - start) / probes
 

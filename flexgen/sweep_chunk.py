@@ -163,14 +163,20 @@ def _record(solver: Solver, status: int, chunk: Chunk, width: int, reasons, c) -
         row += pose
         row += ellipse
         row.append(error)
-    if chunk.stress:
-        row += _stress(solver, solver.workspace.q)
+    if chunk.stress and _has_section(solver):
+        row += stress_columns(solver, solver.workspace.q)
     else:
         row += [math.nan] * (width - len(row))
     return row
 
 
-def _stress(solver: Solver, q: Any) -> list[float]:
+def _has_section(solver: Solver) -> bool:
+    """Whether any flexure's stress can be known (E and thickness given: flexgen/stress.py);
+    otherwise the stress columns are NaN without computing the profiles."""
+    return any(f.E is not None and f.thickness is not None for f in solver.scene.flexures)
+
+
+def stress_columns(solver: Solver, q: Any) -> list[float]:
     """max_stress, safety_factor per flexure (scene order) of the answer ``q`` (the workspace's
     packed coordinates): ``flexure_stresses`` of the scene, models and q, the call that gives
     ``Result.flexures`` (NaN for None: no section, no strength)."""

@@ -213,6 +213,23 @@ def test_monte_carlo_draws_from_the_seed(finger):
     )
 
 
+def test_a_scene_without_a_section_has_empty_stress_columns():
+    beam = {
+        "flexure": [{"name": "beam", "length": 0.02, "EI": 1e-4}],
+        "load": [{"point": "beam.tip", "force": [0.0, -1.0]}],
+    }
+    df = flexgen.sweep(beam, {"load.0.force.1": [-1.0, -2.0]}, workers=1)
+    assert df["beam.max_stress"].isna().all() and df["beam.safety_factor"].isna().all()
+    assert flexgen.solve(beam).flexures["beam"].max_stress is None
+    # the section (E, width, thickness) gives it
+    del beam["flexure"][0]["EI"]
+    beam["flexure"][0].update(E=2e11, width=0.01, thickness=1e-3)
+    df = flexgen.sweep(beam, {"load.0.force.1": [-2.0]}, workers=1)
+    scene = flexgen.scene_from_dict(beam).with_value("load.0.force.1", -2.0)
+    want = flexgen.solve(scene).flexures["beam"].max_stress
+    assert want > 0 and df["beam.max_stress"].iloc[0] == pytest.approx(want, rel=1e-9)
+
+
 def test_failed_cases_are_rows_with_their_reason(finger):
     # the polynomial kernel only: a tendon bending the distal flexure past 90 deg has no answer
     scene = finger.with_value("model.kernel", "poly")
