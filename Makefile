@@ -1,7 +1,7 @@
 # flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
 PYTHON ?= python3
 
-.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver bench-chain bench-controller demo
+.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver bench-chain bench-controller demo drawings
 
 # Installs flexgen editable with its test and lint tools; builds the compiled core (flexgen._core)
 # from flexgen/compiled and generated/c. Run it again after editing any C source.
@@ -59,3 +59,8 @@ bench-growth:
 
 demo:
 	$(PYTHON) examples/demo.py
+
+# only the drawings of the demo (docs/finger.png, finger_slack.png, rectangular_elastica.png,
+# arc_moment.png, cantilever_tip_load.png), as `flexgen plot` draws them
+drawings:
+	$(PYTHON) examples/demo.py --drawings

@@ -21,7 +21,7 @@ sys.path.insert(0, str(ROOT))
 
 import flexgen  # noqa: E402
 from flexgen.api import as_scene, override, solve_scene  # noqa: E402
-from flexgen.plot import draw  # noqa: E402
+from flexgen.drawing import draw  # noqa: E402
 
 EX = ROOT / "examples"
 DOCS = ROOT / "docs"
@@ -187,6 +187,9 @@ def plots() -> None:
 
 def main() -> int:
     start = time.perf_counter()
+    if sys.argv[1:] == ["--drawings"]:  # `make drawings`: only the drawings under docs/
+        plots()
+        return 0
     print(
         "flexgen demo: every example scene with cc, prb, scm3, scm5, fem16 and the exact "
         "elastica, beside the paper's numbers"

@@ -10,6 +10,7 @@ Public API::
                                       -> a pandas DataFrame, one row per case (docs/sweep.md)
     Scene.with_value(path, value) -> Scene   one value changed by its dotted path
     flexgen.generate(modes, kernel="poly", ...) -> {relative path: text}   (needs SymPy)
+    flexgen.plot(scene_or_path, result=None, ax=None) -> matplotlib Axes  (needs matplotlib)
 
 See docs/solve.md, docs/scene.md and docs/sweep.md.
 """
@@ -49,6 +50,17 @@ def generate(
     return generate_files(KernelSpec(modes, kernel, range_deg, degree, nodes, tol), tuple(langs))
 
 
+def plot(scene, result=None, ax=None, *, title: str | None = None):
+    """Draw a scene on a matplotlib Axes and return it: the mechanism unloaded (links as bodies,
+    base, flexures, tendons, loads), or at ``result``'s equilibrium (``flexgen.solve(scene)``)
+    with stress colouring and compliance ellipses. ``ax``: draw there (its figure is used);
+    None: a new pyplot figure. Writes and shows nothing (a notebook displays the figure;
+    ``flexgen plot SCENE -o FILE`` writes one). See ``flexgen.drawing``."""
+    from .drawing import plot as _plot
+
+    return _plot(scene, result, ax, title=title)
+
+
 __all__ = [
     "load_scene",
     "scene_from_dict",
@@ -57,6 +69,7 @@ __all__ = [
     "SolverSettings",
     "sweep",
     "generate",
+    "plot",
     "SceneError",
     "__version__",
 ]

@@ -23,6 +23,7 @@ import numpy as np
 
 from .result import PointResult, Result, ellipse
 from .scene import BASE, Scene
+from .scene_checks import scene_notes
 from .stress import FlexureStress, flexure_stresses, safety_warnings
 from .units import result_units
 
@@ -54,7 +55,7 @@ def to_result(scene: Scene, sol) -> Result:
     info = {f.name: {"kind": "exact"} for f in scene.flexures}
     # a bifurcation crossed onto the stable branch is a note (a fact of the path); every other
     # message of the elastica solver (a stall, a loss of stability) is a warning
-    notes = [w for w in sol.warnings if "followed the stable branch" in w]
+    notes = [w for w in sol.warnings if "followed the stable branch" in w] + scene_notes(scene)
     warnings = [w for w in sol.warnings if w not in notes]
     critical = [] if sol.critical_load_factor is None else [float(sol.critical_load_factor)]
     if not sol.converged:

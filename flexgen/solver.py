@@ -32,6 +32,7 @@ from .models.registry import build_models, model_info
 from .problem import Problem, Workspace
 from .result import UNSTABLE, LazyResult, Result, point_result
 from .scene import Scene
+from .scene_checks import scene_notes
 from .settings import DEFAULT, SolverSettings
 from .stress import flexure_stresses, has_strengths, safety_warnings
 from .units import result_units
@@ -111,6 +112,7 @@ class Solver:
         self.workspace = Workspace(self.problem)
         self._info = {name: model_info(m) for name, m in self.models.items()}
         self._units = result_units(scene)  # the JSON "units" object (None: plain numbers)
+        self._scene_notes = scene_notes(scene)  # likely mistakes in the scene: on every Result
         self._scene_loads = self.problem.loads.copy()
         self._scene_tensions = self.problem.tensions.copy()
         self._changed_loads = self._changed_tensions = False
@@ -243,7 +245,7 @@ class Solver:
             return self._failed(status, 0, [], [], 1.0, est)
         # the critical events and kernel switches are notes (facts of the path that do not
         # make the answer wrong); what may make it wrong is a warning
-        notes: list[str] = []
+        notes: list[str] = list(self._scene_notes)
         warnings: list[str] = []
         critical: list[float] = []
         ncritical = a.ncritical

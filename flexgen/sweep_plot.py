@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .plot import _save, _text
+from .drawing import _save, _text
 
 BAND = (5.0, 95.0)  # the percentile band of a Monte-Carlo histogram
 

@@ -281,7 +281,7 @@ def test_missing_scene_file_and_bad_plot_suffix(tmp_path, capsys):
 def test_bad_input_in_a_subprocess_has_no_traceback(tmp_path):
     code, out, err = cli("solve", _bad_scene(tmp_path, "negative length"), "--json")
     _one_line_error(code, out, err, "flexure[0].length")
-    code, out, err = cli("plot", EX / "arc_moment.toml", "-o", tmp_path / "x.pdf")
+    code, out, err = cli("plot", EX / "arc_moment.toml", "-o", tmp_path / "x.gif")
     _one_line_error(code, out, err, "-o")
 
 

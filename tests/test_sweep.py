@@ -469,8 +469,8 @@ def test_cli_plot_renders(tmp_path, vary):
             "--out: the file must end in .parquet or .csv",
         ),
         (
-            ["--vary", "tendon.0.tension=0:1:2", "--plot", "study.pdf"],
-            "--plot: the file must end in .png or .svg",
+            ["--vary", "tendon.0.tension=0:1:2", "--plot", "study.gif"],
+            "--plot: the file must end in .png, .svg or .pdf",
         ),
     ],
 )

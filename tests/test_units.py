@@ -271,7 +271,7 @@ def test_plot_axes_name_the_units(tmp_path):
     pytest.importorskip("matplotlib")
     import matplotlib
 
-    from flexgen.plot import draw
+    from flexgen.drawing import draw
 
     matplotlib.use("Agg")
     texts = {}

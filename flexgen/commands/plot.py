@@ -1,7 +1,7 @@
-"""`flexgen plot SCENE -o FILE.png|svg`: draw the unloaded and loaded scene with its compliance
-ellipses (flexgen/plot.py). Exit codes as `flexgen solve`: 1 no equilibrium (or matplotlib
-missing, or the file could not be written: nothing is left behind), 2 bad input (including an
-output path that is a folder, a symbolic link, a FIFO, or has another suffix than .png/.svg)."""
+"""`flexgen plot SCENE -o FILE.png|svg|pdf`: draw the solved scene (flexgen/drawing.py). Exit
+codes as `flexgen solve`: 1 no equilibrium (or matplotlib missing, or the file could not be
+written: nothing is left behind), 2 bad input (including an output path that is a folder, a
+symbolic link, a FIFO, or has another suffix than .png/.svg/.pdf), checked before the solve."""
 
 from __future__ import annotations
 
@@ -15,12 +15,17 @@ from flexgen.commands.solve import add_model_options, one_line, solve_args
 def register(sub) -> None:
     p = sub.add_parser(
         "plot",
-        help="draw a solved scene with its compliance ellipses (PNG/SVG)",
+        help="draw a solved scene: links, loads, stress, compliance ellipses (PNG/SVG/PDF)",
         description=(
-            "Solve a scene and draw it as the paper's Fig. 7: unloaded (dashed) and loaded "
-            "shapes of "
-            "every flexure, rigid links, tendons, load arrows, and the compliance ellipses of the "
-            "output points (scaled to be visible; the legend gives the scale)."
+            "Solve a scene and draw it as the paper's Fig. 7: rigid links as named bodies (an "
+            "outline through the link's origin, its points and its child flexures' roots), the "
+            "base, unloaded (dashed) and loaded flexures (coloured by bending stress, or by "
+            "curvature when a section is unknown, the largest value marked), tendons, load "
+            "arrows to a scale the legend states, and the compliance ellipses of the output "
+            "points (scaled to be visible; the legend gives the scale). Notes about the scene "
+            "(e.g. a flexure that starts at its link's origin: a forgotten `at`) are printed "
+            "by `flexgen solve`. In Python, flexgen.plot(scene, result) draws on a matplotlib "
+            "Axes and returns it (docs/solve.md)."
         ),
     )
     add_model_options(p)
@@ -30,7 +35,7 @@ def register(sub) -> None:
         required=True,
         type=Path,
         metavar="FILE",
-        help="output file; the suffix picks the format: .png or .svg",
+        help="output file; the suffix picks the format: .png, .svg or .pdf",
     )
     p.set_defaults(run=run)
 
@@ -38,7 +43,7 @@ def register(sub) -> None:
 def run(args) -> int:
     import importlib.util
 
-    from flexgen.plot import INSTALL_HINT, PlotError, check_output
+    from flexgen.drawing import INSTALL_HINT, PlotError, check_output
 
     try:  # every output problem before the solve: nothing is solved for a plot not written
         check_output(args.output)
@@ -51,7 +56,7 @@ def run(args) -> int:
     if not result.converged:
         print(f"flexgen: no equilibrium: {one_line(result.reason)}", file=sys.stderr)
         return 1
-    from flexgen.plot import draw
+    from flexgen.drawing import draw
 
     try:
         path = draw(scene, result, args.output, exact_solution=exact)

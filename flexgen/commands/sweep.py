@@ -69,7 +69,7 @@ def register(sub) -> None:
         "--plot",
         type=Path,
         metavar="FILE",
-        help="draw the study (.png or .svg): outputs against one key, heatmaps for two, "
+        help="draw the study (.png, .svg or .pdf): outputs against one key, heatmaps for two, "
         "histograms for Monte-Carlo",
     )
     p.add_argument(
@@ -148,7 +148,7 @@ def _float(key: str, text: str) -> float:
 
 
 def run(args) -> int:
-    from flexgen.plot import PlotError, check_output
+    from flexgen.drawing import PlotError, check_output
 
     out, plot = args.out, args.plot
     try:  # every output problem before the solve: nothing is solved for a file not written

@@ -1,0 +1,40 @@
+"""Facts about a valid scene that are likely mistakes: put on every Result of the scene as notes.
+
+A link has no length of its own: its frame is its parent flexure's tip frame, and a child flexure
+starts where its ``at`` puts it in that frame. A flexure that leaves ``at`` out starts at the link's
+origin, so a link drawn 30 mm long in the author's head (its points out at 30 mm) becomes a
+joint of zero length: the scene solves, silently, to another mechanism. The scene cannot say
+whether ``at`` was written, so the sign is the geometry: the child starts at the link origin while
+the link's own points reach farther from it than the shorter of the two flexures the link joins is
+long. A link that reaches that far is a body of real extent (a pad a few millimetres off a
+flexure is not), and a flexure starting at its near end is then more likely a forgotten ``at``
+than a design.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .scene import Scene
+
+
+def scene_notes(scene: Scene) -> list[str]:
+    """One note per flexure that looks like it forgot its ``at`` (see the module docstring)."""
+    notes = []
+    for f in scene.flexures:
+        if scene.body_kind(f.parent) != "link" or (f.at[0], f.at[1]) != (0.0, 0.0):
+            continue
+        link = scene.link(f.parent)
+        if not link.points:
+            continue
+        name, (px, py) = max(link.points.items(), key=lambda kv: math.hypot(*kv[1]))
+        reach = math.hypot(px, py)
+        joined = min(f.length, scene.flexure(link.parent).length)
+        if reach > joined:
+            notes.append(
+                f"flexure {f.name!r} starts at the origin of link {link.name!r} (the tip of "
+                f"flexure {link.parent!r}) while the link's point {name!r} lies {reach:.4g} "
+                f"from that origin: a link has no length; if {f.name!r} should start further "
+                f"along, give it at = [x, y, angle] in the frame of {link.name!r}"
+            )
+    return notes

@@ -1,0 +1,260 @@
+"""Drawings (flexgen.drawing): `flexgen plot` writes PNG, SVG and PDF; ``flexgen.plot`` returns an
+Axes for a notebook and writes nothing; the artists a reader needs are there (links as named
+bodies, the base, tendons, load arrows, compliance ellipses, the stress colouring and its
+maximum); the forgotten-``at`` note (flexgen.scene_checks).
+
+The expected counts come from the TOML files read here with tomllib, not from flexgen."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexgen
+from flexgen.cli import main
+from flexgen.scene_checks import scene_notes
+
+pytest.importorskip("matplotlib")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+EX = ROOT / "examples"
+EXAMPLES = sorted(EX.glob("*.toml"))
+FINGER = EX / "two_link_finger.toml"
+MAGIC = {".png": b"\x89PNG\r\n\x1a\n", ".svg": b"<svg", ".pdf": b"%PDF-"}
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+def gids(ax, prefix: str) -> list[str]:
+    """The gids starting with ``prefix`` of every artist drawn on ``ax``."""
+    found = ax.findobj(lambda a: (a.get_gid() or "").startswith(prefix))
+    return sorted(a.get_gid() for a in found)
+
+
+def expected(path: Path) -> dict:
+    doc = tomllib.loads(path.read_text())
+    loads = doc.get("load", [])
+    return {
+        "links": sorted(lk["name"] for lk in doc.get("link", [])),
+        "tendons": len(doc.get("tendon", [])),
+        "loads": len(loads),
+        "outputs": doc.get("output", {}).get("points") or [ld["point"] for ld in loads],
+        "stress": all({"E", "thickness"} <= set(f) for f in doc["flexure"]),
+    }
+
+
+@pytest.mark.parametrize("scene", EXAMPLES, ids=lambda p: p.stem)
+def test_every_example_draws_its_parts(scene, tmp_path, capsys):
+    out = tmp_path / f"{scene.stem}.png"
+    assert main(["plot", str(scene), "-o", str(out)]) == 0
+    assert out.read_bytes().startswith(MAGIC[".png"]) and out.stat().st_size > 10_000
+
+    want = expected(scene)
+    ax = flexgen.plot(scene, flexgen.solve(scene))
+    assert gids(ax, "link:") == [f"link:{n}" for n in want["links"]]
+    assert gids(ax, "link-name:") == [f"link-name:{n}" for n in want["links"]]
+    texts = {t.get_text() for t in ax.texts}
+    assert set(want["links"]) <= texts
+    assert len(gids(ax, "tendon:")) == want["tendons"]
+    loaded = {g.split(":")[1] for g in gids(ax, "load:")}
+    assert loaded == {str(i) for i in range(want["loads"])}
+    assert gids(ax, "ellipse:") == sorted(f"ellipse:{p}" for p in want["outputs"])
+    assert gids(ax, "base") == ["base"]
+    # coloured by stress when every flexure's section is known, else by curvature
+    coloured = ax.findobj(lambda a: (a.get_gid() or "").startswith("flexure:"))
+    (bar,) = [c.colorbar for c in coloured if c.colorbar is not None]
+    assert ("stress" if want["stress"] else "curvature") in bar.ax.get_ylabel()
+    assert len(gids(ax, "peak")) == 1
+
+
+@pytest.mark.parametrize("suffix", [".svg", ".pdf"])
+def test_plot_writes_svg_and_pdf(suffix, tmp_path, capsys):
+    out = tmp_path / f"finger{suffix}"
+    assert main(["plot", str(FINGER), "-o", str(out)]) == 0
+    assert MAGIC[suffix] in out.read_bytes()[:400] and out.stat().st_size > 5000
+
+
+def test_bad_suffix_is_one_line_exit_2_before_solving(tmp_path, capsys, monkeypatch):
+    import flexgen.commands.plot as command
+
+    def no_solve(args):
+        raise AssertionError("solved a scene for a plot that cannot be written")
+
+    monkeypatch.setattr(command, "solve_args", no_solve)
+    out = tmp_path / "finger.jpg"
+    assert main(["plot", str(FINGER), "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and len(captured.err.splitlines()) == 1
+    assert ".pdf" in captured.err and "finger.jpg" in captured.err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_plot_returns_an_axes_and_writes_nothing(tmp_path, monkeypatch):
+    from matplotlib.axes import Axes
+
+    monkeypatch.chdir(tmp_path)
+    ax = flexgen.plot(FINGER)  # unloaded: the mechanism as written
+    assert isinstance(ax, Axes)
+    assert "unloaded" in ax.get_title()
+    assert gids(ax, "link:") == ["link:fingertip", "link:middle"]
+    assert gids(ax, "ellipse:") == []  # no result, no compliance
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_plot_uses_the_axes_given():
+    fig = Figure()
+    ax = fig.add_subplot()
+    scene = flexgen.load_scene(FINGER)
+    assert flexgen.plot(scene, flexgen.solve(scene), ax=ax) is ax
+    assert gids(ax, "link:") == ["link:fingertip", "link:middle"]
+    assert plt.get_fignums() == []  # no pyplot figure was made
+
+
+def test_result_of_another_scene_is_refused():
+    from flexgen.drawing import PlotError
+
+    with pytest.raises(PlotError, match="arc"):
+        flexgen.plot(FINGER, flexgen.solve(EX / "arc_moment.toml"))
+
+
+# ---- colouring by stress or curvature (result.flexures) ---------------------------------------
+
+
+@dataclass
+class StandInStress:
+    """Test double of flexgen.stress.FlexureStress (the fields the drawing reads), with a peak
+    placed where the test wants it."""
+
+    s: np.ndarray
+    curvature: np.ndarray
+    stress: np.ndarray | None
+    max_stress: float | None
+    max_curvature: float
+    at: float
+
+
+def _stand_in(scene, with_stress: bool) -> dict:
+    """Each flexure: curvature rising linearly along it; the distal one peaks at s/L = 0.25."""
+    out = {}
+    for f in scene.flexures:
+        s = np.linspace(0.0, f.length, 21)
+        peak_at = 0.25 if f.name == "distal" else 0.0
+        top = 90.0 if f.name == "distal" else 40.0
+        kappa = top * (1.0 - np.abs(s / f.length - peak_at))
+        sigma = 7e6 * kappa if with_stress else None
+        out[f.name] = StandInStress(
+            s=s,
+            curvature=kappa,
+            stress=sigma,
+            max_stress=7e6 * top if with_stress else None,
+            max_curvature=top,
+            at=peak_at,
+        )
+    return out
+
+
+class WithStress:
+    """Test double: a solved Result seen with stand-in ``flexures`` of a known peak."""
+
+    def __init__(self, result, flexures: dict):
+        self._result, self.flexures = result, flexures
+
+    def __getattr__(self, name: str):
+        return getattr(self._result, name)
+
+
+@pytest.mark.parametrize("with_stress", [True, False], ids=["stress", "curvature"])
+def test_flexures_are_coloured_with_a_colourbar_and_the_maximum_marked(with_stress):
+    scene = flexgen.load_scene(FINGER)
+    result = WithStress(flexgen.solve(scene), _stand_in(scene, with_stress))
+    ax = flexgen.plot(scene, result, ax=Figure().add_subplot())
+    coloured = ax.findobj(lambda a: (a.get_gid() or "").startswith("flexure:"))
+    assert len(coloured) == 2
+    (bar,) = [c.colorbar for c in coloured if c.colorbar is not None]  # one for all
+    assert ("stress" if with_stress else "curvature") in bar.ax.get_ylabel()
+    assert bar.vmax == pytest.approx(630e6 if with_stress else 90.0)
+    (marker,) = ax.findobj(lambda a: a.get_gid() == "peak")
+    x, y = marker.get_xdata()[0], marker.get_ydata()[0]
+    # the marker lies on the distal flexure, a quarter of its length from its root
+    (distal,) = [c for c in coloured if c.get_gid() == "flexure:distal"]
+    segments = distal.get_segments()
+    path = np.vstack([segments[0][:1]] + [seg[1:] for seg in segments])
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+    i = int(np.argmin(np.hypot(path[:, 0] - x, path[:, 1] - y)))
+    assert math.hypot(path[i, 0] - x, path[i, 1] - y) < 0.02 * s[-1]
+    assert s[i] / s[-1] == pytest.approx(0.25, abs=0.05)
+    label = "6.3e+08" if with_stress else "90"
+    assert any(label in t.get_text() and "distal" in t.get_text() for t in ax.texts)
+
+
+# ---- the forgotten `at` ------------------------------------------------------------------------
+
+
+def _thirty_mm_links(distal_at: list[float] | None) -> dict:
+    """Two 20 mm flexures joined by links whose points reach 30 mm; ``distal_at`` None leaves
+    the distal flexure's ``at`` out (it then starts at the middle link's origin)."""
+    distal = {"name": "distal", "parent": "middle", "length": 0.020, "EI": 2.5e-5}
+    if distal_at is not None:
+        distal["at"] = distal_at
+    return {
+        "name": "30 mm links",
+        "flexure": [
+            {"name": "proximal", "length": 0.020, "EI": 2.5e-5},
+            distal,
+        ],
+        "link": [
+            {"name": "middle", "parent": "proximal", "points": {"joint": [0.030, 0.0]}},
+            {"name": "tip", "parent": "distal", "points": {"end": [0.030, 0.0]}},
+        ],
+        "load": [{"point": "tip.end", "force": [0.0, -0.001]}],
+    }
+
+
+def test_forgotten_at_is_a_note_on_the_result():
+    result = flexgen.solve(_thirty_mm_links(None))
+    assert result.converged
+    (note,) = [n for n in result.notes if "starts at the origin" in n]
+    assert "'distal'" in note and "'middle'" in note and "at = [" in note and "0.03" in note
+    fixed = flexgen.solve(_thirty_mm_links([0.030, 0.0, 0.0]))
+    assert not [n for n in fixed.notes if "starts at the origin" in n]
+    # the forgotten at changes the mechanism: the tip is 30 mm nearer the base
+    assert result.points["tip.end"].pose[0] < fixed.points["tip.end"].pose[0] - 0.02
+
+
+def test_no_note_for_the_examples_or_a_short_pad():
+    for path in EXAMPLES:
+        assert scene_notes(flexgen.load_scene(path)) == [], path.name
+    short = _thirty_mm_links(None)
+    short["link"][0]["points"] = {"pad": [0.004, -0.003]}  # a pad near the joint: a design
+    assert scene_notes(flexgen.scene_from_dict(short)) == []
+
+
+def test_exact_result_note_and_drawing():
+    result = flexgen.solve(_thirty_mm_links(None), model="exact")
+    assert [n for n in result.notes if "starts at the origin" in n]
+    arc = EX / "arc_moment.toml"
+    exact = flexgen.solve(arc, model="exact")
+    ax = flexgen.plot(arc, exact, ax=Figure().add_subplot())
+    (beam,) = ax.findobj(lambda a: a.get_gid() == "flexure:beam")
+    tip = beam.get_segments()[-1][-1]  # the coloured centreline's last point
+    assert tip == pytest.approx(exact.points["beam.tip"].pose[:2], abs=1e-6)
+
+
+def test_axis_labels_state_the_length_unit_when_the_scene_has_units():
+    d = _thirty_mm_links([0.030, 0.0, 0.0])
+    ax = flexgen.plot(d, ax=Figure().add_subplot())
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x", "y")
+    d["units"] = {"length": "mm", "force": "N"}  # plain numbers, read in mm and N
+    ax = flexgen.plot(d, ax=Figure().add_subplot())
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x [mm]", "y [mm]")
