@@ -16,31 +16,39 @@ from typing import Any
 
 import numpy as np
 
-from .drawing import _save, _text
+from .drawing import _save, _text, _with_unit
 
 BAND = (5.0, 95.0)  # the percentile band of a Monte-Carlo histogram
 
 
-def outputs(df: Any) -> list[tuple[str, str]]:
+def outputs(df: Any, units: Any = None) -> list[tuple[str, str]]:
     """(column, label) of the outputs drawn: the last output point's ellipse axes and pose, and
-    the largest flexure stress ("max stress", added by ``draw_study``) when any is known."""
+    the largest flexure stress ("max stress", added by ``draw_study``) when any is known.
+    Labels carry the scene's units (``Scene.units``; none for plain numbers)."""
+
+    def unit(name: str, quantity: str) -> str:
+        return _with_unit(name, units.label(quantity) if units is not None else "")
+
     points = [c[: -len(".major")] for c in df.columns if c.endswith(".major")]
     out: list[tuple[str, str]] = []
     if points:
         p = points[-1]
         out += [
-            (f"{p}.major", f"{p} compliance major (m/N)"),
-            (f"{p}.minor", f"{p} compliance minor (m/N)"),
-            (f"{p}.x", f"{p} x (m)"),
-            (f"{p}.y", f"{p} y (m)"),
+            (f"{p}.major", unit(f"{p} compliance major", "compliance")),
+            (f"{p}.minor", unit(f"{p} compliance minor", "compliance")),
+            (f"{p}.x", unit(f"{p} x", "length")),
+            (f"{p}.y", unit(f"{p} y", "length")),
         ]
     if "max stress" in df.columns and df["max stress"].notna().any():
-        out.append(("max stress", "largest flexure stress (Pa)"))
+        out.append(("max stress", unit("largest flexure stress", "stress")))
     return out
 
 
-def draw_study(df: Any, keys: list[str], monte_carlo: bool, path: str | Path) -> Path:
-    """Draw the study ``df`` (flexgen.sweep's table; ``keys`` its varied keys) into ``path``."""
+def draw_study(
+    df: Any, keys: list[str], monte_carlo: bool, path: str | Path, units: Any = None
+) -> Path:
+    """Draw the study ``df`` (flexgen.sweep's table; ``keys`` its varied keys) into ``path``
+    (.png, .svg or .pdf); ``units``: the scene's (``Scene.units``) for the labels."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -49,7 +57,7 @@ def draw_study(df: Any, keys: list[str], monte_carlo: bool, path: str | Path) ->
     stresses = [c for c in df.columns if c.endswith(".max_stress")]
     if stresses:
         df = df.assign(**{"max stress": df[stresses].max(axis=1)})
-    shown = outputs(df)
+    shown = outputs(df, units)
     ncols = 2 if len(shown) == 4 else min(len(shown), 3)
     nrows = -(-len(shown) // ncols)
     fig = Figure(figsize=(5.0 * ncols, 4.0 * nrows), layout="constrained")

@@ -433,6 +433,23 @@ def test_cli_plot_renders(tmp_path, vary):
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and plot.stat().st_size > 10_000
 
 
+def test_plot_labels_carry_the_scenes_units():
+    from flexgen.sweep_plot import outputs
+
+    scene = flexgen.scene_from_dict(
+        {
+            "units": {"length": "mm", "force": "N"},
+            "flexure": [{"name": "beam", "length": "20 mm", "EI": "1e4 N*mm^2"}],
+            "load": [{"point": "beam.tip", "force": [0.0, -1.0]}],
+        }
+    )
+    df = flexgen.sweep(scene, {"load.0.force.1": [-1.0, -2.0]}, workers=1)
+    labels = dict(outputs(df, scene.units))
+    assert labels["beam.tip.x"] == "beam.tip x [mm]"
+    assert labels["beam.tip.major"] == "beam.tip compliance major [mm/N]"
+    assert dict(outputs(df))["beam.tip.x"] == "beam.tip x"  # plain numbers: no unit named
+
+
 @pytest.mark.parametrize(
     "args, message",
     [

@@ -204,7 +204,7 @@ def run(args) -> int:
         if plot is not None:
             from flexgen.sweep_plot import draw_study
 
-            draw_study(df, list(vary), args.samples is not None, plot)
+            draw_study(df, list(vary), args.samples is not None, plot, scene.units)
     except OSError as exc:  # e.g. a full disk: the temporary file is gone, the target untouched
         where = printable(str(exc.filename or out))
         print(f"flexgen: cannot write {where}: {exc.strerror or exc}", file=sys.stderr)
