@@ -1,7 +1,7 @@
 # flexgen: `make setup demo` sets up and runs the demo; `make test` runs the tests.
 PYTHON ?= python3
 
-.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver bench-chain bench-controller demo drawings
+.PHONY: setup lint test regen check-generated bench bench-kernels bench-growth bench-models bench-solver bench-chain bench-controller bench-sweep demo drawings
 
 # Installs flexgen editable with its test and lint tools; builds the compiled core (flexgen._core)
 # from flexgen/compiled and generated/c. Run it again after editing any C source.
@@ -44,6 +44,11 @@ bench-solver:
 # time per solve of a chain of n = 1..32 flexures, and the evaluations per solve
 bench-chain:
 	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/chain_scaling.py --out docs/chain-scaling.md
+
+# wall time of design studies through flexgen.sweep (10^4 load cases, a 20 x 20 x 10 design grid);
+# prints the table of docs/sweep.md, "Speed" (one run, about 15 s)
+bench-sweep:
+	OPENBLAS_NUM_THREADS=1 $(PYTHON) benchmarks/sweep.py
 
 # time per solve of flexgen's controller against an expert's CasADi Newton solve (issue 9; needs
 # casadi, the `bench` extra, installed here), the answers checked against flexgen.solve first

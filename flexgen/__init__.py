@@ -6,10 +6,13 @@ Public API::
     flexgen.solve(scene_or_path, model=None, modes=None, elements=None, **options) -> Result
     flexgen.Solver(scene_or_path, ...) -> a prepared solver: .solve(loads=..., tensions=...)
     flexgen.SolverSettings(...)       every solver default and tuning constant (frozen)
+    flexgen.sweep(scene_or_path, vary={...}, samples=None, seed=None, workers=None, client=None)
+                                      -> a pandas DataFrame, one row per case (docs/sweep.md)
+    Scene.with_value(path, value) -> Scene   one value changed by its dotted path
     flexgen.generate(modes, kernel="poly", ...) -> {relative path: text}   (needs SymPy)
     flexgen.plot(scene_or_path, result=None, ax=None) -> matplotlib Axes  (needs matplotlib)
 
-See docs/solve.md and docs/scene.md.
+See docs/solve.md, docs/scene.md and docs/sweep.md.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from .api import prepare as Solver
 from .api import solve
 from .scene import SceneError, load_scene, scene_from_dict
 from .settings import SolverSettings
+from .sweep import sweep
 
 try:
     __version__ = version("flexgen")
@@ -63,6 +67,7 @@ __all__ = [
     "solve",
     "Solver",
     "SolverSettings",
+    "sweep",
     "generate",
     "plot",
     "SceneError",

@@ -19,7 +19,7 @@ from flexgen.codegen.spec import SpecError
 from flexgen.commands.common import UsageError
 
 # subcommand modules under flexgen/commands/, in the order `flexgen --help` lists them
-COMMANDS = ("generate", "solve", "plot", "select", "bench", "stability")
+COMMANDS = ("generate", "solve", "plot", "select", "sweep", "bench", "stability")
 
 # exceptions whose message is a complete one-line answer to the user (exit 2)
 USER_ERRORS: tuple[type[Exception], ...] = (UsageError, SpecError, OutputError)

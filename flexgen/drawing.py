@@ -54,33 +54,39 @@ class PlotError(ValueError):
     """A plot that cannot be drawn or written where asked: one line naming why."""
 
 
-def check_output(path: str | os.PathLike[str]) -> Path:
-    """The plot path if a plot may be written there: a .png, .svg or .pdf name whose folder exists
-    (or can be created) and that is not an existing folder, symbolic link, FIFO or other
-    non-regular file. PlotError otherwise; nothing is written."""
+def check_output(
+    path: str | os.PathLike[str], suffixes: tuple[str, ...] = SUFFIXES, option: str = "-o"
+) -> Path:
+    """The plot path if a plot may be written there: a .png, .svg or .pdf name (or one of
+    ``suffixes``: `flexgen sweep --out` checks its table the same way) whose folder exists (or
+    can be created) and that is not an existing folder, symbolic link, FIFO or other non-regular
+    file. PlotError naming ``option`` otherwise; nothing is written."""
     path = Path(path)
-    if path.suffix.lower() not in SUFFIXES:
-        raise PlotError(f"-o: the plot file must end in .png, .svg or .pdf, got {str(path)!r}")
+    if path.suffix.lower() not in suffixes:
+        ends = " or ".join(
+            [", ".join(suffixes[:-1]), suffixes[-1]] if len(suffixes) > 1 else suffixes
+        )
+        raise PlotError(f"{option}: the file must end in {ends}, got {str(path)!r}")
     try:
         info = os.lstat(path)
     except FileNotFoundError:
         info = None
     except OSError as e:
-        raise PlotError(f"-o: cannot write {str(path)!r}: {e.strerror or e}") from None
+        raise PlotError(f"{option}: cannot write {str(path)!r}: {e.strerror or e}") from None
     if info is not None:
         if stat.S_ISLNK(info.st_mode):
-            raise PlotError(f"-o: {str(path)!r} is a symbolic link; give the file itself")
+            raise PlotError(f"{option}: {str(path)!r} is a symbolic link; give the file itself")
         if stat.S_ISDIR(info.st_mode):
-            raise PlotError(f"-o: {str(path)!r} is a folder")
+            raise PlotError(f"{option}: {str(path)!r} is a folder")
         if not stat.S_ISREG(info.st_mode):
-            raise PlotError(f"-o: {str(path)!r} is not a regular file")
+            raise PlotError(f"{option}: {str(path)!r} is not a regular file")
     probe = path.parent
     while not probe.exists() and probe != probe.parent:
         probe = probe.parent
     if not probe.is_dir():
-        raise PlotError(f"-o: cannot write {str(path)!r}: {str(probe)!r} is not a folder")
+        raise PlotError(f"{option}: cannot write {str(path)!r}: {str(probe)!r} is not a folder")
     if not os.access(probe, os.W_OK | os.X_OK):
-        raise PlotError(f"-o: cannot write {str(path)!r}: {str(probe)!r} is not writable")
+        raise PlotError(f"{option}: cannot write {str(path)!r}: {str(probe)!r} is not writable")
     return path
 
 

@@ -46,6 +46,18 @@ LINK_KEYS = ("name", "parent", "points")
 LOAD_KEYS = ("point", "force", "moment")
 TENDON_KEYS = ("tension", "route")
 OUTPUT_KEYS = ("points",)
+# the keys each kind of table may have, for paths into a scene (flexgen/scenepath.py)
+TABLE_KEYS = {
+    "": TOP_KEYS,
+    "model": MODEL_KEYS + STRENGTH_KEYS,
+    "base": BASE_KEYS,
+    "flexure": FLEXURE_KEYS,
+    "flexure.model": MODEL_KEYS + STRENGTH_KEYS,
+    "link": LINK_KEYS,
+    "load": LOAD_KEYS,
+    "tendon": TENDON_KEYS,
+    "output": OUTPUT_KEYS,
+}
 
 # Limits that keep a scene's memory and time bounded (docs/scene.md, "Limits"), checked before
 # any work: a solve at the limits takes seconds, not minutes.
@@ -125,6 +137,10 @@ class Scene:
     # The units of every number above and of the answers (flexgen/units.py); None: the scene
     # gave none (plain numbers in any consistent set)
     units: Units | None = None
+    # The mapping this scene was validated from (deep-frozen; flexgen/scenepath.py), so that
+    # ``with_value`` re-validates a changed copy with the same rules and derived values. None for
+    # a Scene built by hand.
+    source: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
 
     # -- lookups (built lazily; the dataclass fields stay the single source of truth) ---------
 
@@ -158,6 +174,56 @@ class Scene:
             "order": order,
             "children": {k: tuple(v) for k, v in children.items()},
         }
+
+    def with_value(self, path: str, value: Any) -> Scene:
+        """A new validated Scene with the value at the dotted ``path`` (``"flexure.proximal.
+        thickness"``, ``"flexure.0.length"``, ``"load.0.force.1"``, ``"tendon.0.tension"``,
+        ``"model.modes"``; flexgen/scenepath.py) replaced: the scene's source re-validated by
+        ``scene_from_dict``, so derived values and every check are the scene's own. A one-line
+        SceneError naming the path otherwise."""
+        return self.with_values({path: value})
+
+    def with_values(self, values: Mapping[str, Any]) -> Scene:
+        """``with_value`` for several paths at once (one validation)."""
+        from .scenepath import PathError, set_value
+
+        root = self.editable_source()
+        try:
+            for path, value in values.items():
+                set_value(root, path, value, TABLE_KEYS)
+        except PathError as exc:
+            raise SceneError(str(exc)) from None
+        try:
+            return scene_from_dict(root, order=self._kinds_in_order(), default_name=self.name)
+        except SceneError as exc:
+            raise SceneError(f"{', '.join(values)}: {exc}") from None
+
+    def editable_source(self) -> dict[str, Any]:
+        """A mutable copy of the mapping this scene was read from; SceneError when it has none or
+        it no longer describes the scene (changed with dataclasses.replace after it was read)."""
+        from .scenepath import thaw
+
+        if self.source is None:
+            raise SceneError(
+                "with_value: this Scene was built without its source; read it with "
+                "flexgen.load_scene or flexgen.scene_from_dict"
+            )
+        if "_source_matches" not in self.__dict__:  # once per Scene object (it is immutable)
+            again = scene_from_dict(
+                thaw(self.source), order=self._kinds_in_order(), default_name=self.name
+            )
+            object.__setattr__(self, "_source_matches", again == self)
+        if not self.__dict__["_source_matches"]:
+            raise SceneError(
+                "with_value: this Scene was changed after it was read (dataclasses.replace or a "
+                "model override), so its source no longer describes it; change the source instead"
+            )
+        return thaw(self.source)
+
+    def _kinds_in_order(self) -> list[str]:
+        """scene_from_dict's ``order=`` ("flexure"/"link" in file order) of this scene."""
+        kinds = {f.name: "flexure" for f in self.flexures} | {lk.name: "link" for lk in self.links}
+        return [kinds[n] for n in self.declaration_order or tuple(kinds)]
 
     def _known(self, name: str) -> None:
         if name not in self._index["kinds"]:
@@ -342,8 +408,11 @@ def scene_from_dict(
         plain, units = normalise(d, MAX_MAGNITUDE)
     except UnitsError as e:
         raise SceneError(str(e)) from None
+    from .scenepath import freeze
+
     scene = _Parser(plain, order, default_name).scene
-    return scene if units is None else replace(scene, units=units)
+    # the source as given (units and all): with_value re-reads it through this function
+    return replace(scene, units=units, source=freeze(d))
 
 
 # -- validation helpers ----------------------------------------------------------------------

@@ -1,0 +1,253 @@
+"""`flexgen sweep SCENE --vary KEY=START:STOP:COUNT ...`: a design study (flexgen/sweep.py).
+
+Exit codes: 0 the study ran (cases without an equilibrium are rows with their reason); 1 the
+work failed (a scheduler that cannot be reached, a full disk: nothing is left behind); 2 bad
+input: an unknown key, COUNT < 1, a value the scene refuses, an output that cannot be written,
+Parquet without pyarrow, --scheduler without dask (all checked before anything is solved).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from flexgen.commands.common import UsageError, integer, printable
+from flexgen.sweep_plan import DISTRIBUTIONS, plan
+
+TABLES = (".parquet", ".csv")
+EXAMPLE = """\
+examples:
+  flexgen sweep examples/two_link_finger.toml \\
+      --vary tendon.0.tension=0:10:11 --vary load.0.force.1=0:-1:5 --out finger.parquet
+  flexgen sweep examples/two_link_finger.toml --samples 1000 --seed 1 \\
+      --vary flexure.proximal.thickness=normal:0.25e-3:0.01e-3 --plot tolerance.png
+
+KEY is a dotted path into the scene by names and indices: flexure.proximal.thickness,
+flexure.0.length, load.0.force.1 (the y force of the first [[load]]), load.0.moment,
+tendon.0.tension, model.modes, link.middle.points.pad.0. One row per case; columns in
+docs/sweep.md."""
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "sweep",
+        help="a design study: a grid or Monte-Carlo sample of a scene's values, one row per case",
+        description=(
+            "Solve a scene for every case of a study: several --vary KEY=START:STOP:COUNT make "
+            "a full factorial grid (rows in the order of the keys, the first slowest); with "
+            "--samples N, --vary KEY=normal:MEAN:SD or KEY=uniform:LOW:HIGH draw N Monte-Carlo "
+            "cases (--seed makes them reproducible). Prints the table as CSV, or writes it with "
+            "--out; progress on stderr."
+        ),
+        epilog=EXAMPLE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("scene", metavar="SCENE", help="scene file (TOML; see docs/scene.md)")
+    p.add_argument(
+        "--vary",
+        action="append",
+        required=True,
+        metavar="KEY=SPEC",
+        help="a varied key: KEY=START:STOP:COUNT (COUNT values from START to STOP), or with "
+        "--samples KEY=normal:MEAN:SD or KEY=uniform:LOW:HIGH; repeat for more keys",
+    )
+    p.add_argument("--samples", type=integer(1), metavar="N", help="Monte-Carlo: N cases")
+    p.add_argument("--seed", type=integer(0), metavar="S", help="Monte-Carlo: the random seed")
+    p.add_argument(
+        "--out",
+        type=Path,
+        metavar="FILE",
+        help="write the table to FILE.parquet (needs pyarrow) or FILE.csv (default: CSV on stdout)",
+    )
+    p.add_argument(
+        "--plot",
+        type=Path,
+        metavar="FILE",
+        help="draw the study (.png, .svg or .pdf): outputs against one key, heatmaps for two, "
+        "histograms for Monte-Carlo",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on a Dask cluster (tcp://host:8786; needs pip install 'flexgen[cluster]')",
+    )
+    p.add_argument(
+        "--workers",
+        type=integer(1),
+        metavar="N",
+        help="processes on this machine (default: every core; small studies run in one)",
+    )
+    p.add_argument(
+        "--no-estimate",
+        dest="estimate",
+        action="store_false",
+        help="skip the error estimate (its column is empty; about twice as fast)",
+    )
+    p.add_argument(
+        "--no-stress",
+        dest="stress",
+        action="store_false",
+        help="skip the flexures' stress and safety factor (their columns are empty; the "
+        "stress costs about four times the solve)",
+    )
+    p.set_defaults(run=run)
+
+
+def parse_vary(items: list[str], monte_carlo: bool) -> dict[str, Any]:
+    """``--vary`` texts as flexgen.sweep's ``vary``; UsageError naming the key otherwise."""
+    vary: dict[str, Any] = {}
+    for item in items:
+        key, sep, spec = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise UsageError(f"--vary: expected KEY=START:STOP:COUNT, got {item!r}")
+        if key in vary:
+            raise UsageError(f"--vary {key}: given twice")
+        parts = spec.split(":")
+        if len(parts) != 3:
+            raise UsageError(
+                f"--vary {key}: expected START:STOP:COUNT, normal:MEAN:SD or uniform:LOW:HIGH, "
+                f"got {spec!r}"
+            )
+        head = parts[0].strip()
+        if head.isalpha() and head not in DISTRIBUTIONS:
+            raise UsageError(
+                f"--vary {key}: {head!r} is neither a number nor a distribution "
+                f"({', '.join(DISTRIBUTIONS)})"
+            )
+        if head in DISTRIBUTIONS:
+            if not monte_carlo:
+                raise UsageError(f"--vary {key}: a distribution ({head}) needs --samples N")
+            vary[key] = (head, _float(key, parts[1]), _float(key, parts[2]))
+            continue
+        if monte_carlo:
+            raise UsageError(
+                f"--vary {key}: with --samples, give normal:MEAN:SD or uniform:LOW:HIGH"
+            )
+        try:
+            count = int(parts[2])
+        except ValueError:
+            raise UsageError(f"--vary {key}: COUNT must be an integer, got {parts[2]!r}") from None
+        if count < 1:
+            raise UsageError(f"--vary {key}: COUNT must be >= 1, got {count}")
+        vary[key] = (_float(key, parts[0]), _float(key, parts[1]), count)
+    return vary
+
+
+def _float(key: str, text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise UsageError(f"--vary {key}: expected a number, got {text!r}") from None
+
+
+def run(args) -> int:
+    from flexgen.drawing import PlotError, check_output
+
+    out, plot = args.out, args.plot
+    try:  # every output problem before the solve: nothing is solved for a file not written
+        if out is not None:
+            check_output(out, TABLES, "--out")
+        if plot is not None:
+            check_output(plot, option="--plot")
+    except PlotError as exc:
+        raise UsageError(str(exc)) from None
+    if out is not None and out.suffix.lower() == ".parquet" and not _has("pyarrow"):
+        raise UsageError("--out: writing Parquet needs pyarrow: pip install 'flexgen[parquet]'")
+    if plot is not None and not _has("matplotlib"):
+        raise UsageError("--plot needs matplotlib: pip install 'flexgen[plot]'")
+    if args.seed is not None and args.samples is None:
+        raise UsageError("--seed: only with --samples N (a grid draws nothing)")
+    vary = parse_vary(args.vary, args.samples is not None)
+
+    from flexgen.scene import load_scene
+    from flexgen.sweep import sweep
+
+    scene = load_scene(args.scene)
+    plan(scene, vary, args.samples, args.seed)  # bad keys and values: exit 2 before a client
+    try:
+        client = _client(args.scheduler) if args.scheduler else None
+    except SchedulerError as exc:
+        print(f"flexgen: {printable(str(exc))}", file=sys.stderr)
+        return 1
+    start = time.perf_counter()
+    try:
+        df = sweep(
+            scene,
+            vary,
+            samples=args.samples,
+            seed=args.seed,
+            workers=args.workers,
+            client=client,
+            progress=True,
+            estimate=args.estimate,
+            stress=args.stress,
+        )
+    finally:
+        if client is not None:
+            client.close()
+    failed = int((~df["converged"]).sum())
+    print(
+        f"sweep: {len(df)} cases, {failed} without an equilibrium, "
+        f"{time.perf_counter() - start:.1f} s",
+        file=sys.stderr,
+    )
+    try:
+        if out is not None:
+            _write_table(df, out)
+        if plot is not None:
+            from flexgen.sweep_plot import draw_study
+
+            draw_study(df, list(vary), args.samples is not None, plot, scene.units)
+    except OSError as exc:  # e.g. a full disk: the temporary file is gone, the target untouched
+        where = printable(str(exc.filename or out))
+        print(f"flexgen: cannot write {where}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
+    if out is None:
+        df.to_csv(sys.stdout, index=False)
+    else:
+        print(printable(str(out)))
+    return 0
+
+
+def _has(module: str) -> bool:
+    return importlib.util.find_spec(module) is not None
+
+
+def _client(address: str) -> Any:
+    """A dask.distributed Client of the scheduler at ``address``."""
+    if not _has("distributed"):
+        raise UsageError("--scheduler needs dask.distributed: pip install 'flexgen[cluster]'")
+    from distributed import Client
+
+    try:
+        return Client(address, timeout="10s")
+    except (OSError, TimeoutError) as exc:
+        raise SchedulerError(f"--scheduler: cannot reach {address!r}: {exc}") from None
+
+
+class SchedulerError(Exception):
+    """The scheduler given could not be reached (exit 1: the input may be right)."""
+
+
+def _write_table(df: Any, path: Path) -> None:
+    """``df`` into ``path`` by its suffix: a temporary file in the same folder, then a rename
+    (removed again if anything fails)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        if path.suffix.lower() == ".parquet":
+            df.to_parquet(tmp, index=False)
+        else:
+            df.to_csv(tmp, index=False)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

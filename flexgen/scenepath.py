@@ -1,0 +1,159 @@
+"""Dotted paths into a scene's source mapping: find or replace one value by names and indices.
+
+A path walks the scene's TOML structure, one segment per table key or array index::
+
+    name                          the scene's name
+    model.modes                   a [model] key (kind, modes, elements, kernel, tolerance)
+    base.points.r0.1              the y of the base point r0
+    flexure.proximal.thickness    a [[flexure]] key, the flexure by name ...
+    flexure.0.length              ... or by its index among the [[flexure]] tables
+    flexure.proximal.at.2         one entry of a list
+    link.middle.points.pad.0      a link's point (links by name or index)
+    load.0.force.1                a [[load]] key (loads and tendons by index)
+    tendon.0.tension
+
+This module knows the structure only (plain mappings and lists; which keys each kind of table may
+have is passed in by flexgen/scene.py, whose ``Scene.with_value`` re-validates the changed
+mapping): it sits below the scene and imports nothing of flexgen. A key a table may have but
+does not give is added (``model.modes`` when [model] gives none); a key it may not have, or a
+name or index that does not exist, is a ``PathError`` naming the path and listing what exists.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from types import MappingProxyType
+from typing import Any
+
+ARRAYS = ("flexure", "link", "load", "tendon")  # [[...]] arrays of tables
+NAMED = ("flexure", "link")  # arrays whose tables are also found by their name
+INTEGER_KEYS = ("modes", "elements")  # a sweep's 3.0 means 3 here
+MODEL_KEY_TABLE = "flexure.model"  # a flexure's own `model = {...}` sub-table
+
+
+class PathError(ValueError):
+    """A path that names no value of the scene; one line naming the path."""
+
+
+def freeze(d: Any) -> Any:
+    """A deep, read-only copy of a TOML-like structure (mappings and lists); what a Scene keeps
+    as its ``source``, so that nobody changes it behind the Scene's back."""
+    if isinstance(d, Mapping):
+        return MappingProxyType({k: freeze(v) for k, v in d.items()})
+    if isinstance(d, (list, tuple)):
+        return tuple(freeze(v) for v in d)
+    return d
+
+
+def thaw(d: Any) -> Any:
+    """The mutable copy of a frozen source that ``scene_from_dict`` reads (dicts and lists)."""
+    if isinstance(d, Mapping):
+        return {k: thaw(v) for k, v in d.items()}
+    if isinstance(d, tuple):
+        return [thaw(v) for v in d]
+    return d
+
+
+def _names(names: Sequence[Any], limit: int = 12) -> str:
+    shown = ", ".join(str(n) for n in names[:limit])
+    more = f", ... ({len(names) - limit} more)" if len(names) > limit else ""
+    return (shown + more) or "none"
+
+
+def _short(v: Any) -> str:
+    s = repr(v)
+    return s if len(s) <= 60 else s[:57] + "..."
+
+
+def _segments(path: Any) -> list[str]:
+    if not isinstance(path, str) or not path or any(not s for s in path.split(".")):
+        raise PathError(f"scene path must be keys joined by dots, got {_short(path)}")
+    return path.split(".")
+
+
+def _index(seg: str, items: Sequence[Any], path: str, what: str) -> int:
+    """The index of ``seg`` (a decimal index, or a table's name where allowed) in ``items``."""
+    if seg.isdigit():
+        i = int(seg)
+        if i < len(items):
+            return i
+        raise PathError(f"{path}: no {what} {i} (the scene has {len(items)})")
+    if what in NAMED:
+        names = [t.get("name") if isinstance(t, Mapping) else None for t in items]
+        if seg in names:
+            return names.index(seg)
+        raise PathError(f"{path}: unknown {what} {seg!r} (known: {_names(names)})")
+    raise PathError(f"{path}: a {what} is given by its index (0 to {len(items) - 1}), got {seg!r}")
+
+
+def walk(
+    root: dict[str, Any], path: str, tables: Mapping[str, Sequence[str]]
+) -> tuple[dict[str, Any] | list[Any], str | int]:
+    """(container, key or index) of the value ``path`` names in the mutable source ``root``;
+    ``tables`` gives the keys each kind of table may have ("" the top level, "model",
+    "flexure", "flexure.model", ...). Missing tables on the way are created (an absent [model]
+    for ``model.modes``)."""
+    segs = _segments(path)
+    node: Any = root
+    key: Any
+    kind: str | None = ""  # the kind of table `node` is ("" top level; None: points, vectors)
+    i = 0
+    while True:
+        seg, where = segs[i], ".".join(segs[:i]) or "the scene"
+        if isinstance(node, list):
+            if not seg.isdigit() or int(seg) >= len(node):
+                raise PathError(
+                    f"{path}: {where} has no index {seg!r} (it has {len(node)} entries)"
+                )
+            key = int(seg)
+        elif isinstance(node, dict):
+            allowed = tables.get(kind) if kind is not None else None
+            if seg not in node and (allowed is None or seg not in allowed):
+                known = list(allowed if allowed is not None else node)
+                raise PathError(f"{path}: {where} has no key {seg!r} (known: {_names(known)})")
+            key = seg
+        else:
+            raise PathError(f"{path}: {where} is a value ({_short(node)}), not a table or a list")
+        if i == len(segs) - 1:
+            return node, key
+        if kind == "" and seg in ARRAYS:  # [[flexure]] etc.: the next segment picks one table
+            items = node.get(seg)
+            items = items if isinstance(items, list) else []
+            node = items[_index(segs[i + 1], items, path, seg)]
+            kind, i = seg, i + 2
+            if i == len(segs):
+                raise PathError(f"{path}: names a whole [[{seg}]] table; give one of its keys")
+            continue
+        child = node[key] if isinstance(node, list) else node.get(key)
+        if child is None:  # only a mapping's key may be missing
+            child = node[key] = {}
+        if kind == "" and seg in tables:
+            kind = seg
+        elif kind == "flexure" and seg == "model":
+            kind = MODEL_KEY_TABLE
+        else:
+            kind = None
+        node, i = child, i + 1
+
+
+def plain(value: Any, key: Any) -> Any:
+    """A NumPy scalar as the Python number TOML would give; an integral float as an int for the
+    integer keys (a linspace of modes gives 3.0)."""
+    if hasattr(value, "item") and not isinstance(value, (list, tuple, dict)):
+        value = value.item()
+    if key in INTEGER_KEYS and isinstance(value, float) and value.is_integer():
+        value = int(value)
+    return value
+
+
+def set_value(
+    root: dict[str, Any], path: str, value: Any, tables: Mapping[str, Sequence[str]]
+) -> None:
+    """Replace (or add) the value at ``path`` in the mutable source ``root``."""
+    container, key = walk(root, path, tables)
+    # a model key of a flexure given in its own `model = {...}` sub-table is changed there
+    if isinstance(container, dict) and key in tables.get(MODEL_KEY_TABLE, ()):
+        sub = container.get("model")
+        if key not in container and isinstance(sub, dict) and key in sub:
+            container = sub
+    container[key] = plain(value, key)  # type: ignore[index]
