@@ -103,6 +103,31 @@ def section_stress(flexure: Flexure, s: np.ndarray, kappa: np.ndarray) -> Flexur
     )
 
 
+def max_abs_curvature(model: Any, q: Any) -> float:
+    """The model's largest |kappa| at q: its own ``max_abs_curvature`` when it has one (smooth
+    curvature: closed form), else the largest on its ``curvature_extremes``."""
+    own = getattr(model, "max_abs_curvature", None)
+    if own is not None:
+        return float(own(q))
+    q = np.asarray(q, dtype=float)
+    return float(np.max(np.abs(model.curvature(q, model.curvature_extremes(q)))))
+
+
+def peak_stress(flexure: Flexure, model: Any, q: Any) -> tuple[float | None, float | None]:
+    """(max |stress|, safety factor) of one flexure at q, without the profiles: what a study
+    records per case (None where ``FlexureStress`` has None). The model must give
+    ``curvature_extremes`` or ``max_abs_curvature`` (every chain model does but prb, whose
+    curvature is constant: its value anywhere)."""
+    if flexure.E is None or flexure.thickness is None:
+        return None, None
+    if hasattr(model, "max_abs_curvature") or hasattr(model, "curvature_extremes"):
+        kappa = max_abs_curvature(model, q)
+    else:
+        kappa = float(np.max(np.abs(model.curvature(np.asarray(q, dtype=float), [0.0]))))
+    stress = flexure.E * kappa * 0.5 * flexure.thickness
+    return stress, safety_factor(flexure, stress)[0]
+
+
 def strengths(flexure: Flexure) -> dict[str, float]:
     """The strengths the scene gave this flexure, by name ("yield", "fatigue")."""
     given = {"yield": flexure.yield_strength, "fatigue": flexure.fatigue_strength}

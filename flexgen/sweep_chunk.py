@@ -31,7 +31,7 @@ from .reasons import failure_reason
 from .scene import Scene, SceneError, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver
-from .stress import DEFAULT_SAMPLES, flexure_stresses
+from .stress import peak_stress
 
 POINT_FIELDS = ("x", "y", "angle", "major", "minor", "ellipse_angle", "error_estimate")
 FLEXURE_FIELDS = ("max_stress", "safety_factor")
@@ -178,17 +178,14 @@ def _has_section(solver: Solver) -> bool:
 
 def stress_columns(solver: Solver, q: Any) -> list[float]:
     """max_stress, safety_factor per flexure (scene order) of the answer ``q`` (the workspace's
-    packed coordinates): ``flexure_stresses`` of the scene, models and q, the call that gives
-    ``Result.flexures`` (NaN for None: no section, no strength)."""
-    models = solver.models
-    # the largest stress is at one of a model's curvature_extremes (flexgen/stress.py), so the
-    # profile's grid adds nothing to it: two samples (the ends) when every model has them
-    exact = all(hasattr(m, "curvature_extremes") for m in models.values())
-    qs = {n: q[sl] for n, sl in solver.problem.chain.slices.items()}
-    stresses = flexure_stresses(solver.scene, models, qs, num=2 if exact else DEFAULT_SAMPLES)
+    packed coordinates): ``stress.peak_stress``, the maximum ``Result.flexures`` reports,
+    without its profiles (NaN for None: no section, no strength)."""
+    values = q.tolist()
+    slices = solver.problem.chain.slices
     out: list[float] = []
     for f in solver.scene.flexures:
-        st = stresses.get(f.name)
-        for value in (getattr(st, "max_stress", None), getattr(st, "safety_factor", None)):
-            out.append(math.nan if value is None else float(value))
+        model = solver.models[f.name]
+        stress, safety = peak_stress(f, model, values[slices[f.name]])
+        out.append(math.nan if stress is None else stress)
+        out.append(math.nan if safety is None else safety)
     return out

@@ -149,6 +149,22 @@ class SCMModel:
         sigma = np.asarray(s, dtype=float) / self.length
         return legendre.legval(2.0 * sigma - 1.0, np.asarray(q, dtype=float)) / self.length
 
+    def max_abs_curvature(self, q) -> float:
+        """max |kappa| over the flexure (1/length), on the polynomial as ``curvature_extremes``
+        finds it; for up to three modes in closed form with plain floats (a study asks for it
+        once per case: the root finder's eigenvalue call would cost more than the solve)."""
+        if len(q) > 3:
+            return float(np.max(np.abs(self.curvature(q, self.curvature_extremes(q)))))
+        q0, q1, q2 = (*(float(v) for v in q), 0.0, 0.0)[:3]
+        # kappa L = q0 + q1 x + q2 (3 x^2 - 1) / 2 on x in [-1, 1]: the ends, and x* where
+        # kappa' = q1 + 3 q2 x vanishes
+        best = max(abs(q0 + q1 + q2), abs(q0 - q1 + q2))
+        if q2 != 0.0:
+            x = -q1 / (3.0 * q2)
+            if -1.0 < x < 1.0:
+                best = max(best, abs(q0 + q1 * x + q2 * (1.5 * x * x - 0.5)))
+        return best / self.length
+
     def curvature_extremes(self, q) -> np.ndarray:
         """The arc lengths where |kappa| may peak: both ends and the real roots of kappa' in
         the flexure (the maximum of |p| of a polynomial p on an interval is at an end or where
