@@ -45,6 +45,23 @@ class PointResult:
     # spectral norm); None for the exact solver and when no estimate was asked for
     error_estimate: dict[str, float] | None = None
 
+    # the same numbers as NumPy arrays, for computing with them (the fields above stay plain
+    # lists: the JSON contract's shape, and cheap to build for every answer)
+    @property
+    def pose_array(self) -> np.ndarray:
+        """(3,) x, y, angle."""
+        return np.array(self.pose, dtype=float)
+
+    @property
+    def compliance_matrix(self) -> np.ndarray:
+        """(2, 2) d(x, y)/d(fx, fy)."""
+        return np.array(self.compliance, dtype=float)
+
+    @property
+    def compliance3_matrix(self) -> np.ndarray:
+        """(3, 3) d(x, y, angle)/d(fx, fy, moment); its inverse is the stiffness of the point."""
+        return np.array(self.compliance3, dtype=float)
+
     def contract(self) -> dict[str, Any]:
         out: dict[str, Any] = {
             "pose": list(self.pose),

@@ -331,3 +331,16 @@ def test_max_abs_curvature_is_the_profile_maximum(modes):
         got = model.max_abs_curvature(q)
         assert dense <= got * (1 + 1e-12)
         assert got <= dense * (1 + 1e-6)
+
+
+def test_point_matrices_are_numpy_views_of_the_contract():
+    """PointResult's NumPy accessors hold the same numbers as the JSON-shaped lists; the 3x3
+    compliance is symmetric and has a rotation row (not the 2x2 padded with zeros)."""
+    r = flexgen.solve(Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml")
+    for p in r.points.values():
+        assert p.pose_array.shape == (3,) and p.pose_array.tolist() == p.pose
+        assert p.compliance_matrix.tolist() == p.compliance
+        C3 = p.compliance3_matrix
+        assert C3.shape == (3, 3) and C3.tolist() == p.compliance3
+        assert np.allclose(C3, C3.T, rtol=1e-9, atol=1e-12 * np.abs(C3).max())
+        assert np.abs(C3[2]).max() > 0.0
