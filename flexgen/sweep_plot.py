@@ -6,7 +6,7 @@
   grey, unstable cases crossed;
 - Monte-Carlo: a histogram of each output with its 5-95 percentile band and median.
 
-Matplotlib with the Agg backend, written as flexgen/plot.py writes (a temporary file renamed).
+Matplotlib with the Agg backend, written as flexgen/drawing.py writes (a temporary file renamed).
 """
 
 from __future__ import annotations

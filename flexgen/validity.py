@@ -94,6 +94,8 @@ def units_hint(scene: Scene) -> str:
 def units_warning(scene: Scene, bends: Mapping[str, float]) -> str | None:
     """The warning for a flexure bent past UNITS_BEND at a load level above UNITS_LOAD_LEVEL
     (the one bent most, if several), else None."""
+    if not any(b > UNITS_BEND for b in bends.values()):  # the usual case: no load level needed
+        return None
     levels = flexure_load_levels(scene)
     suspects = [
         n for n, b in bends.items() if b > UNITS_BEND and levels.get(n, 0.0) > UNITS_LOAD_LEVEL
