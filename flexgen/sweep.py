@@ -74,10 +74,10 @@ def sweep(
     - ``progress``: True a bar on a terminal, else a plain line every few seconds on stderr;
       False nothing; None (default) the bar only when stderr is a terminal and the study goes
       to worker processes or a cluster (long enough to wait for).
-    - ``estimate``: each point's ``error_estimate`` (the richer model's solve; False: NaN, and
-      the study is about twice as fast).
-    - ``stress``: each flexure's ``max_stress`` and ``safety_factor`` (flexgen/stress.py, about
-      100 us a case for two flexures: four times the solve; False: NaN).
+    - ``estimate``: each point's ``error_estimate`` (Newton on the richer model, ``fg_estimate``;
+      False: NaN, and a load study is about twice as fast).
+    - ``stress``: each flexure's ``max_stress`` and ``safety_factor`` (``stress.peak_stress``:
+      a few us a case; False: NaN).
     - ``chunk_size``: cases per chunk (a task); part of the study's definition, since each
       chunk's first case solves cold.
 

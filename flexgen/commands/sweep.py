@@ -93,8 +93,7 @@ def register(sub) -> None:
         "--no-stress",
         dest="stress",
         action="store_false",
-        help="skip the flexures' stress and safety factor (their columns are empty; the "
-        "stress costs about four times the solve)",
+        help="skip the flexures' stress and safety factor (their columns are empty)",
     )
     p.set_defaults(run=run)
 
