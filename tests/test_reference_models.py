@@ -529,3 +529,26 @@ def test_limit_point_is_reported_not_hidden():
     assert not r.converged and any("limit point" in w for w in r.warnings)
     assert abs(r.load_factor - c.critical_load_factor) < 1e-5
     assert 0.5 < c.critical_load_factor < 0.6
+
+
+def test_exact_solver_refuses_a_load_past_its_cap_and_says_so():
+    """docs/scene.md: the exact solver gives up beyond a nondimensional load of 1000
+    (MAX_LOAD); the reason names that cap, not a limit point it never met."""
+    import flexgen
+    from flexgen.models.exact import MAX_LOAD
+
+    # F L^2/EI = 0.2 * 0.02^2 / (200 * 0.01 * 0.0003^3 / 12) = 1.78e7: E = 200 meant as GPa
+    scene = {
+        "flexure": [
+            {"name": "strip", "length": 0.02, "E": 200.0, "width": 0.01, "thickness": 3e-4}
+        ],
+        "load": [{"point": "strip.tip", "force": [0.0, -0.2]}],
+    }
+    r = flexgen.solve(scene, model="exact")
+    assert not r.converged
+    assert f"beyond the exact solver's cap of {MAX_LOAD:g}" in r.reason
+    assert "1.78e+07" in r.reason and "limit point" not in r.reason
+    # in GPa, the same strip under 2 N is solved (F L^2/EI = 0.178)
+    scene["flexure"][0]["E"] = 200e9
+    scene["load"][0]["force"] = [0.0, -2.0]
+    assert flexgen.solve(scene, model="exact").converged

@@ -629,6 +629,18 @@ class _SceneProblem:
         raise RuntimeError("shooting Newton did not converge")
 
 
+def _scene_load_level(scene) -> float:
+    """The largest nondimensional load on a flexure: L^2/EI x (the forces + twice the tendon
+    tensions) + L/EI x the moments, all of the scene's loads counted on every flexure (an upper
+    bound of what the shooting unknowns reach)."""
+    forces = sum(math.hypot(*ld.force) for ld in scene.loads)
+    forces += 2.0 * sum(abs(t.tension) for t in scene.tendons)
+    moments = sum(abs(ld.moment) for ld in scene.loads)
+    return max(
+        (f.length * (f.length * forces + moments) / f.EI for f in scene.flexures), default=0.0
+    )
+
+
 def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     """See ``_solve_exact``. Floating-point overflow on the way (a hostile scene's huge or tiny
     numbers) is expected and shows in the answer (not converged, or non-finite compliance, which
@@ -667,20 +679,29 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     iters = 0
     lam_c = None
     sign = ref_sign
-    while lam < 1.0:
+    # the scene's own loads past the cap (docs/scene.md, "Limits"): refused before any step
+    level = _scene_load_level(scene)
+    if not level <= MAX_LOAD:
+        warnings.append(
+            f"nondimensional load {level:.3g} (force x L^2/EI + moment x L/EI) is beyond the "
+            f"exact solver's cap of {MAX_LOAD:g}, where the elastica winds too often to follow"
+        )
+        lam = -1.0  # no step is taken; reported as load factor 0 below
+    while 0.0 <= lam < 1.0:
         lam_new = min(1.0, lam + dlam)
         if len(hist) >= 2:
             (l0, z0), (l1, z1) = hist[-2], hist[-1]
             guess = z1 + (z1 - z0) * (lam_new - l1) / (l1 - l0)
         else:
             guess = z.copy()
+        why = None  # what stopped this step, when the shooting itself refused
         try:
             z_new, it = prob.newton(guess, lam_new, max_iter=10)
             iters += it
             # step control: the corrector must stay close to the predictor (no branch jumping)
             ok = np.max(np.abs(z_new - guess)) < 0.1 * (1.0 + np.max(np.abs(z_new)))
-        except RuntimeError:
-            ok = False
+        except RuntimeError as exc:
+            ok, why = False, str(exc)
         if ok:
             _, J, _, _, _ = prob.jacobian(z_new, lam_new)
             s_new = np.sign(np.linalg.det(J))
@@ -691,7 +712,11 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
             if dlam < 1e-6:
                 warnings.append(
                     f"continuation stalled at load factor {lam:.6g} "
-                    "(limit point: the load would snap through)"
+                    + (
+                        f"(the root loads would pass the solver's cap: {why})"
+                        if why is not None and why.startswith("nondimensional load beyond")
+                        else "(limit point: the load would snap through)"
+                    )
                 )
                 if lam_c is None:
                     lam_c = lam
@@ -742,6 +767,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         lam, z = lam_new, z_new
         dlam = min(max_step, dlam * (1.5 if it <= 4 else 1.0))
     converged = lam >= 1.0
+    lam = max(lam, 0.0)
     if not converged:
         warnings.append("load not fully applied: result is at the last converged load factor")
     # final quantities
