@@ -155,6 +155,10 @@ def test_the_honesty_check_can_fail(monkeypatch):
         ("two_link_finger", {"model": "fem", "elements": 16}),
         ("cantilever_tip_load", {}),
         ("rectangular_elastica", {"modes": 4}),
+        # coarse answers 0.5 to 1 from scm3's equilibrium: within REACH max_dq
+        ("cantilever_tip_load", {"model": "cc"}),
+        ("cantilever_tip_load", {"model": "prb"}),
+        ("two_link_finger", {"model": "prb"}),
     ],
 )
 def test_the_newton_estimate_is_the_solved_richer_models(scene, kw):
@@ -184,16 +188,19 @@ def test_fg_estimate_refuses_a_malformed_call():
     args = list(s.estimator()._args)
     args[1] = core.ffi.NULL  # no q map
     assert core.lib.fg_estimate(*args) == core.lib.FG_ESTIMATE_MALFORMED
+    args = list(s.estimator()._args)
+    args[7] = 0.0  # no reach
+    assert core.lib.fg_estimate(*args) == core.lib.FG_ESTIMATE_MALFORMED
 
 
 def test_a_coarse_answer_far_from_the_richer_one_is_solved_for():
-    """prb under a large tip load: Newton from its answer does not reach scm3's equilibrium
-    (FG_ESTIMATE_FAR), so the richer model is solved; the estimate is finite and covers the
-    true error against the exact elastica."""
+    """prb bent into a quarter circle and more: Newton from its answer does not reach scm3's
+    equilibrium (FG_ESTIMATE_FAR), so the richer model is solved; the estimate is finite and
+    covers the true error against the exact elastica."""
     from flexgen import core
     from flexgen.select import error_components, length_scales, outputs_of
 
-    path = EX / "cantilever_tip_load.toml"
+    path = EX / "rectangular_elastica.toml"
     s = flexgen.Solver(path, model="prb")
     s.run()
     assert core.lib.fg_estimate(*s.estimator()._args) == core.lib.FG_ESTIMATE_FAR

@@ -267,7 +267,7 @@ enum {
     FG_ESTIMATE_UNSTABLE = 2,       /* its stiffness is not positive definite there */
     FG_ESTIMATE_UNDEFINED = 3,      /* a difference is not finite */
     FG_ESTIMATE_FAR = 4,            /* Newton from the answer does not converge to it (within
-                                     * max_iterations and max_dq): solve the richer model */
+                                     * max_iterations and reach): solve the richer model */
     FG_ESTIMATE_MALFORMED = 5       /* a malformed problem or a missing array */
 };
 
@@ -283,11 +283,11 @@ enum {
  * richer model. Per output j: out[2 j] = max(|r_j - r_j,rich| / scale[j], |angle_j -
  * angle_j,rich|) and out[2 j + 1] = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position
  * compliances, spectral norm). FG_ESTIMATE_FAR: no convergence within settings.max_iterations
- * steps and settings.max_dq of T q. Workspace: the richer problem's (fg_work_size,
- * fg_iwork_size); nothing is kept between calls. */
+ * steps and within reach (largest change of a coordinate from T q) of T q. Workspace: the
+ * richer problem's (fg_work_size, fg_iwork_size); nothing is kept between calls. */
 FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, const fg_real *q,
                        const fg_real *pose, const fg_real *compliance, const fg_real *scale,
-                       fg_real *work, int *iwork, fg_real *out);
+                       fg_real reach, fg_real *work, int *iwork, fg_real *out);
 
 #ifdef __cplusplus
 }
