@@ -212,3 +212,34 @@ def test_a_coarse_answer_far_from_the_richer_one_is_solved_for():
     assert got is not None
     true = error_components(got, ex, length_scales(flexgen.load_scene(path), ex))
     assert float(true.max()) <= r.error_estimate
+
+
+@pytest.mark.parametrize("model", ["prb", "cc"])
+@pytest.mark.parametrize("direction_deg", [30.0, 330.0])
+def test_a_coarse_answer_reached_by_newton_is_honest_at_large_loads(model, direction_deg):
+    """cc and prb under a tip force of 8 EI/L^2, 30 deg off the axis either way: fg_estimate
+    reaches scm3's equilibrium by Newton (no solve), and its estimate still covers the true
+    pose and compliance error against the exact elastica (the stability sweep's cases where a
+    compliance taken two Newton steps short of scm3's equilibrium was 7 % too small)."""
+    from flexgen import core
+    from flexgen.select import error_components, length_scales, outputs_of
+
+    a = math.radians(direction_deg)
+    scene = flexgen.scene_from_dict(
+        {
+            "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+            "load": [{"point": "beam.tip", "force": [8.0 * math.cos(a), 8.0 * math.sin(a)]}],
+        }
+    )
+    s = flexgen.Solver(scene, model=model)
+    assert s.run() == core.SOLVED
+    assert core.lib.fg_estimate(*s.estimator()._args) == core.lib.FG_ESTIMATED  # no solve
+    r = s.solve(estimate=True)
+    ex = outputs_of(flexgen.solve(scene, model="exact"))
+    got = outputs_of(r)
+    assert ex is not None and got is not None
+    true = error_components(got, ex, length_scales(scene, ex))  # [position, angle, compliance]
+    est = r.points["beam.tip"].error_estimate
+    assert est is not None
+    assert max(true[0], true[1]) <= est["pose"]
+    assert true[2] <= est["compliance"]  # each component against its own estimate
