@@ -66,7 +66,8 @@ def failure_reason(solver: Any, status: int) -> str:
             lib.FG_FAIL_UNLOADED: "no equilibrium of the unloaded scene",
             lib.FG_FAIL_BIFURCATION: "no stable equilibrium found past the bifurcation near "
             f"load factor {lam:.6g}",
-            lib.FG_FAIL_LIMIT: f"no equilibrium found beyond load factor {lam:.6g}",
+            lib.FG_FAIL_LIMIT: f"no equilibrium found beyond load factor {lam:.6g} (the load "
+            "path ends there, a limit point, and no stable state to snap to was found)",
         }.get(a.failure, f"the solver core could not run this problem (status {status})")
         reason = f"{what}: {_last_error(solver, a)}"
     model = _model_message(solver, a.model_error, a.model_error_flexure, a.model_error_route)

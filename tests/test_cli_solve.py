@@ -359,3 +359,21 @@ def test_help_names_no_backend_and_no_cache(capsys):
         assert words not in out
     for words in ("--model KIND", "--modes N", "--elements N", "--tol T", "--json"):
         assert words in out
+
+
+def test_a_path_that_ends_at_a_limit_point_says_so(tmp_path):
+    """The contract's example scene (scene-format.md), tendon at 10 N: 20 N on the proximal
+    flexure is 320 EI/L^2, so the finger would roll up past a full turn; the load path ends at a
+    limit point near load factor 0.13 (the exact elastica's continuation stalls there too) and
+    no stable state within the kernels is found. Exit 1, and the reason says what happened."""
+    from test_scene import CONTRACT_TOML
+
+    scene = tmp_path / "contract.toml"
+    scene.write_text(CONTRACT_TOML)
+    p = subprocess.run(
+        [sys.executable, "-m", "flexgen", "solve", str(scene)], capture_output=True, text=True
+    )
+    assert p.returncode == 1
+    line = p.stderr.strip()
+    assert "\n" not in line and "Traceback" not in line
+    assert "limit point" in line and "no stable state to snap to" in line
