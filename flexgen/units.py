@@ -125,9 +125,8 @@ class Units:
 
 
 def result_units(scene: Any) -> dict[str, str] | None:
-    """The "units" object of a result of ``scene`` (None when the scene gave no units)."""
-    units = getattr(scene, "units", None)
-    return None if units is None else units.as_dict()
+    """The "units" object of a result of ``scene`` (a Scene; None when it gave no units)."""
+    return None if scene.units is None else scene.units.as_dict()
 
 
 # -- the registry (pint, loaded on first use) --------------------------------------------------
