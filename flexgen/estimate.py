@@ -327,11 +327,6 @@ _WHY = {
 }
 
 
-def _sym_norm(a: float, b: float, c: float) -> float:
-    """Spectral norm of the symmetric 2x2 [[a, b], [b, c]]: its largest |eigenvalue|."""
-    return abs(0.5 * (a + c)) + math.hypot(0.5 * (a - c), b)
-
-
 def estimator_of(solver: Any, solver_class: Any) -> Estimator:
     """The solver's Estimator, prepared on first use and kept on the solver; ``solver_class``
     prepares the richer model (``flexgen.solver.Solver``, passed in by it: this module does not

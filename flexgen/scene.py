@@ -289,6 +289,15 @@ class Scene:
             raise SceneError(f"flexures not connected to the base: {_names(lost)}")
         return tuple(out)
 
+    def load_levels(self) -> dict[str, float]:
+        """How far each flexure's loads are from small deflection (nondimensional): L^2/EI x
+        (the forces + twice the tendon tensions) + L/EI x the moments, every load of the scene
+        counted on every flexure (an upper bound of what the flexure carries)."""
+        forces = sum(math.hypot(*ld.force) for ld in self.loads)
+        forces += 2.0 * sum(t.tension for t in self.tendons)
+        moments = sum(abs(ld.moment) for ld in self.loads)
+        return {f.name: f.length * (f.length * forces + moments) / f.EI for f in self.flexures}
+
     def flexure_path(self, body: str) -> tuple[str, ...]:
         """Names of the flexures between the base and ``body``, root first; ``body`` itself is
         the last entry when it is a flexure. Empty for "base"."""

@@ -116,14 +116,10 @@ def max_abs_curvature(model: Any, q: Any) -> float:
 def peak_stress(flexure: Flexure, model: Any, q: Any) -> tuple[float | None, float | None]:
     """(max |stress|, safety factor) of one flexure at q, without the profiles: what a study
     records per case (None where ``FlexureStress`` has None). The model must give
-    ``curvature_extremes`` or ``max_abs_curvature`` (every chain model does but prb, whose
-    curvature is constant: its value anywhere)."""
+    ``curvature_extremes`` or ``max_abs_curvature`` (every chain model does)."""
     if flexure.E is None or flexure.thickness is None:
         return None, None
-    if hasattr(model, "max_abs_curvature") or hasattr(model, "curvature_extremes"):
-        kappa = max_abs_curvature(model, q)
-    else:
-        kappa = float(np.max(np.abs(model.curvature(np.asarray(q, dtype=float), [0.0]))))
+    kappa = max_abs_curvature(model, q)
     stress = flexure.E * kappa * 0.5 * flexure.thickness
     return stress, safety_factor(flexure, stress)[0]
 

@@ -68,16 +68,6 @@ UNITS_LOAD_LEVEL = 1e3
 UNITS_BEND = math.pi / 2
 
 
-def flexure_load_levels(scene: Scene) -> dict[str, float]:
-    """The load level of each flexure (how far its loads are from small deflection):
-    L^2/EI x (forces + 2 x tensions) + L/EI x moments."""
-    total = sum(math.hypot(*ld.force) for ld in scene.loads) + 2 * sum(
-        t.tension for t in scene.tendons
-    )
-    moments = sum(abs(ld.moment) for ld in scene.loads)
-    return {f.name: f.length * (f.length * total + moments) / f.EI for f in scene.flexures}
-
-
 def units_hint(scene: Scene) -> str:
     """The advice that ends the units warning and a failed solve's reason at such a load."""
     read = (
@@ -96,7 +86,7 @@ def units_warning(scene: Scene, bends: Mapping[str, float]) -> str | None:
     (the one bent most, if several), else None."""
     if not any(b > UNITS_BEND for b in bends.values()):  # the usual case: no load level needed
         return None
-    levels = flexure_load_levels(scene)
+    levels = scene.load_levels()
     suspects = [
         n for n, b in bends.items() if b > UNITS_BEND and levels.get(n, 0.0) > UNITS_LOAD_LEVEL
     ]
@@ -111,7 +101,7 @@ def units_warning(scene: Scene, bends: Mapping[str, float]) -> str | None:
 
 def units_reason(scene: Scene) -> str | None:
     """What a failed solve's reason adds when a load level is above UNITS_LOAD_LEVEL, else None."""
-    level = max(flexure_load_levels(scene).values(), default=0.0)
+    level = max(scene.load_levels().values(), default=0.0)
     if level <= UNITS_LOAD_LEVEL:
         return None
     return f"load level {level:.3g} (force x L^2/EI): {units_hint(scene)}"

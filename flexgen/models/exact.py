@@ -629,18 +629,6 @@ class _SceneProblem:
         raise RuntimeError("shooting Newton did not converge")
 
 
-def _scene_load_level(scene) -> float:
-    """The largest nondimensional load on a flexure: L^2/EI x (the forces + twice the tendon
-    tensions) + L/EI x the moments, all of the scene's loads counted on every flexure (an upper
-    bound of what the shooting unknowns reach)."""
-    forces = sum(math.hypot(*ld.force) for ld in scene.loads)
-    forces += 2.0 * sum(abs(t.tension) for t in scene.tendons)
-    moments = sum(abs(ld.moment) for ld in scene.loads)
-    return max(
-        (f.length * (f.length * forces + moments) / f.EI for f in scene.flexures), default=0.0
-    )
-
-
 def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     """See ``_solve_exact``. Floating-point overflow on the way (a hostile scene's huge or tiny
     numbers) is expected and shows in the answer (not converged, or non-finite compliance, which
@@ -680,7 +668,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     lam_c = None
     sign = ref_sign
     # the scene's own loads past the cap (docs/scene.md, "Limits"): refused before any step
-    level = _scene_load_level(scene)
+    level = max(scene.load_levels().values(), default=0.0)
     if not level <= MAX_LOAD:
         warnings.append(
             f"nondimensional load {level:.3g} (force x L^2/EI + moment x L/EI) is beyond the "

@@ -68,6 +68,10 @@ class PRBModel:
         kappa = self.stiffness * float(q[0]) / self.EI
         return np.full(np.shape(s), kappa)
 
+    def curvature_extremes(self, q: np.ndarray) -> np.ndarray:
+        """Where |kappa| peaks: anywhere (the profile is constant); the root."""
+        return np.zeros(1)
+
     def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
         """(num, 2) points along the two rigid segments (root, pin, tip), root first."""
         q = np.asarray(q, dtype=float).reshape(1)
