@@ -14,7 +14,7 @@ tolerance=None, **options)``:
 - ``tolerance`` (or ``[model] tolerance``): choose the fewest modes per flexure that meet it
   (``flexgen.select``);
 - ``estimate`` (default True): give every chain-model answer its error estimate
-  (``flexgen.estimate``: the richer model solved from the answer); False skips it, for
+  (``flexgen.estimate``: Newton on the richer model from the answer); False skips it, for
   speed-critical loops.
 
 Kind ``"exact"`` must apply to every flexure (the elastica solver solves the whole scene at once);

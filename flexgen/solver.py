@@ -148,7 +148,7 @@ class Solver:
         the solve starts from the unloaded state (a flexure's coordinates are padded with zeros
         or cut to its model's count, so an answer of another mode count also serves; a flexure
         left out starts at zero; an unknown flexure is a ValueError). ``estimate=True`` adds the error estimate
-        (``flexgen.estimate``: the richer model solved from this answer; ``flexgen.solve`` asks
+        (``flexgen.estimate``: Newton on the richer model from this answer; ``flexgen.solve`` asks
         for it by default): ``Result.error_estimate`` and each point's ``error_estimate``."""
         status = self.run(loads, tensions, q0)
         est = None

@@ -829,7 +829,7 @@ def render_markdown(data: BenchData) -> str:
         ", the extension `flexgen._core`), three ways (`flexgen_tools/timing.py`):",
         "  - *flexgen.solve*: `flexgen.solve(scene)` through the public API, the same Scene "
         "object (every flexure given the model) each call, so its prepared solver comes from "
-        "the API's cache; the Result, its error estimate (the richer model's warm-started solve, "
+        "the API's cache; the Result, its error estimate (Newton on the richer model, fg_estimate: "
         "`flexgen/estimate.py`) and the validity check included;",
         "  - *Solver.solve()*: a prepared `flexgen.Solver` (problem and workspace built once), "
         "as a controller loop calls it: the core call and the Result;",
