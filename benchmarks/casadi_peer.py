@@ -44,6 +44,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 C_DIR = Path(__file__).resolve().parent / "casadi"
+sys.path.insert(0, str(ROOT))  # this checkout's flexgen, installed or not (as every benchmark)
 FINGER = ROOT / "examples" / "two_link_finger.toml"
 CC = "gcc"
 CFLAGS = ["-O2", "-std=c99"]  # every contender: no -ffast-math, no -march, no LTO
