@@ -184,3 +184,36 @@ def test_a_prepared_answer_is_a_plain_result_in_every_way_that_shows():
     assert copy.deepcopy(first) == plain
     assert asdict(first)["q"] == first.q and set(first.bend) == {"proximal", "distal"}
     assert first.stiffness.shape == (6, 6)
+
+
+@pytest.mark.parametrize("case", ["spread", "clustered", "repeated", "near_singular", "indefinite"])
+def test_margin_of_any_stiffness_against_numpy(case):
+    """fg_margin on stiffnesses built with known spectra: positive definite ones (where it
+    iterates: well spread, clustered within 1e-3, a repeated smallest eigenvalue, one near 0)
+    and indefinite ones (where it decomposes), against NumPy's eigvalsh."""
+    from flexgen import core
+
+    solver = flexgen.Solver(EXAMPLES[-1])  # any scene: its elastic stiffness D scales K
+    n = solver.workspace.q.size
+    d = np.sqrt(np.asarray(solver.problem.stiffness, dtype=float))
+    spectra = {
+        "spread": np.geomspace(0.05, 40.0, n),
+        "clustered": 0.3 + 1e-3 * np.arange(n),
+        "repeated": np.r_[0.2, 0.2, np.linspace(1.0, 3.0, n - 2)],
+        "near_singular": np.r_[1e-9, np.linspace(0.5, 2.0, n - 1)],
+        "indefinite": np.r_[-0.4, np.linspace(0.1, 2.0, n - 1)],
+    }
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        V, _ = np.linalg.qr(rng.normal(size=(n, n)))
+        A = V @ np.diag(spectra[case]) @ V.T
+        K = np.ascontiguousarray(np.outer(d, d) * (A + A.T) / 2)
+        ws = solver.workspace
+        got = core.lib.fg_margin(
+            solver.problem.struct,
+            core.ffi.cast("double *", K.ctypes.data),
+            ws.work_ptr,
+            ws.iwork_ptr,
+        )
+        want = np.linalg.eigvalsh(A)[0]
+        assert got == pytest.approx(want, rel=1e-9, abs=1e-12), case
