@@ -240,12 +240,11 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
 /* The margin of a stiffness K (n x n, row-major, full; e.g. fg_answer.stiffness) to a critical
  * load: the smallest eigenvalue of D^-1/2 K D^-1/2, D = diag(p->stiffness) the elastic energy's
  * Hessian (the generalized eigenvalue of (K, D)): 1 unloaded, 1 - P/P_cr on an axial load below
- * buckling, 0 at a critical load, < 0 unstable; NAN if some stiffness is not positive. Where K
- * is positive definite, certified shifted inverse iteration (a few Cholesky factorizations and
- * solves); otherwise, or if that does not converge, an eigen-decomposition (LAPACK's dsyev from
- * settings.lapack_min_size coordinates on, else the built-in Jacobi method). In the solver's
- * workspace (fg_work_size, fg_iwork_size), so it is not part of fg_solve: O(n^3), asked for when
- * an answer's validity is assessed. */
+ * buckling, 0 at a critical load, < 0 unstable; NAN if some stiffness is not positive. The
+ * eigenvalues alone (LAPACK's dsyev from settings.lapack_min_size coordinates on, else the
+ * built-in tridiagonal QL method, with the Jacobi method behind it) in the solver's workspace
+ * (fg_work_size, fg_iwork_size), so it is not part of fg_solve: O(n^3), asked for when an
+ * answer's validity is assessed. */
 FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork);
 
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor

@@ -322,10 +322,11 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
 /* The margin of a stiffness K (n x n, row-major, full; e.g. fg_answer.stiffness) to a critical
  * load: the smallest eigenvalue of D^-1/2 K D^-1/2, D = diag(p->stiffness) the elastic energy's
  * Hessian (the generalized eigenvalue of (K, D)): 1 unloaded, 1 - P/P_cr on an axial load below
- * buckling, 0 at a critical load, < 0 unstable; NAN if some stiffness is not positive. An
- * eigen-decomposition (LAPACK's dsyev from settings.lapack_min_size coordinates on, else the
- * built-in Jacobi method) in the solver's workspace (fg_work_size, fg_iwork_size), so it is not
- * part of fg_solve: O(n^3), asked for when an answer's validity is assessed. */
+ * buckling, 0 at a critical load, < 0 unstable; NAN if some stiffness is not positive. The
+ * eigenvalues alone (LAPACK's dsyev from settings.lapack_min_size coordinates on, else the
+ * built-in tridiagonal QL method, with the Jacobi method behind it) in the solver's workspace
+ * (fg_work_size, fg_iwork_size), so it is not part of fg_solve: O(n^3), asked for when an
+ * answer's validity is assessed. */
 FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork);
 
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
@@ -2369,6 +2370,120 @@ static void describe_answer(fg_ws *w, fg_answer *out)
     }
 }
 
+/* The eigenvalues of the symmetric A (n x n, upper triangle) in ev, ascending, without
+ * eigenvectors: Householder reduction to tridiagonal form, then the implicit QL method (the
+ * eigenvalues-only paths of Numerical Recipes' tred2 and tqli); scratch: n n + n. 0 if QL did
+ * not converge (the caller uses the Jacobi method). For a few coordinates several times faster
+ * than the Jacobi method with eigenvectors (measured: 6 coordinates, 0.5 vs 2.7 us). */
+static int eigenvalues_builtin(const fg_real *A, int n, fg_real *ev, fg_real *scratch)
+{
+    fg_real *z = scratch, *e = scratch + (size_t)n * (size_t)n, *d = ev;
+    int i, j, k, l, m;
+#define Z(r, c) z[(size_t)(r) * (size_t)n + (c)]
+    for (i = 0; i < n; ++i)          /* the lower triangle, which tred2 reads */
+        for (j = 0; j <= i; ++j)
+            Z(i, j) = A[(size_t)j * (size_t)n + i];
+    for (i = n - 1; i > 0; --i) {    /* tred2 */
+        fg_real h = 0.0, scale = 0.0;
+        l = i - 1;
+        if (l > 0) {
+            for (k = 0; k < i; ++k)
+                scale += fabs(Z(i, k));
+            if (scale == 0.0) {
+                e[i] = Z(i, l);
+            } else {
+                fg_real f, g, hh;
+                for (k = 0; k < i; ++k) {
+                    Z(i, k) /= scale;
+                    h += Z(i, k) * Z(i, k);
+                }
+                f = Z(i, l);
+                g = f >= 0.0 ? -sqrt(h) : sqrt(h);
+                e[i] = scale * g;
+                h -= f * g;
+                Z(i, l) = f - g;
+                f = 0.0;
+                for (j = 0; j < i; ++j) {
+                    g = 0.0;
+                    for (k = 0; k <= j; ++k)
+                        g += Z(j, k) * Z(i, k);
+                    for (k = j + 1; k < i; ++k)
+                        g += Z(k, j) * Z(i, k);
+                    e[j] = g / h;
+                    f += e[j] * Z(i, j);
+                }
+                hh = f / (h + h);
+                for (j = 0; j < i; ++j) {
+                    f = Z(i, j);
+                    e[j] = g = e[j] - hh * f;
+                    for (k = 0; k <= j; ++k)
+                        Z(j, k) -= f * e[k] + g * Z(i, k);
+                }
+            }
+        } else {
+            e[i] = Z(i, l);
+        }
+    }
+    for (i = 0; i < n; ++i)
+        d[i] = Z(i, i);
+#undef Z
+    for (i = 1; i < n; ++i)          /* tqli: e[i] couples d[i] and d[i + 1] */
+        e[i - 1] = e[i];
+    if (n > 0)
+        e[n - 1] = 0.0;
+    for (l = 0; l < n; ++l) {
+        int iter = 0;
+        do {
+            for (m = l; m < n - 1; ++m) {
+                fg_real dd = fabs(d[m]) + fabs(d[m + 1]);
+                if (fabs(e[m]) <= FG_EPS * dd)
+                    break;
+            }
+            if (m != l) {
+                fg_real g, r, s, c, p, f, b;
+                if (iter++ == 60)
+                    return 0;
+                g = (d[l + 1] - d[l]) / (2.0 * e[l]);
+                r = sqrt(g * g + 1.0);
+                g = d[m] - d[l] + e[l] / (g + (g >= 0.0 ? r : -r));
+                s = c = 1.0;
+                p = 0.0;
+                for (i = m - 1; i >= l; --i) {
+                    f = s * e[i];
+                    b = c * e[i];
+                    e[i + 1] = (r = sqrt(f * f + g * g));   /* (hypot: 3x the time; A is scaled to ~1) */
+                    if (r == 0.0) {
+                        d[i + 1] -= p;
+                        e[m] = 0.0;
+                        break;
+                    }
+                    s = f / r;
+                    c = g / r;
+                    g = d[i + 1] - p;
+                    r = (d[i] - g) * s + 2.0 * c * b;
+                    d[i + 1] = g + (p = s * r);
+                    g = c * r - b;
+                }
+                if (r == 0.0 && i >= l)
+                    continue;
+                d[l] -= p;
+                e[l] = g;
+                e[m] = 0.0;
+            }
+        } while (m != l);
+    }
+    for (i = 1; i < n; ++i) {        /* ascending (insertion: n is small) */
+        fg_real v = d[i];
+        for (j = i - 1; j >= 0 && d[j] > v; --j)
+            d[j + 1] = d[j];
+        d[j + 1] = v;
+    }
+    for (i = 0; i < n; ++i)
+        if (!isfinite(d[i]))
+            return 0;
+    return 1;
+}
+
 FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork)
 {
     fg_ws ws, *w = &ws;
@@ -2382,9 +2497,10 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
     bind(w, p, work, iwork);
     A = w->lc;
     for (i = 0; i < n; ++i)
+        w->vec1[i] = 1.0 / sqrt(p->stiffness[i]);
+    for (i = 0; i < n; ++i)
         for (j = i; j < n; ++j)
-            A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j]
-                                           / sqrt(p->stiffness[i] * p->stiffness[j]);
+            A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j] * w->vec1[i] * w->vec1[j];
 #ifndef FG_SINGLE   /* LAPACK takes doubles */
     if (p->lapack.syev != NULL && n >= p->settings.lapack_min_size) {
         /* eigenvalues only: LAPACK skips the eigenvectors (a third of the work or less) */
@@ -2399,6 +2515,8 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
                                                / sqrt(p->stiffness[i] * p->stiffness[j]);
     }
 #endif
+    if (eigenvalues_builtin(A, n, w->ew, w->ework))
+        return w->ew[0];
     return min_eig(w, A);
 }
 
