@@ -91,7 +91,10 @@ def test_more_modes_estimate_less():
     scm5 and scm6 (no richer kernel: conservative by one step)."""
     est = {n: flexgen.solve(FINGER, modes=n).error_estimate for n in range(2, 9)}
     assert est[2] > est[3] > est[4] > est[5] > est[6]
-    assert est[7] == pytest.approx(est[5], rel=1e-6) and est[8] == pytest.approx(est[6], rel=1e-6)
+    # the same difference seen from either side, up to each answer's own compliance precision
+    # (Newton's last step linearized: ~1e-10 relative, a few % of scm6's 3.4e-9 estimate; scm7's
+    # and scm8's own estimates would be far smaller than scm5's and scm6's)
+    assert est[7] == pytest.approx(est[5], rel=0.05) and est[8] == pytest.approx(est[6], rel=0.05)
 
 
 def test_a_failed_richer_solve_is_inf_with_a_warning(monkeypatch):

@@ -25,6 +25,10 @@ POINT_COLUMNS = ("x", "y", "angle", "major", "minor", "ellipse_angle", "error_es
 # tolerance (SolverSettings.tol = 1e-12, relative): measured differences up to 2.5e-12 on the
 # finger's compliances, so rows are compared with a margin of 100 tol.
 RTOL = 100 * flexgen.SolverSettings().tol
+# Compliances (the ellipse axes) come from the stiffness and Jacobians of the last evaluated
+# state: Newton's last step is taken unevaluated (docs/solver-core.md), from a residual of up to
+# 30 tol, so they differ between paths by up to ~3e-10 relative (measured 2.6e-10 on the finger)
+CRTOL = 1000 * flexgen.SolverSettings().tol
 sweep_module = sys.modules["flexgen.sweep"]
 
 
@@ -50,7 +54,7 @@ def assert_row_is_solve(row, result):
         ell = pr.ellipse
         got = [row[f"{ref}.major"], row[f"{ref}.minor"]]
         np.testing.assert_allclose(
-            got, [ell["major"], ell["minor"]], rtol=0, atol=RTOL * ell["major"]
+            got, [ell["major"], ell["minor"]], rtol=0, atol=CRTOL * ell["major"]
         )
         assert row[f"{ref}.ellipse_angle"] == pytest.approx(ell["angle"], abs=1e-8)
         # the estimate is a difference of two answers: the iterates' difference shows there

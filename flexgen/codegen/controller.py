@@ -113,10 +113,15 @@ def c_double(x: float) -> str:
     return text if any(c in text for c in ".en") else text + ".0"
 
 
+FLT_MIN = 1.1754943508222875e-38  # the smallest normal float
+
+
 def c_float(x: float) -> str:
     """A float literal of the double x (9 significant digits: one float exactly)."""
     if not math.isfinite(x):
         raise EmitError(f"a constant of the scene is not finite: {x!r}")
+    if abs(x) < FLT_MIN:  # below float's normal range (a kernel's rounding noise at q = 0):
+        return "0.0f"  # 0, which -pedantic does not reject as a truncated constant
     text = f"{x:.9g}"
     return (text if any(c in text for c in ".e") else text + ".0") + "f"
 
@@ -215,6 +220,7 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
         rows.append(
             {
                 "name": name,
+                "index": i,
                 "scene_index": [g.name for g in scene.flexures].index(name),
                 "comment": f'[[flexure]] "{name}": {info["kind"]}'
                 + (f" ({model})" if model else "")
@@ -228,11 +234,21 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
                 "gamma": float(f.gamma),
                 "poly": poly,
                 "gauss": gauss,
+                "tip0": _tip0(p.flex, i, number),
                 "poly_bound": f"{poly.upper()}_ERROR_BOUND" if poly else "0",
                 "gauss_bound": f"{gauss.upper()}_ERROR_BOUND" if gauss else "0",
             }
         )
     return rows
+
+
+def _tip0(flex: Any, i: int, number) -> list[str] | None:
+    """fg_flexure.tip0 of flexure i as C numbers (flexgen/problem.py computes it once per
+    problem: its kernel at q = 0), None for a model without a kernel."""
+    from flexgen.problem import kernel_at_zero
+
+    values = kernel_at_zero(flex, i)
+    return None if values is None else [number(float(v)) for v in values]
 
 
 def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:

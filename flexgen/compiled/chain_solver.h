@@ -86,6 +86,9 @@ typedef struct {
     fg_range in_range;    /* its range check */
     fg_kernel gauss;      /* Gauss kernel (NULL: none) */
     fg_range gauss_in_range;   /* its certified range */
+    const fg_real *tip0;  /* FG_MODEL_KERNEL: NULL, or the kernel's value at q = 0 as it returns
+                           * it (pose 3, J 3 x ndof, H 3 x ndof x ndof, for length 1): a constant
+                           * of the model, so the unloaded state evaluates no kernel */
 } fg_flexure;
 
 /* optional LAPACK routines (Fortran calling convention), e.g. scipy's; NULL: the built-in
@@ -210,7 +213,9 @@ typedef struct {
     int model_error;
     int model_error_flexure;
     int model_error_route;
-    int evaluations;      /* chain evaluations (kinematics and kernels) in the solve */
+    int evaluations;      /* chain evaluations in the solve that evaluated a model: each
+                           * kernel or n-element chain or pseudo-rigid body (not counted: the
+                           * unloaded state of a chain of kernel flexures with tip0) */
     /* FG_SOLVED: what the validity of the answer depends on, at the equilibrium (and
      * fg_margin, on request) */
     fg_real *bend;         /* nflex (fg_problem.flex order): max |phi(s)| of each flexure relative
