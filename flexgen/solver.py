@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import core
+from .estimate import estimate_answer
 from .models.base import FlexureModel
 from .models.registry import build_models, model_info
 from .problem import Problem, Workspace
@@ -117,6 +118,10 @@ class Solver:
         self._scene_tensions = self.problem.tensions.copy()
         self._changed_loads = self._changed_tensions = False
         self._slices = list(self.problem.chain.slices.items())
+        # the outputs' compliance entries in the workspace, flat (a view made once: the
+        # workspace's arrays stay where they are)
+        nout = len(self.problem.outputs)
+        self._compliance_flat = self.workspace.compliance.reshape(-1)[: 9 * nout]
         # any smooth curvature flexure (the core reports the kernel at equilibrium for those)
         self._kernel_models = any(model_info(m)["kind"] == "scm" for m in self.models.values())
         # any flexure whose model may switch kernels (no other sets the core's switch flag)
@@ -151,12 +156,7 @@ class Solver:
         (``flexgen.estimate``: Newton on the richer model from this answer; ``flexgen.solve`` asks
         for it by default): ``Result.error_estimate`` and each point's ``error_estimate``."""
         status = self.run(loads, tensions, q0)
-        est = None
-        if estimate:
-            from .estimate import estimate_answer
-
-            est = estimate_answer(self, status, Solver)
-        return self._result(status, est)
+        return self._result(status, estimate_answer(self, status, Solver) if estimate else None)
 
     def run(
         self, loads: Any = None, tensions: Any = None, q0: Mapping[str, Any] | None = None
@@ -280,11 +280,10 @@ class Solver:
         stable = bool(a.stable)
         if not stable:
             warnings.append(UNSTABLE)
-        compliance = ws.compliance[: len(p.outputs)]
         # a NaN or inf entry makes the sum non-finite (a cheap gate; the points are built on
         # access, so the warning is given now)
-        if not math.isfinite(sum(compliance.ravel().tolist())):
-            for ref, c3 in zip(p.outputs, compliance):
+        if not math.isfinite(sum(self._compliance_flat.tolist())):
+            for ref, c3 in zip(p.outputs, ws.compliance[: len(p.outputs)]):
                 if not np.isfinite(c3).all():
                     warnings.append(
                         f"compliance of {ref!r} is undefined: the stiffness matrix is singular"
