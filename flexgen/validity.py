@@ -25,6 +25,10 @@ The warnings (``validity_warnings``)
   at such a load says so in its reason: ``units_reason``, added by ``flexgen.api``).
 
 ``exact`` is the reference and is not assessed; a result that did not converge already says so.
+
+``calm`` is ``flexgen.solve``'s shortcut for a cached prepared solver's answers: from the core's
+bends and kernels and the margin, whether ``check`` could add anything at all (the usual answer
+earns no warning); when it might, ``check`` decides.
 """
 
 from __future__ import annotations
