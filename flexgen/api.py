@@ -52,6 +52,7 @@ from .scene import (
 )
 from .settings import DEFAULT, SolverSettings
 from .solver import Solver, make_settings
+from .validity import calm as validity_calm
 from .validity import check, units_reason
 
 
@@ -185,10 +186,30 @@ def solve_scene(
     suggests the wrong units says so at the end of its reason (``validity.units_reason``)."""
     result, solution = _solve_scene(scene, models, settings, q0, tolerance, estimate, **options)
     if not result.converged:
-        hint = units_reason(scene)
-        if hint and hint not in (result.reason or ""):
-            result.reason = f"{result.reason or 'not converged'}; {hint}"
+        _units_hint(scene, result)
     return result, solution
+
+
+def _units_hint(scene: Scene, result: Result) -> None:
+    """End a failed solve's reason with ``validity.units_reason`` when its load level suggests
+    the wrong units (once)."""
+    hint = units_reason(scene)
+    if hint and hint not in (result.reason or ""):
+        result.reason = f"{result.reason or 'not converged'}; {hint}"
+
+
+def _solve_prepared(
+    scene: Scene, solver: Solver, q0: Mapping[str, Any] | None, estimate: bool
+) -> Result:
+    """A solve by a cached prepared solver, assessed and checked. ``validity.calm`` reads the
+    answer's bends and kernels in the workspace (hence inside the lock) and spares the Result's
+    dicts and ``check``'s work when no validity warning can apply (the usual answer)."""
+    with _lock:
+        result = _assessed(solver, q0, estimate)
+        calm = result.converged and validity_calm(solver, result)
+    if not calm:
+        check(scene, result, solver.models)
+    return result
 
 
 def _solve_scene(
@@ -213,10 +234,7 @@ def _solve_scene(
         settings = DEFAULT if settings is None else settings
         solver = _solvers.get(_key(scene, settings))
         if solver is not None and solver.scene is scene and _same(solver.settings, settings):
-            with _lock:
-                result = _assessed(solver, q0, estimate)
-            check(scene, result, solver.models)
-            return result, None
+            return _solve_prepared(scene, solver, q0, estimate), None
     if uses_exact(scene):
         from . import exact_result
 
@@ -253,6 +271,19 @@ def solve(
     **options: Any,
 ) -> Result:
     """Solve a scene (Scene, dict or TOML path); see the module docstring."""
+    if not options and model is None and modes is None and elements is None:
+        # the loop path (the same Scene object, nothing overridden): its cached solver, if one
+        # is kept, without the generic argument handling below (what it would do, in short)
+        solver = _solvers.get((id(scene), None))  # _key(scene, DEFAULT)
+        if (
+            solver is not None
+            and solver.scene is scene  # so scene is that Scene (as_scene and override: itself)
+            and _same(solver.settings, DEFAULT)
+        ):
+            result = _solve_prepared(scene, solver, None, True)
+            if not result.converged:
+                _units_hint(scene, result)
+            return result
     sc = override(as_scene(scene), model, modes, elements)
     return solve_scene(sc, **options)[0]
 

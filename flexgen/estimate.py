@@ -89,7 +89,10 @@ class Estimate:
     @property
     def total(self) -> float:
         """The whole answer's estimate: the largest of every point's pose and compliance."""
-        return max(max(self.pose, default=0.0), max(self.compliance, default=0.0))
+        pose, compliance = self.pose, self.compliance
+        if pose and compliance:  # on every answer: max without its (slow) default keyword
+            return max(max(pose), max(compliance))
+        return max(max(pose, default=0.0), max(compliance, default=0.0))
 
 
 def _path_owner(scene: Scene, body: str) -> str:
@@ -282,15 +285,18 @@ class Estimator:
             # not within Newton's reach, or no stable state or no evaluation there: what the
             # richer model's own solve finds decides
             status = self._solve_richer(solver)
-        if status == _ESTIMATED:
-            d = self.out.tolist()
-            s, cf = self.factor, self.comp_floor
-            return Estimate(
-                [s * e + f for e, f in zip(d[0::2], self.pos_floor)],
-                [s * e + cf for e in d[1::2]],
-            )
-        why = _WHY.get(status, "found no equilibrium")
         n = self.n
+        if status == _ESTIMATED:
+            # the margin and the floors on each point's (pose, compliance) difference, in place
+            # in plain lists (a loop, not comprehensions: cheaper for a few points)
+            d = self.out.tolist()
+            pose, compliance = d[0 : 2 * n : 2], d[1 : 2 * n : 2]
+            s, floor, cf = self.factor, self.pos_floor, self.comp_floor
+            for i in range(n):
+                pose[i] = s * pose[i] + floor[i]
+                compliance[i] = s * compliance[i] + cf
+            return Estimate(pose, compliance)
+        why = _WHY.get(status, "found no equilibrium")
         return Estimate(
             [math.inf] * n,
             [math.inf] * n,
@@ -316,6 +322,7 @@ class Estimator:
 
 
 _fg_estimate = core.lib.fg_estimate
+_SOLVED: int = core.SOLVED
 _ESTIMATED: int = core.lib.FG_ESTIMATED
 _UNDEFINED: int = core.lib.FG_ESTIMATE_UNDEFINED
 _NO_EQUILIBRIUM = -1  # the richer solve found none
@@ -341,11 +348,13 @@ def estimate_answer(solver: Any, status: int, solver_class: Any) -> Estimate:
     """The estimate of the answer a ``solver.run`` just left in its workspace (``status``: what
     ``run`` returned; ``solver_class``: see ``estimator_of``); no answer: an empty Estimate (its
     Result says inf)."""
-    n = len(solver.problem.outputs)
-    if status != core.SOLVED:
+    if status != _SOLVED:
         return Estimate([], [])
-    try:
-        est = estimator_of(solver, solver_class)
-    except ValueError as exc:  # a flexure model with no richer model (a user's own)
-        return Estimate([math.inf] * n, [math.inf] * n, f"error estimate: unknown ({exc})")
+    est = getattr(solver, "_estimator", None)
+    if est is None:
+        try:
+            est = estimator_of(solver, solver_class)
+        except ValueError as exc:  # a flexure model with no richer model (a user's own)
+            n = len(solver.problem.outputs)
+            return Estimate([math.inf] * n, [math.inf] * n, f"error estimate: unknown ({exc})")
     return est.estimate(solver)

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import core
+from .estimate import estimate_answer
 from .models.base import FlexureModel
 from .models.registry import build_models, model_info
 from .problem import Problem, Workspace
@@ -54,6 +55,9 @@ KERNEL_STATES = {
     core.lib.FG_KERNEL_GAUSS: "gauss",
     core.lib.FG_KERNEL_GAUSS_PAST: "gauss past its certified range",
 }
+
+
+_SOLVED, _MODEL_ERROR = core.SOLVED, core.MODEL_ERROR
 
 
 def buckling_warning(lam_c: float, why: str) -> str:
@@ -117,6 +121,10 @@ class Solver:
         self._scene_tensions = self.problem.tensions.copy()
         self._changed_loads = self._changed_tensions = False
         self._slices = list(self.problem.chain.slices.items())
+        # the outputs' compliance entries in the workspace, flat (a view made once: the
+        # workspace's arrays stay where they are)
+        nout = len(self.problem.outputs)
+        self._compliance_flat = self.workspace.compliance.reshape(-1)[: 9 * nout]
         # any smooth curvature flexure (the core reports the kernel at equilibrium for those)
         self._kernel_models = any(model_info(m)["kind"] == "scm" for m in self.models.values())
         # any flexure whose model may switch kernels (no other sets the core's switch flag)
@@ -151,12 +159,7 @@ class Solver:
         (``flexgen.estimate``: Newton on the richer model from this answer; ``flexgen.solve`` asks
         for it by default): ``Result.error_estimate`` and each point's ``error_estimate``."""
         status = self.run(loads, tensions, q0)
-        est = None
-        if estimate:
-            from .estimate import estimate_answer
-
-            est = estimate_answer(self, status, Solver)
-        return self._result(status, est)
+        return self._result(status, estimate_answer(self, status, Solver) if estimate else None)
 
     def run(
         self, loads: Any = None, tensions: Any = None, q0: Mapping[str, Any] | None = None
@@ -239,14 +242,14 @@ class Solver:
         )
 
     def _result(self, status: int, est: Any = None) -> Result:
-        ws, p = self.workspace, self.problem
+        # on every solve (flexgen.solve's loop): written for speed, every field as before
+        ws = self.workspace
         a = ws.answer
-        if status == core.MODEL_ERROR:  # the core refused the problem: the answer is not filled
+        if status == _MODEL_ERROR:  # the core refused the problem: the answer is not filled
             return self._failed(status, 0, [], [], 1.0, est)
         # the critical events and kernel switches are notes (facts of the path that do not
         # make the answer wrong); what may make it wrong is a warning
         notes: list[str] = list(self._scene_notes)
-        warnings: list[str] = []
         critical: list[float] = []
         ncritical = a.ncritical
         if ncritical:
@@ -262,50 +265,46 @@ class Solver:
                 notes.append(
                     f"{ncritical - stored} more critical events on the load path are not listed"
                 )
-        solved = status == core.SOLVED
-        q = ws.q
-        switched = ws.switched.tolist() if self._switchable else ()
-        if any(switched):
-            for name, flag in zip(p.flexure_order, switched):
-                if flag:
-                    sl = p.chain.slices[name]
-                    # only models with both kernels switch (SCMModel); the FlexureModel
-                    # protocol does not declare switch_warning
-                    model: Any = self.models[name]
-                    msg = model.switch_warning(q[sl] if solved else None)
-                    if msg:
-                        notes.append(msg)
+        solved = status == _SOLVED
+        if self._switchable:
+            switched = ws.switched.tolist()
+            if any(switched):
+                self._switch_notes(switched, solved, notes)
         if not solved:
             return self._failed(status, a.iterations, notes, critical, a.failure_load_factor, est)
         stable = bool(a.stable)
-        if not stable:
-            warnings.append(UNSTABLE)
-        compliance = ws.compliance[: len(p.outputs)]
+        warnings: list[str] = [] if stable else [UNSTABLE]
         # a NaN or inf entry makes the sum non-finite (a cheap gate; the points are built on
         # access, so the warning is given now)
-        if not math.isfinite(sum(compliance.ravel().tolist())):
-            for ref, c3 in zip(p.outputs, compliance):
+        if not math.isfinite(sum(self._compliance_flat.tolist())):
+            p = self.problem
+            for ref, c3 in zip(p.outputs, ws.compliance[: len(p.outputs)]):
                 if not np.isfinite(c3).all():
                     warnings.append(
                         f"compliance of {ref!r} is undefined: the stiffness matrix is singular"
                     )
-        r = LazyResult.__new__(LazyResult)
+        r = LazyResult.__new__(LazyResult)  # no __init__: every slot is filled below
         r.scene, r.converged, r.stable, r.iterations = self.scene.name, True, stable, a.iterations
         r.warnings, r.reason, r.critical_load_factors, r.load_factor = warnings, None, critical, 1.0
         r.notes = notes
         r.energy, r.residual, r.tolerance = a.energy, a.residual, None
-        r.error_estimate = None if est is None else est.total
-        if est is not None and est.warning:
-            warnings.append(est.warning)
+        if est is None:
+            r.error_estimate = None
+        else:
+            r.error_estimate = est.total
+            if est.warning:
+                warnings.append(est.warning)
         r.solver, r.stability_margin = "core", None
+        # copies of what the lazy fields are built from (the next solve overwrites the
+        # workspace); bends and kernels as lists, the form they are read in
         snapshot = (
             ws.q.copy(),
             ws.pose.copy(),
             ws.compliance.copy(),
             ws.ellipse.copy(),
             ws.K.copy(),
-            ws.bend.copy(),
-            ws.kernel.copy() if self._kernel_models else None,
+            ws.bend.tolist(),
+            ws.kernel.tolist() if self._kernel_models else (),
             est,
         )
         r._build = partial(self._lazy_field, snapshot)
@@ -314,6 +313,19 @@ class Solver:
             r.flexures = self._lazy_field(snapshot, "flexures")
             warnings.extend(safety_warnings(self.scene, r.flexures))
         return r
+
+    def _switch_notes(self, switched: list[int], solved: bool, notes: list[str]) -> None:
+        """The notes of the flexures whose kernel the core switched (``fg_answer.switched``)."""
+        p, q = self.problem, self.workspace.q
+        for name, flag in zip(p.flexure_order, switched):
+            if flag:
+                sl = p.chain.slices[name]
+                # only models with both kernels switch (SCMModel); the FlexureModel
+                # protocol does not declare switch_warning
+                model: Any = self.models[name]
+                msg = model.switch_warning(q[sl] if solved else None)
+                if msg:
+                    notes.append(msg)
 
     def _lazy_field(self, snapshot: tuple, name: str) -> Any:
         """One of a LazyResult's fields (``LAZY_FIELDS``) from the answer's arrays."""
@@ -337,10 +349,9 @@ class Solver:
         if name == "stiffness":
             return K
         if name == "bend":
-            return dict(zip(p.flexure_order, bend.tolist()))
+            return dict(zip(p.flexure_order, bend))
         if name == "kernel":
-            states = kernel.tolist() if kernel is not None else ()
-            return {n: KERNEL_STATES[k] for n, k in zip(p.flexure_order, states) if k}
+            return {n: KERNEL_STATES[k] for n, k in zip(p.flexure_order, kernel) if k}
         if name == "flexures":
             qs = {n: q[sl] for n, sl in self._slices}
             return flexure_stresses(self.scene, self.models, qs)

@@ -25,6 +25,10 @@ The warnings (``validity_warnings``)
   at such a load says so in its reason: ``units_reason``, added by ``flexgen.api``).
 
 ``exact`` is the reference and is not assessed; a result that did not converge already says so.
+
+``calm`` is ``flexgen.solve``'s shortcut for a cached prepared solver's answers: from the core's
+bends and kernels and the margin, whether ``check`` could add anything at all (the usual answer
+earns no warning); when it might, ``check`` decides.
 """
 
 from __future__ import annotations
@@ -335,3 +339,68 @@ def check(scene: Scene, result, models: Mapping | None = None, model_factory=Non
         if w not in result.warnings:
             result.warnings.append(w)
     return claim
+
+
+@dataclass(frozen=True)
+class _Screen:
+    """What ``calm`` needs of a prepared solver, made once (kept on the solver)."""
+
+    empty: bool  # no flexures: check adds nothing
+    always: bool  # prb outside its fitted case: a warning on every answer
+    # per flexure (core order), the bend above which some warning may apply: BEND_LIMIT, and
+    # PRB_LIMIT for prb, and UNITS_BEND at a load level above UNITS_LOAD_LEVEL
+    limits: tuple[float, ...]
+    scm: tuple[int, ...]  # core indices of the smooth curvature flexures
+    kernels_ok: frozenset[int]  # FG_KERNEL_* within range
+
+
+def _screen(solver) -> _Screen:
+    from flexgen import core
+
+    scene, models = solver.scene, solver.models
+    ctx = _context(scene, models, None)
+    order = list(solver.problem.flexure_order)
+    levels = scene.load_levels()
+    limits = []
+    for name in order:
+        limit = BEND_LIMIT
+        if name in ctx.prb:
+            limit = min(limit, PRB_LIMIT)
+        if levels.get(name, 0.0) > UNITS_LOAD_LEVEL:
+            limit = min(limit, UNITS_BEND)
+        limits.append(limit)
+    return _Screen(
+        empty=not scene.flexures,
+        always=bool(ctx.prb) and ctx.prb_problem is not None,
+        limits=tuple(limits),
+        scm=tuple(order.index(name) for name in ctx.scm),
+        kernels_ok=frozenset((core.lib.FG_KERNEL_POLY, core.lib.FG_KERNEL_GAUSS)),
+    )
+
+
+def calm(solver, result) -> bool:
+    """True when ``check(solver.scene, result, solver.models)`` would add no warning to the
+    converged ``result`` that ``solver`` (a prepared ``flexgen.Solver``) just solved, decided
+    from the core's bend and kernel per flexure still in ``solver.workspace`` (call it before
+    the solver solves again) without building the Result's dicts: ``flexgen.solve``'s usual
+    answer then skips ``check``. Conservative: False whenever a warning may apply (every bend
+    within its limit, every smooth curvature kernel within its range, the margin to a critical
+    load known and not small), and ``check`` decides."""
+    screen = getattr(solver, "_validity_screen", None)
+    if screen is None:
+        screen = solver._validity_screen = _screen(solver)
+    if screen.empty:
+        return True
+    if screen.always:
+        return False
+    ws = solver.workspace
+    for bend, limit in zip(ws.bend.tolist(), screen.limits):
+        if not bend <= limit:  # also a nan
+            return False
+    if screen.scm:
+        kernels, ok = ws.kernel.tolist(), screen.kernels_ok
+        for i in screen.scm:
+            if kernels[i] not in ok:
+                return False
+    margin = result.stability_margin
+    return margin is not None and not (margin < NEAR_SINGULAR and result.stable)

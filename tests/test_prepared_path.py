@@ -1,0 +1,110 @@
+"""The loop path of ``flexgen.solve`` (the same Scene object again: its cached prepared solver)
+gives exactly the answer of the first, uncached solve, warnings included: ``validity.calm``
+skips ``validity.check`` only when check would add nothing. And an answer of a prepared solver
+keeps its own values after the solver's next solve (it is built lazily from copies)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexgen
+from flexgen import api, validity
+from flexgen.api import override
+from flexgen.scene import scene_from_dict
+
+FINGER = Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml"
+P_EULER = math.pi**2 / 4  # of a cantilever with EI = L = 1
+
+
+def cantilever(kind="scm", kernel="auto", force=(0.0, -1.0), moment=0.0, EI=1.0):
+    return scene_from_dict(
+        {
+            "name": "cantilever",
+            "model": {"kind": kind, "kernel": kernel} if kind == "scm" else {"kind": kind},
+            "flexure": [{"name": "beam", "length": 1.0, "EI": EI}],
+            "load": [{"point": "beam.tip", "force": list(force), "moment": moment}],
+            "output": {"points": ["beam.tip"]},
+        }
+    )
+
+
+# (scene, a text one of its warnings holds, or None for an answer without warnings)
+CASES = {
+    "finger": (lambda: flexgen.load_scene(FINGER), None),
+    "finger prb": (
+        lambda: override(flexgen.load_scene(FINGER), model="prb"),
+        "pseudo-rigid-body constants",
+    ),
+    "prb within 64 deg": (lambda: cantilever("prb", force=(0.0, -2.0)), None),
+    "prb past 64 deg": (lambda: cantilever("prb", force=(0.0, -8.0)), "64 deg"),
+    "poly past its range": (
+        lambda: cantilever(kernel="poly", force=(-8.0, -8.0)),
+        "polynomial kernel",
+    ),
+    "bent past 180 deg": (lambda: cantilever(moment=4.0), "no accuracy is claimed"),
+    "scm near buckling": (lambda: cantilever(force=(-0.97 * P_EULER, 0.0)), "near a critical"),
+    "fem near buckling": (
+        lambda: cantilever("fem", force=(-0.97 * P_EULER, 0.0)),
+        "near a critical",
+    ),
+    "wrong units": (lambda: cantilever(force=(0.0, -3.0), EI=1e-3), "check the units"),
+    "wrong units, failed": (
+        lambda: cantilever(kernel="poly", force=(0.0, -3.0), EI=1e-3),
+        "check the units",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_the_cached_solve_is_the_first_solve(case):
+    make, expected = CASES[case]
+    scene = make()
+    first = flexgen.solve(scene)  # prepares and caches the solver; the full check
+    solver = api._solvers[api._key(scene, flexgen.settings.DEFAULT)]
+    assert solver.scene is scene
+    again = flexgen.solve(scene)  # the loop path
+    assert again is not first
+    assert again.warnings == first.warnings and again.reason == first.reason
+    assert again.to_json() == first.to_json()
+    assert again.bend == first.bend and again.kernel == first.kernel
+    if expected is None:
+        assert first.converged and first.warnings == []
+    else:
+        assert any(expected in w for w in first.warnings + [first.reason or ""]), first.warnings
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_calm_only_when_check_adds_nothing(case):
+    make, expected = CASES[case]
+    scene = make()
+    solver = flexgen.Solver(scene)
+    result = solver.solve(estimate=True)
+    if not result.converged:
+        pytest.skip("check assesses converged answers only")
+    result.stability_margin = solver.margin()
+    calm = validity.calm(solver, result)
+    before = list(result.warnings)
+    validity.check(scene, result, solver.models)
+    added = result.warnings[len(before) :]
+    assert calm == (added == []) if expected is None else (not calm and added)
+
+
+def test_a_kept_answer_is_not_changed_by_the_next_solve():
+    """Nothing of the first answer is read before the second solve overwrites the workspace
+    (every field of it is built afterwards, from its own copies)."""
+    s = flexgen.Solver(FINGER)
+    loads = s.problem.loads.copy()
+    first = s.solve(estimate=True)  # nothing read
+    s.solve(loads=loads * 3.0, estimate=True)
+    fresh = flexgen.Solver(FINGER).solve(loads=loads, estimate=True)
+    assert first.to_json() == fresh.to_json()
+    assert first.q == fresh.q and first.bend == fresh.bend and first.kernel == fresh.kernel
+    assert np.array_equal(first.stiffness, fresh.stiffness)
+    assert first.error_estimate == fresh.error_estimate
+    assert [p.error_estimate for p in first.points.values()] == [
+        p.error_estimate for p in fresh.points.values()
+    ]
