@@ -131,13 +131,9 @@ def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
 
 
 def _assessed(solver: Solver, q0: Mapping[str, Any] | None, estimate: bool = True) -> Result:
-    """``solver.solve(q0=q0, estimate=estimate)`` with the margin to a critical load the
-    validity check needs (the core's ``fg_margin``, while the workspace holds this answer's
-    stiffness)."""
-    result = solver.solve(q0=q0, estimate=estimate)
-    if result.converged:
-        result.stability_margin = solver.margin()
-    return result
+    """``solver.solve(q0=q0, estimate=estimate)``: the answer the validity check assesses (its
+    margin to a critical load, ``Result.stability_margin``, is computed on first access)."""
+    return solver.solve(q0=q0, estimate=estimate)
 
 
 def _check_inputs(scene: Scene, models: Any, q0: Any) -> None:
@@ -205,7 +201,7 @@ def _solve_prepared(
     answer's bends and kernels in the workspace (hence inside the lock) and spares the Result's
     dicts and ``check``'s work when no validity warning can apply (the usual answer)."""
     with _lock:
-        result = _assessed(solver, q0, estimate)
+        result = solver.solve(q0=q0, estimate=estimate)
         calm = result.converged and validity_calm(solver, result)
     if not calm:
         check(scene, result, solver.models)

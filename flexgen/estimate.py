@@ -51,8 +51,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -78,21 +77,24 @@ MAX_SCM = 8  # the richest smooth curvature kernel shipped
 REACH = 2.0
 
 
-@dataclass(frozen=True)
-class Estimate:
-    """Per output point (in ``Solver.outputs`` order) the pose and compliance estimates."""
+class Estimate(NamedTuple):
+    """Per output point (in ``Solver.outputs`` order) the pose and compliance estimates, and
+    ``total``, the whole answer's: the largest of them (``estimate_of`` fills it). A named
+    tuple, immutable: made on every answer, it costs a third of a frozen dataclass."""
 
     pose: list[float]
     compliance: list[float]
     warning: str | None = None
+    total: float = 0.0
 
-    @property
-    def total(self) -> float:
-        """The whole answer's estimate: the largest of every point's pose and compliance."""
-        pose, compliance = self.pose, self.compliance
-        if pose and compliance:  # on every answer: max without its (slow) default keyword
-            return max(max(pose), max(compliance))
-        return max(max(pose, default=0.0), max(compliance, default=0.0))
+
+def estimate_of(pose: list[float], compliance: list[float], warning: str | None = None) -> Estimate:
+    """The Estimate of these per-point estimates, its total computed."""
+    if pose and compliance:  # on every answer: max without its (slow) default keyword
+        total = max(max(pose), max(compliance))
+    else:
+        total = max(max(pose, default=0.0), max(compliance, default=0.0))
+    return Estimate(pose, compliance, warning, total)
 
 
 def _path_owner(scene: Scene, body: str) -> str:
@@ -295,9 +297,9 @@ class Estimator:
             for i in range(n):
                 pose[i] = s * pose[i] + floor[i]
                 compliance[i] = s * compliance[i] + cf
-            return Estimate(pose, compliance)
+            return estimate_of(pose, compliance)
         why = _WHY.get(status, "found no equilibrium")
-        return Estimate(
+        return estimate_of(
             [math.inf] * n,
             [math.inf] * n,
             f"error estimate: the richer model ({self.rich_label}) {why} near this answer, "
@@ -349,12 +351,12 @@ def estimate_answer(solver: Any, status: int, solver_class: Any) -> Estimate:
     ``run`` returned; ``solver_class``: see ``estimator_of``); no answer: an empty Estimate (its
     Result says inf)."""
     if status != _SOLVED:
-        return Estimate([], [])
+        return estimate_of([], [])
     est = getattr(solver, "_estimator", None)
     if est is None:
         try:
             est = estimator_of(solver, solver_class)
         except ValueError as exc:  # a flexure model with no richer model (a user's own)
             n = len(solver.problem.outputs)
-            return Estimate([math.inf] * n, [math.inf] * n, f"error estimate: unknown ({exc})")
+            return estimate_of([math.inf] * n, [math.inf] * n, f"error estimate: unknown ({exc})")
     return est.estimate(solver)

@@ -143,15 +143,17 @@ class Workspace:
         n, m = int(p.ndof), max(int(p.noutputs), 1)
         self.work = np.empty(max(int(lib.fg_work_size(p)), 1))
         self.iwork = np.empty(max(int(lib.fg_iwork_size(p)), 1), dtype=np.intc)
-        self.q = np.empty(n)
-        self.pose = np.empty((m, 3))
-        self.compliance = np.empty((m, 3, 3))
-        self.ellipse = np.empty((m, 3))  # major, minor, angle per output
-        self.K = np.empty((n, n))
+        nf = max(int(p.nflex), 1)
+        # the answer's arrays, views of one buffer: a Result keeps one copy of it
+        # (answer_views of that copy)
+        self.answer_data = np.zeros(sum(size for _, size, _ in _answer_layout(n, m, nf)))
+        self.q, self.pose, self.compliance, self.ellipse, self.K, self.bend = answer_views(
+            self.answer_data, n, m, nf
+        )  # ellipse: major, minor, angle per output; bend: per flexure, core order
+        self.shape = (n, m, nf)
         self.critical = np.empty(MAX_CRITICAL)
         self.critical_kind = np.empty(MAX_CRITICAL, dtype=np.intc)
         self.switched = np.zeros(max(int(p.nflex), 1), dtype=np.intc)
-        self.bend = np.zeros(max(int(p.nflex), 1))  # per flexure, core order
         self.kernel = np.zeros(max(int(p.nflex), 1), dtype=np.intc)  # FG_KERNEL_*
         self.q0 = np.zeros(max(n, 1))
         a = ffi.new("fg_answer *")
@@ -174,6 +176,29 @@ class Workspace:
         self.K_ptr = dbl(self.K)
         self.iwork_ptr = ffi.cast("int *", self.iwork.ctypes.data)
         self.q0_ptr = dbl(self.q0)
+
+
+def _answer_layout(n: int, m: int, nf: int) -> list[tuple[str, int, tuple[int, ...]]]:
+    """The answer buffer's arrays in order: name, size, shape (n coordinates, m output
+    points, nf flexures)."""
+    return [
+        ("q", n, (n,)),
+        ("pose", 3 * m, (m, 3)),
+        ("compliance", 9 * m, (m, 3, 3)),
+        ("ellipse", 3 * m, (m, 3)),
+        ("K", n * n, (n, n)),
+        ("bend", nf, (nf,)),
+    ]
+
+
+def answer_views(data: np.ndarray, n: int, m: int, nf: int) -> list[np.ndarray]:
+    """q, pose, compliance, ellipse, K, bend: views of an answer buffer (``Workspace.answer_data``
+    or a copy of it)."""
+    views, start = [], 0
+    for _, size, shape in _answer_layout(n, m, nf):
+        views.append(data[start : start + size].reshape(shape))
+        start += size
+    return views
 
 
 def kernel_at_zero(flex: Any, i: int) -> np.ndarray | None:

@@ -128,8 +128,8 @@ class Result:
     stiffness: np.ndarray | None = field(default=None, compare=False, repr=False)
     # at equilibrium (Python API only; chain models): the margin to a critical load (smallest
     # generalized eigenvalue of the stiffness against the elastic Hessian: 1 unloaded,
-    # 1 - P/P_cr on an axial load, < 0 unstable; set by flexgen.solve, which assesses the
-    # answer, and by Solver.margin() on request), each flexure's largest bend max |phi(s)|
+    # 1 - P/P_cr on an axial load, < 0 unstable; computed on first access; Solver.margin()
+    # gives the last answer's), each flexure's largest bend max |phi(s)|
     # relative to its root (rad), and the kernel evaluating each smooth curvature flexure
     # ("poly", "gauss", "gauss past its certified range", ...)
     stability_margin: float | None = None
@@ -269,7 +269,9 @@ class LazyResult(Result):
         return (Result, tuple(getattr(self, f.name) for f in fields(Result)))
 
 
-LAZY_FIELDS = frozenset({"model", "q", "points", "stiffness", "bend", "kernel", "flexures"})
+LAZY_FIELDS = frozenset(
+    {"model", "q", "points", "stiffness", "bend", "kernel", "flexures", "stability_margin"}
+)
 
 
 def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:

@@ -30,7 +30,7 @@ from . import core
 from .estimate import estimate_answer
 from .models.base import FlexureModel
 from .models.registry import build_models, model_info
-from .problem import Problem, Workspace
+from .problem import Problem, Workspace, answer_views
 from .result import UNSTABLE, LazyResult, Result, point_result
 from .scene import Scene
 from .scene_checks import scene_notes
@@ -294,16 +294,11 @@ class Solver:
             r.error_estimate = est.total
             if est.warning:
                 warnings.append(est.warning)
-        r.solver, r.stability_margin = "core", None
-        # copies of what the lazy fields are built from (the next solve overwrites the
-        # workspace); bends and kernels as lists, the form they are read in
+        r.solver = "core"
+        # a copy of what the lazy fields are built from (the next solve overwrites the
+        # workspace): the answer buffer in one copy, the kernels as a list
         snapshot = (
-            ws.q.copy(),
-            ws.pose.copy(),
-            ws.compliance.copy(),
-            ws.ellipse.copy(),
-            ws.K.copy(),
-            ws.bend.tolist(),
+            ws.answer_data.copy(),
             ws.kernel.tolist() if self._kernel_models else (),
             est,
         )
@@ -329,7 +324,8 @@ class Solver:
 
     def _lazy_field(self, snapshot: tuple, name: str) -> Any:
         """One of a LazyResult's fields (``LAZY_FIELDS``) from the answer's arrays."""
-        q, pose, compliance, ellipse, K, bend, kernel, est = snapshot
+        data, kernel, est = snapshot
+        q, pose, compliance, ellipse, K, bend = answer_views(data, *self.workspace.shape)
         p = self.problem
         if name == "q":
             qs = q.tolist()
@@ -349,7 +345,9 @@ class Solver:
         if name == "stiffness":
             return K
         if name == "bend":
-            return dict(zip(p.flexure_order, bend))
+            return dict(zip(p.flexure_order, bend.tolist()))
+        if name == "stability_margin":
+            return margin_of(p, K)
         if name == "kernel":
             return {n: KERNEL_STATES[k] for n, k in zip(p.flexure_order, kernel) if k}
         if name == "flexures":
@@ -363,6 +361,16 @@ class Solver:
         from .estimate import estimator_of
 
         return estimator_of(self, Solver)
+
+    def margin_above(self, margin: float) -> bool:
+        """Whether the last solve's answer's margin to a critical load (``margin()``) exceeds
+        ``margin``: one Cholesky factorization (``fg_margin_above``), not the eigenvalue."""
+        ws = self.workspace
+        return bool(
+            core.lib.fg_margin_above(
+                self.problem.struct, ws.K_ptr, margin, ws.work_ptr, ws.iwork_ptr
+            )
+        )
 
     def margin(self) -> float:
         """The margin to a critical load of the last solve's answer (``fg_margin``: the
@@ -389,3 +397,20 @@ def solve_models(
     """One solve of ``scene`` with these flexure models (the others from the scene), no
     validity check and no cache: what model selection and the benchmarks call."""
     return Solver(scene, models, make_settings(settings, **options)).solve(q0=q0)
+
+
+def margin_of(problem: Problem, K: np.ndarray) -> float:
+    """``fg_margin`` of the stiffness K (an answer's copy) in a workspace of its own (a Result
+    computes its stability margin on first access, whichever solve its solver is in)."""
+    work = np.empty(max(int(core.lib.fg_work_size(problem.struct)), 1))
+    iwork = np.empty(max(int(core.lib.fg_iwork_size(problem.struct)), 1), dtype=np.intc)
+    K = np.ascontiguousarray(K)
+    cast = core.ffi.cast
+    return float(
+        core.lib.fg_margin(
+            problem.struct,
+            cast("double *", K.ctypes.data),
+            cast("double *", work.ctypes.data),
+            cast("int *", iwork.ctypes.data),
+        )
+    )

@@ -385,7 +385,7 @@ def calm(solver, result) -> bool:
     the solver solves again) without building the Result's dicts: ``flexgen.solve``'s usual
     answer then skips ``check``. Conservative: False whenever a warning may apply (every bend
     within its limit, every smooth curvature kernel within its range, the margin to a critical
-    load known and not small), and ``check`` decides."""
+    load not small: ``Solver.margin_above``), and ``check`` decides."""
     screen = getattr(solver, "_validity_screen", None)
     if screen is None:
         screen = solver._validity_screen = _screen(solver)
@@ -402,5 +402,6 @@ def calm(solver, result) -> bool:
         for i in screen.scm:
             if kernels[i] not in ok:
                 return False
-    margin = result.stability_margin
-    return margin is not None and not (margin < NEAR_SINGULAR and result.stable)
+    # near a critical load (a warning): one Cholesky factorization decides, the margin itself
+    # (an eigenvalue) is computed only when check needs its value
+    return not result.stable or solver.margin_above(NEAR_SINGULAR)

@@ -217,3 +217,30 @@ def test_margin_of_any_stiffness_against_numpy(case):
         )
         want = np.linalg.eigvalsh(A)[0]
         assert got == pytest.approx(want, rel=1e-9, abs=1e-12), case
+
+
+def test_margin_above_agrees_with_the_margin():
+    """fg_margin_above (one Cholesky factorization of K - t D) says whether fg_margin exceeds
+    t, on stiffnesses of known spectra around the threshold the validity check uses."""
+    from flexgen import core
+    from flexgen.validity import NEAR_SINGULAR
+
+    solver = flexgen.Solver(EXAMPLES[-1])
+    n = solver.workspace.q.size
+    d = np.sqrt(np.asarray(solver.problem.stiffness, dtype=float))
+    ws = solver.workspace
+    rng = np.random.default_rng(11)
+    ptr = lambda a: core.ffi.cast("double *", a.ctypes.data)  # noqa: E731
+    seen = set()
+    for lowest in (-0.3, 0.0, 0.01, NEAR_SINGULAR * 0.99, NEAR_SINGULAR * 1.01, 0.2, 1.0):
+        V, _ = np.linalg.qr(rng.normal(size=(n, n)))
+        A = V @ np.diag(np.r_[lowest, np.linspace(1.0, 2.0, n - 1)]) @ V.T
+        K = np.ascontiguousarray(np.outer(d, d) * (A + A.T) / 2)
+        above = bool(
+            core.lib.fg_margin_above(
+                solver.problem.struct, ptr(K), NEAR_SINGULAR, ws.work_ptr, ws.iwork_ptr
+            )
+        )
+        assert above == (lowest > NEAR_SINGULAR), lowest
+        seen.add(above)
+    assert seen == {True, False}

@@ -2273,6 +2273,28 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
     return min_eig(w, A);
 }
 
+FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
+                           int *iwork)
+{
+    fg_ws ws, *w = &ws;
+    int n = p->ndof, i;
+    fg_real *A;
+    for (i = 0; i < n; ++i)
+        if (!(p->stiffness[i] > 0.0))
+            return 0;
+    if (n == 0)
+        return 1.0 > margin;
+    bind(w, p, work, iwork);
+    A = w->lc;
+    for (i = 0; i < n; ++i) {   /* K - margin D, upper triangle: positive definite iff every
+                                 * generalized eigenvalue of (K, D) exceeds margin */
+        memcpy(A + (size_t)i * (size_t)n + i, K + (size_t)i * (size_t)n + i,
+               sizeof(fg_real) * (size_t)(n - i));
+        A[(size_t)i * (size_t)n + i] -= margin * p->stiffness[i];
+    }
+    return cholesky(p, A, w->la, n);
+}
+
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch)
 {

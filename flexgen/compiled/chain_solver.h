@@ -252,6 +252,12 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
  * answer's validity is assessed. */
 FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork);
 
+/* 1 if the margin of K to a critical load (fg_margin) exceeds margin, else 0 (also if some
+ * stiffness is not positive): one Cholesky factorization of K - margin D, for the check that
+ * needs only the comparison (an answer near a critical load) and not the eigenvalue. */
+FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
+                           int *iwork);
+
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
  * eigenvalue (major >= minor) and the angle of the major axis from the x axis in (-pi/2, pi/2],
  * 0 when major - minor <= circle_tol max(|major|, |minor|) (a circle); NAN if C is not finite.

@@ -334,6 +334,12 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
  * answer's validity is assessed. */
 FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork);
 
+/* 1 if the margin of K to a critical load (fg_margin) exceeds margin, else 0 (also if some
+ * stiffness is not positive): one Cholesky factorization of K - margin D, for the check that
+ * needs only the comparison (an answer near a critical load) and not the eigenvalue. */
+FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
+                           int *iwork);
+
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
  * eigenvalue (major >= minor) and the angle of the major axis from the x axis in (-pi/2, pi/2],
  * 0 when major - minor <= circle_tol max(|major|, |minor|) (a circle); NAN if C is not finite.
@@ -2591,6 +2597,28 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
     return min_eig(w, A);
 }
 
+FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
+                           int *iwork)
+{
+    fg_ws ws, *w = &ws;
+    int n = p->ndof, i;
+    fg_real *A;
+    for (i = 0; i < n; ++i)
+        if (!(p->stiffness[i] > 0.0))
+            return 0;
+    if (n == 0)
+        return 1.0 > margin;
+    bind(w, p, work, iwork);
+    A = w->lc;
+    for (i = 0; i < n; ++i) {   /* K - margin D, upper triangle: positive definite iff every
+                                 * generalized eigenvalue of (K, D) exceeds margin */
+        memcpy(A + (size_t)i * (size_t)n + i, K + (size_t)i * (size_t)n + i,
+               sizeof(fg_real) * (size_t)(n - i));
+        A[(size_t)i * (size_t)n + i] -= margin * p->stiffness[i];
+    }
+    return cholesky(p, A, w->la, n);
+}
+
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch)
 {
@@ -3425,6 +3453,7 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
 
     /* the core's entry points this controller does not call */
     (void)fg_margin;
+    (void)fg_margin_above;
     (void)fg_flexure_tip;
     (void)fg_estimate;   /* the error estimate is flexgen's (Python), not the controller's */
     (void)fg_work_size;   /* its sizes are TWO_LINK_FINGER_NWORK, _NIWORK */
