@@ -294,8 +294,9 @@ def kernel_names() -> dict[int, tuple[str, str]]:
     return names
 
 
-def c_flexures(p: Any, used: set[str]) -> str:
-    """The fg_flexure initializers of an fg_problem (kernel models); adds the kernels to used."""
+def c_flexures(p: Any, used: set[str]) -> tuple[str, str]:
+    """The tip0 tables and fg_flexure initializers of an fg_problem (kernel models); adds the
+    kernels to used."""
     from flexgen import core
 
     names = kernel_names()
@@ -307,18 +308,25 @@ def c_flexures(p: Any, used: set[str]) -> str:
         used.add(kernel)
         return name
 
-    rows = []
+    from flexgen.problem import kernel_at_zero
+
+    rows, tables = [], []
     for i in range(p.nflex):
         f = p.flex[i]
         if f.kind != core.lib.FG_MODEL_KERNEL:
             raise ValueError(f"flexure {i} is not a smooth curvature (kernel) model")
+        # the kernel at q = 0, a constant of the model (fg_flexure.tip0, as flexgen.Solver's)
+        tip0 = kernel_at_zero(p.flex, i)
+        assert tip0 is not None
+        tables.append(f"static const double peer_tip0_{i}[] = {c_array(tip0.tolist())};")
         rows.append(
             f"{{.kind = FG_MODEL_KERNEL, .ndof = {f.ndof}, .offset = {f.offset}, "
             f".parent = {f.parent}, .at = {c_array(list(f.at))}, .length = {f.length!r}, "
             f".gamma = {f.gamma!r}, .poly = {fn(f.poly)}, .in_range = {fn(f.in_range)}, "
-            f".gauss = {fn(f.gauss)}, .gauss_in_range = {fn(f.gauss_in_range)}}}"
+            f".gauss = {fn(f.gauss)}, .gauss_in_range = {fn(f.gauss_in_range)}, "
+            f".tip0 = peer_tip0_{i}}}"
         )
-    return ",\n    ".join(rows)
+    return "\n".join(tables), ",\n    ".join(rows)
 
 
 def c_ints(ptr: Any, n: int) -> str:
@@ -339,7 +347,7 @@ def write_core_sources(scene: Path, folder: Path) -> list[Path]:
     solver = flexgen.Solver(scene)
     p, problem = solver.problem.struct, solver.problem
     used: set[str] = set()
-    flexures = c_flexures(p, used)
+    tip0_tables, flexures = c_flexures(p, used)
     points = ", ".join(
         f"{{.frame = {pt.frame}, .x = {pt.x!r}, .y = {pt.y!r}}}"
         for pt in (p.points[i] for i in range(p.npoints))
@@ -358,6 +366,7 @@ def write_core_sources(scene: Path, folder: Path) -> list[Path]:
 #define PEER_NLOADS {p.nloads}
 #define PEER_NTENDONS {p.ntendons}
 #define PEER_NOUT {p.noutputs}
+{tip0_tables}
 static const fg_flexure peer_flex[PEER_NFLEX] = {{
     {flexures}}};
 static const fg_point peer_points[PEER_NPOINTS] = {{{points}}};

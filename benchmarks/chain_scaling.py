@@ -120,7 +120,8 @@ def main(argv=None) -> None:
             "`make bench`) on this project's shared 2-core machine: a chain of n scm3 flexures "
             "(length 1/n each, EI = 1, in a row) under the tip force (0, -2), the bare core call "
             f"of a prepared `flexgen.Solver`, the {STAT} of {args.rounds} batches. Evaluations: "
-            "chain evaluations (kinematics and kernels) per solve, as the core counts them.",
+            "chain evaluations that evaluated a model per solve, as the core counts them (the unloaded "
+            "state, whose kernel values are constants, is not one).",
             "",
             "| n | coordinates | us per solve | Newton iterations | evaluations | time / (n = 1) |",
             "|---|---|---|---|---|---|",

@@ -918,8 +918,8 @@ def render_markdown(data: BenchData) -> str:
         f"{_count(tg['finger_evaluations'])} |",
         "",
         "`Solver.run()` is `Solver.solve()` without building the Result (the answer stays in the "
-        "workspace arrays); flexgen.solve adds the margin to a critical load (`fg_margin`) and "
-        "the validity check.",
+        "workspace arrays); flexgen.solve adds the error estimate (`fg_estimate`) and the "
+        "validity check (whether the margin to a critical load exceeds 5 %: `fg_margin_above`).",
     ]
     L += [
         "",
