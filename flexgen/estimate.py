@@ -294,10 +294,15 @@ class Estimator:
             d = self.out.tolist()
             pose, compliance = d[0 : 2 * n : 2], d[1 : 2 * n : 2]
             s, floor, cf = self.factor, self.pos_floor, self.comp_floor
+            total = 0.0  # the largest (FG_ESTIMATED: every difference finite and >= 0)
             for i in range(n):
-                pose[i] = s * pose[i] + floor[i]
-                compliance[i] = s * compliance[i] + cf
-            return estimate_of(pose, compliance)
+                pose[i] = e = s * pose[i] + floor[i]
+                if e > total:
+                    total = e
+                compliance[i] = e = s * compliance[i] + cf
+                if e > total:
+                    total = e
+            return Estimate(pose, compliance, None, total)
         why = _WHY.get(status, "found no equilibrium")
         return estimate_of(
             [math.inf] * n,

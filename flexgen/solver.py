@@ -58,6 +58,7 @@ KERNEL_STATES = {
 
 
 _SOLVED, _MODEL_ERROR = core.SOLVED, core.MODEL_ERROR
+_fg_solve = core.lib.fg_solve
 
 
 def buckling_warning(lam_c: float, why: str) -> str:
@@ -121,10 +122,10 @@ class Solver:
         self._scene_tensions = self.problem.tensions.copy()
         self._changed_loads = self._changed_tensions = False
         self._slices = list(self.problem.chain.slices.items())
-        # the outputs' compliance entries in the workspace, flat (a view made once: the
-        # workspace's arrays stay where they are)
-        nout = len(self.problem.outputs)
-        self._compliance_flat = self.workspace.compliance.reshape(-1)[: 9 * nout]
+        ws = self.workspace
+        # fg_solve's arguments, made once (the loop path reads no attribute for them)
+        self._core_args = (self.problem.struct, ws.work_ptr, ws.iwork_ptr, ws.answer)
+        self._warm = False  # problem.struct.q0 points at ws.q0 (a warm start was asked)
         # any smooth curvature flexure (the core reports the kernel at equilibrium for those)
         self._kernel_models = any(model_info(m)["kind"] == "scm" for m in self.models.values())
         # any flexure whose model may switch kernels (no other sets the core's switch flag)
@@ -188,10 +189,12 @@ class Solver:
                 v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]
                 ws.q0[sl.start : sl.start + v.size] = v
             p.struct.q0 = ws.q0_ptr
-        else:
+            self._warm = True
+        elif self._warm:
             p.struct.q0 = core.ffi.NULL
-        status: int = core.lib.fg_solve(p.struct, ws.work_ptr, ws.iwork_ptr, ws.answer)
-        if status == core.MODEL_ERROR:  # the core checks the loads are finite, off Python's path
+            self._warm = False
+        status: int = _fg_solve(*self._core_args)
+        if status == _MODEL_ERROR:  # the core checks the loads are finite, off Python's path
             for what, given in (("loads", p.loads), ("tensions", p.tensions)):
                 if not np.all(np.isfinite(given)):
                     raise ValueError(f"{what}: every value must be finite")
@@ -274,9 +277,9 @@ class Solver:
             return self._failed(status, a.iterations, notes, critical, a.failure_load_factor, est)
         stable = bool(a.stable)
         warnings: list[str] = [] if stable else [UNSTABLE]
-        # a NaN or inf entry makes the sum non-finite (a cheap gate; the points are built on
-        # access, so the warning is given now)
-        if not math.isfinite(sum(self._compliance_flat.tolist())):
+        # the core counts the points whose compliance has a non-finite entry (the points are
+        # built on access, so the warning is given now)
+        if a.undefined_compliance:
             p = self.problem
             for ref, c3 in zip(p.outputs, ws.compliance[: len(p.outputs)]):
                 if not np.isfinite(c3).all():
@@ -365,12 +368,13 @@ class Solver:
     def margin_above(self, margin: float) -> bool:
         """Whether the last solve's answer's margin to a critical load (``margin()``) exceeds
         ``margin``: one Cholesky factorization (``fg_margin_above``), not the eigenvalue."""
+        return bool(core.lib.fg_margin_above(*self.margin_above_args(margin)))
+
+    def margin_above_args(self, margin: float) -> tuple:
+        """``fg_margin_above``'s arguments for this solver's answers (made once by a caller that
+        asks on every answer: ``validity.calm``)."""
         ws = self.workspace
-        return bool(
-            core.lib.fg_margin_above(
-                self.problem.struct, ws.K_ptr, margin, ws.work_ptr, ws.iwork_ptr
-            )
-        )
+        return (self.problem.struct, ws.K_ptr, margin, ws.work_ptr, ws.iwork_ptr)
 
     def margin(self) -> float:
         """The margin to a critical load of the last solve's answer (``fg_margin``: the

@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -352,6 +353,9 @@ class _Screen:
     limits: tuple[float, ...]
     scm: tuple[int, ...]  # core indices of the smooth curvature flexures
     kernels_ok: frozenset[int]  # FG_KERNEL_* within range
+    # fg_margin_above and its arguments for the solver's answer (K in its workspace): whether
+    # the margin to a critical load exceeds NEAR_SINGULAR
+    near: tuple[Any, tuple]
 
 
 def _screen(solver) -> _Screen:
@@ -375,6 +379,7 @@ def _screen(solver) -> _Screen:
         limits=tuple(limits),
         scm=tuple(order.index(name) for name in ctx.scm),
         kernels_ok=frozenset((core.lib.FG_KERNEL_POLY, core.lib.FG_KERNEL_GAUSS)),
+        near=(core.lib.fg_margin_above, solver.margin_above_args(NEAR_SINGULAR)),
     )
 
 
@@ -404,4 +409,5 @@ def calm(solver, result) -> bool:
                 return False
     # near a critical load (a warning): one Cholesky factorization decides, the margin itself
     # (an eigenvalue) is computed only when check needs its value
-    return not result.stable or solver.margin_above(NEAR_SINGULAR)
+    margin_above, args = screen.near
+    return not result.stable or bool(margin_above(*args))

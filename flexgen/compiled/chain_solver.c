@@ -1428,6 +1428,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const fg_real *facto
         out->stable = cholesky(p, cur->K, w->la, n);
     }
     out->iterations = iterations;
+    out->undefined_compliance = 0;
     out->energy = cur->U;
     out->residual = cur->rel;
     memcpy(out->q, cur->q, sizeof(fg_real) * (size_t)n);
@@ -1457,6 +1458,8 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const fg_real *facto
                 fg_real s = 0.5 * (C[a * 3 + i] + C[i * 3 + a]);
                 C[a * 3 + i] = C[i * 3 + a] = s;
             }
+        if (!finite_all(C, 9))
+            ++out->undefined_compliance;
         if (out->ellipse != NULL) {
             fg_real C2[4];
             C2[0] = C[0];

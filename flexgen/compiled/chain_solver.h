@@ -227,6 +227,8 @@ typedef struct {
                            * position rows of its compliance); NULL: not wanted */
     int warm;             /* 1: the warm start from fg_problem.q0 was accepted (the answer is
                            * Newton's from q0, no load path was followed) */
+    int undefined_compliance;   /* FG_SOLVED: how many output points' compliances have an entry
+                                 * that is not finite (K singular) */
 } fg_answer;
 
 /* fg_answer.kernel: which kernel evaluates a FG_MODEL_KERNEL flexure at the equilibrium */

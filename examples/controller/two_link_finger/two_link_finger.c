@@ -309,6 +309,8 @@ typedef struct {
                            * position rows of its compliance); NULL: not wanted */
     int warm;             /* 1: the warm start from fg_problem.q0 was accepted (the answer is
                            * Newton's from q0, no load path was followed) */
+    int undefined_compliance;   /* FG_SOLVED: how many output points' compliances have an entry
+                                 * that is not finite (K singular) */
 } fg_answer;
 
 /* fg_answer.kernel: which kernel evaluates a FG_MODEL_KERNEL flexure at the equilibrium */
@@ -1752,6 +1754,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const fg_real *facto
         out->stable = cholesky(p, cur->K, w->la, n);
     }
     out->iterations = iterations;
+    out->undefined_compliance = 0;
     out->energy = cur->U;
     out->residual = cur->rel;
     memcpy(out->q, cur->q, sizeof(fg_real) * (size_t)n);
@@ -1781,6 +1784,8 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const fg_real *facto
                 fg_real s = 0.5 * (C[a * 3 + i] + C[i * 3 + a]);
                 C[a * 3 + i] = C[i * 3 + a] = s;
             }
+        if (!finite_all(C, 9))
+            ++out->undefined_compliance;
         if (out->ellipse != NULL) {
             fg_real C2[4];
             C2[0] = C[0];
