@@ -53,6 +53,10 @@ class SolverSettings:
     lapack_min_size: int = 32  # LAPACK factorizations from this many coordinates on
     bend_samples: int = 65  # points along a flexure where its bend is sampled
     circle_tol: float = 1e-14  # ellipse axes equal to this (relative): a circle, angle 0
+    # Newton's last step taken unevaluated (its end linearized) from a residual of at most this
+    # many tol, when the convergence seen predicts its end below tol and polish_target; the
+    # compliance is then off by about that residual (0: every step evaluated)
+    linearized_step: float = 30.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -160,6 +164,7 @@ _RANGES = {
     "moderate_growth": (lambda x: x >= 1, _any, ">= 1"),
     "step_shrink": (_pos, _lt1, "in (0, 1)"),
     "circle_tol": (_nonneg, _lt1, "in [0, 1)"),
+    "linearized_step": (_nonneg, _any, ">= 0"),
 }
 
 DEFAULT = SolverSettings()

@@ -1050,3 +1050,27 @@ def test_solves_with_the_same_settings_reuse_one_prepared_solver():
     flexgen.solve(scene)
     flexgen.solve(scene, settings=SolverSettings(tol=1e-10))
     assert len(api._solvers) - before == 2
+
+
+@pytest.mark.parametrize("name", ["cantilever_tip_load", "two_link_finger", "steel_finger"])
+def test_newton_last_step_linearized_against_evaluated(name):
+    """Newton's last step taken unevaluated (settings.linearized_step, the default) against
+    every step evaluated (linearized_step = 0): one evaluation fewer per Newton solve where it
+    applies (the cantilever under a tip force: 7 against 8), and the same answer: q and poses
+    to 1e-12, compliances to the linearization's order (the residual it starts from, at most
+    30 tol, times the compliance's sensitivity: 1e-9 relative)."""
+    path = Path(__file__).resolve().parents[1] / "examples" / f"{name}.toml"
+    fast, full = flexgen.Solver(path), flexgen.Solver(path, linearized_step=0.0)
+    a, b = fast.solve(), full.solve()
+    assert a.converged and b.converged
+    ea, eb = fast.workspace.answer.evaluations, full.workspace.answer.evaluations
+    assert ea <= eb
+    if name == "cantilever_tip_load":
+        assert (ea, eb) == (7, 8)
+    for n in a.q:
+        np.testing.assert_allclose(a.q[n], b.q[n], rtol=0, atol=1e-12 * (1 + np.abs(b.q[n]).max()))
+    for ref, pa in a.points.items():
+        pb = b.points[ref]
+        np.testing.assert_allclose(pa.pose, pb.pose, rtol=0, atol=1e-12)
+        c = np.asarray(pb.compliance)
+        np.testing.assert_allclose(pa.compliance, c, rtol=0, atol=1e-9 * np.abs(c).max())

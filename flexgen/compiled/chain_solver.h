@@ -159,6 +159,10 @@ typedef struct {
     int bend_samples;               /* fg_answer.bend: points along each flexure (>= 2) */
     double circle_tol;              /* an ellipse whose axes differ by less than this (relative)
                                      * is a circle: its angle is 0 */
+    double linearized_step;         /* Newton's last step taken unevaluated (its end linearized)
+                                     * from a residual of at most this many tol, when the
+                                     * convergence seen predicts its end below tol and
+                                     * polish_target (0: every step evaluated) */
 } fg_settings;
 
 typedef struct {

@@ -241,6 +241,10 @@ typedef struct {
     int bend_samples;               /* fg_answer.bend: points along each flexure (>= 2) */
     double circle_tol;              /* an ellipse whose axes differ by less than this (relative)
                                      * is a circle: its angle is 0 */
+    double linearized_step;         /* Newton's last step taken unevaluated (its end linearized)
+                                     * from a residual of at most this many tol, when the
+                                     * convergence seen predicts its end below tol and
+                                     * polish_target (0: every step evaluated) */
 } fg_settings;
 
 typedef struct {
@@ -414,10 +418,6 @@ FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, cons
 #define FG_JACOBI_SMALL 1e-18
 #define FG_JACOBI_SWEEPS 100
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
-/* Newton's last step is taken unevaluated (its end's stiffness and Jacobians those of its
- * start) only from a residual at most this many tol: the compliance is then off by about that
- * residual (measured: a 1e-9 residual left the compliance 5e-9 off on a 16-element chain) */
-#define FG_LINEARIZED_STEP 30.0
 /* fg_estimate's Newton is seen to converge when a step is at most this fraction of the one
  * before (quadratic convergence from within its basin): the compliance taken there is then off
  * by about this fraction of the distance to the richer equilibrium, which the margins of
@@ -1510,7 +1510,6 @@ static int newton_step(fg_ws *w, const fg_state *st, int factored, fg_real *d)
     return lu_solve(p, st->K, w->la, w->piv, n, st->r, d);
 }
 
-#ifndef FG_SINGLE   /* (newton: double only) */
 /* st moved to q - d (d = K^-1 r, a full Newton step) without an evaluation: q, the output
  * points' poses (pose - J d) and r (r - K d, zero to rounding) updated to first order, rel set
  * to the predicted residual; K, the Jacobians and the energies stay at the old q (off by O(|d|),
@@ -1535,7 +1534,6 @@ static void step_linearized(fg_ws *w, fg_state *st, const fg_real *d, fg_real re
         st->q[i] -= d[i];
     st->rel = rel;
 }
-#endif
 
 /* Newton from *cur (evaluated) at its load factor, using *spare (and, for descent, *extra) for
  * trial states; on success *cur points at the converged state and the others at spare buffers.
@@ -1597,25 +1595,24 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
             /* singular K: no Newton step exists (not reached in practice) */
             set_error(w, FG_ERR_LINE_SEARCH, st->lam, st->rel);
             return 0;
-        }
-#ifndef FG_SINGLE   /* the float twin's tol (2e-5) would leave K and J far off: evaluated */
-        else if (k >= 1) {
+        } else if (k >= 1) {
             /* the last step taken unevaluated: when the residuals seen converge so fast that
              * the step's end is predicted below tol and polish_target (quadratic convergence,
              * its constant from the last two residuals: rel_k^3 / rel_k-1^2) and the step is
              * short enough for the stiffness and Jacobians at its start (rel_k at most
-             * FG_LINEARIZED_STEP tol), that end is the equilibrium, its state linearized along
+             * linearized_step tol: the compliance is off by about rel_k; measured, a 1e-9
+             * residual left it 5e-9 off on a 16-element chain), that end is the equilibrium,
+             * its state linearized along
              * d (the evaluation there would only confirm it: one chain evaluation fewer per
              * Newton solve) */
             fg_real prev = history[(k - 1) % ring];
             fg_real predicted = prev > 0.0 ? st->rel / prev * (st->rel / prev) * st->rel : INFINITY;
             if (predicted <= set->tol && predicted <= set->polish_target
-                && st->rel <= FG_LINEARIZED_STEP * set->tol) {
+                && st->rel <= set->linearized_step * set->tol) {
                 step_linearized(w, st, d, predicted);
                 return 1;
             }
         }
-#endif
         for (tries = 0; tries < set->line_search_halvings && !accepted; ++tries, alpha *= 0.5) {
             fg_state *trial = *spare;
             if (descent)
@@ -3412,7 +3409,8 @@ static const fg_problem two_link_finger_problem = {
         .step_shrink = 0.5,
         .lapack_min_size = 32,
         .bend_samples = 65,
-        .circle_tol = 1e-14
+        .circle_tol = 1e-14,
+        .linearized_step = 30.0
     },
     .lapack = {NULL, NULL, NULL, NULL, NULL},   /* the built-in factorizations */
     .q0 = NULL
