@@ -294,9 +294,9 @@ def kernel_names() -> dict[int, tuple[str, str]]:
     return names
 
 
-def c_flexures(p: Any, used: set[str]) -> tuple[str, str]:
-    """The tip0 tables and fg_flexure initializers of an fg_problem (kernel models); adds the
-    kernels to used."""
+def c_flexures(problem: Any, used: set[str]) -> tuple[str, str]:
+    """The tip0 tables and fg_flexure initializers of a flexgen Problem's fg_problem (kernel
+    models); adds the kernels to used."""
     from flexgen import core
 
     names = kernel_names()
@@ -308,16 +308,14 @@ def c_flexures(p: Any, used: set[str]) -> tuple[str, str]:
         used.add(kernel)
         return name
 
-    from flexgen.problem import kernel_at_zero
-
+    p = problem.struct
     rows, tables = [], []
     for i in range(p.nflex):
         f = p.flex[i]
         if f.kind != core.lib.FG_MODEL_KERNEL:
             raise ValueError(f"flexure {i} is not a smooth curvature (kernel) model")
         # the kernel at q = 0, a constant of the model (fg_flexure.tip0, as flexgen.Solver's)
-        tip0 = kernel_at_zero(p.flex, i)
-        assert tip0 is not None
+        tip0 = problem.tip0[i]
         tables.append(f"static const double peer_tip0_{i}[] = {c_array(tip0.tolist())};")
         rows.append(
             f"{{.kind = FG_MODEL_KERNEL, .ndof = {f.ndof}, .offset = {f.offset}, "
@@ -347,7 +345,7 @@ def write_core_sources(scene: Path, folder: Path) -> list[Path]:
     solver = flexgen.Solver(scene)
     p, problem = solver.problem.struct, solver.problem
     used: set[str] = set()
-    tip0_tables, flexures = c_flexures(p, used)
+    tip0_tables, flexures = c_flexures(problem, used)
     points = ", ".join(
         f"{{.frame = {pt.frame}, .x = {pt.x!r}, .y = {pt.y!r}}}"
         for pt in (p.points[i] for i in range(p.npoints))

@@ -75,7 +75,9 @@ class Problem:
             f.parent = -1 if frame == BASE else index[frame]
             f.at = [float(v) for v in fl.at]
             self.stiffness[sl] = core_description(models[name], f)
-        self._keep += [_kernel_at_zero(flex, i) for i in range(len(order))]
+        # each kernel flexure's kernel at q = 0 (fg_flexure.tip0, which points into these;
+        # None for the others), read also by the controller emitter
+        self.tip0 = [_set_kernel_at_zero(flex, i) for i in range(len(order))]
         points = ffi.new("fg_point[]", max(len(refs), 1))
         for i, ref in enumerate(refs):
             body, xy = chain.resolve_point(ref)
@@ -201,31 +203,23 @@ def answer_views(data: np.ndarray, n: int, m: int, nf: int) -> list[np.ndarray]:
     return views
 
 
-def kernel_at_zero(flex: Any, i: int) -> np.ndarray | None:
-    """What kernel flexure ``flex[i]``'s kernel returns at q = 0 (pose 3, J 3k, H 3kk, for
-    length 1), computed once here; None for the n-element chain and the pseudo-rigid body,
-    whose closed forms cost nothing."""
+def _set_kernel_at_zero(flex: Any, i: int) -> np.ndarray | None:
+    """Kernel flexure ``flex[i]``'s kernel at q = 0 (pose 3, J 3k, H 3kk, for length 1),
+    computed once and set as ``flex[i].tip0`` (the unloaded state then evaluates no kernel);
+    the array, which the caller keeps alive. None for the n-element chain and the pseudo-rigid
+    body, whose closed forms cost nothing."""
     f = flex[i]
     if f.kind != lib.FG_MODEL_KERNEL:
         return None
     k = f.ndof
     out = np.zeros(3 + 3 * k + 3 * k * k)
     scratch = np.zeros(4 * (k + 1))
-    length, tip0 = f.length, f.tip0
-    f.length, f.tip0 = 1.0, ffi.NULL  # the kernel itself, unscaled
     dbl = lambda x: ffi.cast("double *", x.ctypes.data)  # noqa: E731
+    length, f.length = f.length, 1.0  # the kernel itself, unscaled (tip0 is not set yet)
     ok = lib.fg_flexure_tip(
         flex + i, dbl(np.zeros(k)), dbl(out), dbl(out[3:]), dbl(out[3 + 3 * k :]), dbl(scratch)
     )
-    f.length, f.tip0 = length, tip0
+    f.length = length
     assert ok, "every kernel evaluates at q = 0"
-    return out
-
-
-def _kernel_at_zero(flex: Any, i: int) -> np.ndarray | None:
-    """``kernel_at_zero`` set as ``flex[i].tip0`` (the unloaded state then evaluates no
-    kernel); the array, which the caller keeps alive."""
-    out = kernel_at_zero(flex, i)
-    if out is not None:
-        flex[i].tip0 = ffi.cast("double *", out.ctypes.data)
+    f.tip0 = dbl(out)
     return out

@@ -235,7 +235,7 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
                 "gamma": float(f.gamma),
                 "poly": poly,
                 "gauss": gauss,
-                "tip0": _tip0(p.flex, i, number),
+                "tip0": _tip0(problem.tip0[i], number),
                 "poly_bound": f"{poly.upper()}_ERROR_BOUND" if poly else "0",
                 "gauss_bound": f"{gauss.upper()}_ERROR_BOUND" if gauss else "0",
             }
@@ -243,12 +243,9 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
     return rows
 
 
-def _tip0(flex: Any, i: int, number) -> list[str] | None:
-    """fg_flexure.tip0 of flexure i as C numbers (flexgen/problem.py computes it once per
-    problem: its kernel at q = 0), None for a model without a kernel."""
-    from flexgen.problem import kernel_at_zero
-
-    values = kernel_at_zero(flex, i)
+def _tip0(values: Any, number) -> list[str] | None:
+    """fg_flexure.tip0 of a flexure (``Problem.tip0``: its kernel at q = 0) as C numbers, None
+    for a model without a kernel."""
     return None if values is None else [number(float(v)) for v in values]
 
 
