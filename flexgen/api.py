@@ -130,12 +130,6 @@ def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
     return solver
 
 
-def _assessed(solver: Solver, q0: Mapping[str, Any] | None, estimate: bool = True) -> Result:
-    """``solver.solve(q0=q0, estimate=estimate)``: the answer the validity check assesses (its
-    margin to a critical load, ``Result.stability_margin``, is computed on first access)."""
-    return solver.solve(q0=q0, estimate=estimate)
-
-
 def _check_inputs(scene: Scene, models: Any, q0: Any) -> None:
     """TypeError/ValueError naming the key for a ``models`` or ``q0`` that is not a mapping of
     the scene's flexures to models / finite coordinates."""
@@ -250,11 +244,11 @@ def _solve_scene(
         return result, None
     if models is not None:
         solver = Solver(scene, models, settings)
-        result = _assessed(solver, q0, estimate)
+        result = solver.solve(q0=q0, estimate=estimate)
     else:
         with _lock:
             solver = _cached_solver(scene, settings)
-            result = _assessed(solver, q0, estimate)
+            result = solver.solve(q0=q0, estimate=estimate)
     check(scene, result, solver.models)
     return result, None
 
