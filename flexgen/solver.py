@@ -379,8 +379,8 @@ class Solver:
     def margin(self) -> float:
         """The margin to a critical load of the last solve's answer (``fg_margin``: the
         smallest eigenvalue of the stiffness scaled by the elastic energy's Hessian; 1 unloaded,
-        1 - P/P_cr on an axial load, < 0 unstable). An eigen-decomposition, O(n^3): not part of
-        ``solve``; ``flexgen.solve`` asks for it to assess the answer."""
+        1 - P/P_cr on an axial load, < 0 unstable). Eigenvalues, O(n^3): not part of ``solve``;
+        each Result computes its own ``stability_margin`` the same way on first access."""
         ws = self.workspace
         return float(core.lib.fg_margin(self.problem.struct, ws.K_ptr, ws.work_ptr, ws.iwork_ptr))
 

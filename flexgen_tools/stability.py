@@ -116,9 +116,7 @@ def solve_assessed(scene: Scene, md: ModelDef):
 
     models = md.models(scene)
     solver = Solver(scene, models)
-    r = solver.solve(estimate=True)
-    if r.converged:  # the core's margin, as flexgen.solve gives it to the validity check
-        r.stability_margin = solver.margin()
+    r = solver.solve(estimate=True)  # (its stability_margin: the core's, on first access)
     claim = assess(scene, r, models, md.label) if r.converged else None
     return r, claim
 
