@@ -452,6 +452,8 @@ typedef struct {
                              * point off its origin: set by fg_solve); else not computed */
     int poly_in_range;      /* 1: the next kinematics' q is known to be within the range of
                              * every polynomial kernel (in_kernel_range said so): not asked again */
+    int la_factors_cur;     /* 1: newton returned with la holding its state's K's Cholesky
+                             * factor (its last step linearized: K is that of the step's start) */
     int evaluations;        /* kinematics evaluated in this solve */
     /* the last error and the last model error (fg_answer.last_error*, model_error*) */
     int err, err_flex, err_route, err_iterations;
@@ -524,6 +526,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->n = p->ndof;
     w->kin_ok = 0;
     w->poly_in_range = 0;
+    w->la_factors_cur = 0;
     w->evaluations = 0;
     w->err = FG_ERR_NONE;
     w->err_flex = w->err_route = -1;
@@ -958,6 +961,27 @@ static size_t out_size(const fg_ws *w)
     return (size_t)w->p->noutputs * (3 + 3 * (size_t)w->n);
 }
 
+/* K[j] = lam S[j], j < m; returns 0 if every S[j] is finite, else NaN: S[j] - S[j] is 0 for a
+ * finite entry and NaN for an infinite or NaN one. Summed in two lanes from the row's first
+ * entry, this loop vectorizes (a comparison per entry kept it scalar: a fifth of a chain
+ * evaluation at 96 coordinates). */
+static fg_real scaled_row(fg_real *K, const fg_real *S, fg_real lam, int m)
+{
+    fg_real z0 = 0.0, z1 = 0.0;
+    int j;
+    for (j = 0; j + 1 < m; j += 2) {
+        K[j] = lam * S[j];
+        K[j + 1] = lam * S[j + 1];
+        z0 += S[j] - S[j];
+        z1 += S[j + 1] - S[j + 1];
+    }
+    if (j < m) {
+        K[j] = lam * S[j];
+        z0 += S[j] - S[j];
+    }
+    return z0 + z1;
+}
+
 /* The state at load factor lam from its load-independent parts (fresh: S was just built);
  * S: NULL (st's own), or the S to use instead (st's own is then not read) */
 static void at_lambda(const fg_ws *w, fg_state *st, const fg_real *S, fg_real lam, int fresh)
@@ -979,18 +1003,14 @@ static void at_lambda(const fg_ws *w, fg_state *st, const fg_real *S, fg_real la
     if (S == NULL)
         S = st->S;
     if (fresh) {
-        int sbad = 0;
+        fg_real z = 0.0;
         for (i = 0; i < n; ++i) {
-            const fg_real *Si = S + (size_t)i * (size_t)n;
             fg_real *Ki = st->K + (size_t)i * (size_t)n;
-            for (j = i; j < n; ++j) {
-                Ki[j] = lam * Si[j];
-                sbad |= !(fabs(Si[j]) <= FG_REAL_MAX);
-            }
+            z += scaled_row(Ki + i, S + (size_t)i * (size_t)n + i, lam, n - i);
             Ki[i] += p->stiffness[i];
             bad |= !(fabs(Ki[i]) <= FG_REAL_MAX);
         }
-        st->sfinite = !sbad;
+        st->sfinite = z == 0.0;
     } else
         for (i = 0; i < n; ++i) {
             const fg_real *Si = S + (size_t)i * (size_t)n;
@@ -1230,20 +1250,29 @@ static int cholesky_builtin(const fg_real *A, fg_real *F, int n)
     return 1;
 }
 
-/* x = A^-1 b with A = U^T U, U in F (cholesky's factor, built-in or dpotrf's): U^T y = b by an
- * axpy along each row of U, U x = y by a dot product along each row (four partial sums). For
- * one right-hand side these loops cost less than dpotrs's blocked dtrsm. */
+/* y = U^-T b, U in F (cholesky's factor, built-in or dpotrf's), by an axpy along each row of U
+ * (y may be b) */
+static void cholesky_forward(const fg_real *F, int n, const fg_real *b, fg_real *y)
+{
+    int i, j;
+    if (y != b)
+        memcpy(y, b, sizeof(fg_real) * (size_t)n);
+    for (j = 0; j < n; ++j) {
+        const fg_real *Fj = F + (size_t)j * (size_t)n;
+        fg_real yj = y[j] / Fj[j];
+        y[j] = yj;
+        for (i = j + 1; i < n; ++i)
+            y[i] -= Fj[i] * yj;
+    }
+}
+
+/* x = A^-1 b with A = U^T U, U in F (cholesky's factor, built-in or dpotrf's): U^T y = b
+ * (cholesky_forward), U x = y by a dot product along each row (four partial sums). For one
+ * right-hand side these loops cost less than dpotrs's blocked dtrsm. */
 static void cholesky_solve_builtin(const fg_real *F, int n, const fg_real *b, fg_real *x)
 {
     int i, j;
-    memcpy(x, b, sizeof(fg_real) * (size_t)n);
-    for (j = 0; j < n; ++j) {
-        const fg_real *Fj = F + (size_t)j * (size_t)n;
-        fg_real yj = x[j] / Fj[j];
-        x[j] = yj;
-        for (i = j + 1; i < n; ++i)
-            x[i] -= Fj[i] * yj;
-    }
+    cholesky_forward(F, n, b, x);
     for (j = n - 1; j >= 0; --j) {
         const fg_real *Fj = F + (size_t)j * (size_t)n;
         fg_real s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
@@ -1496,18 +1525,20 @@ static fg_real min_eig(fg_ws *w, const fg_real *A)
 
 /* ---- Newton with a line search: plain, or with descent to a stable state ---------------- */
 
+enum { STEP_SINGULAR, STEP_LU, STEP_CHOLESKY };
+
 /* d = K^-1 r: by Cholesky into w->la when K is positive definite (the usual case, half the work
- * of LU), else by LU (partial pivoting); 0 if K is singular. factored: w->la already holds
- * K's Cholesky factor. The two agree to rounding. */
+ * of LU), else by LU (partial pivoting); STEP_SINGULAR if K is singular, else which factor
+ * w->la holds. factored: w->la already holds K's Cholesky factor. The two agree to rounding. */
 static int newton_step(fg_ws *w, const fg_state *st, int factored, fg_real *d)
 {
     const fg_problem *p = w->p;
     int n = w->n;
     if (factored || cholesky(p, st->K, w->la, n)) {
         cholesky_solve(p, w->la, n, st->r, d);
-        return 1;
+        return STEP_CHOLESKY;
     }
-    return lu_solve(p, st->K, w->la, w->piv, n, st->r, d);
+    return lu_solve(p, st->K, w->la, w->piv, n, st->r, d) ? STEP_LU : STEP_SINGULAR;
 }
 
 /* st moved to q - d (d = K^-1 r, a full Newton step) without an evaluation: q, the output
@@ -1523,12 +1554,12 @@ static void step_linearized(fg_ws *w, fg_state *st, const fg_real *d, fg_real re
         for (a = 0; a < 3; ++a)
             o[a] -= dot(o + 3 + (size_t)a * (size_t)n, d, n);
     }
-    for (i = 0; i < n; ++i) {
-        fg_real kd = 0.0;
-        for (j = 0; j < n; ++j)
-            kd += (i <= j ? st->K[(size_t)i * (size_t)n + j] : st->K[(size_t)j * (size_t)n + i])
-                  * d[j];
-        st->r[i] -= kd;
+    for (i = 0; i < n; ++i) {     /* r -= K d from K's upper triangle, row by row */
+        const fg_real *Ki = st->K + (size_t)i * (size_t)n;
+        fg_real di = d[i];
+        st->r[i] -= Ki[i] * di + dot(Ki + i + 1, d + i + 1, n - i - 1);
+        for (j = i + 1; j < n; ++j)
+            st->r[j] -= Ki[j] * di;
     }
     for (i = 0; i < n; ++i)
         st->q[i] -= d[i];
@@ -1551,11 +1582,12 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
     int n = w->n, k, i, tries, descent = extra != NULL;
     int lag = set->stagnation_lag, ring = lag + 1;
     fg_real *history = w->hist;      /* the relative residuals of the last lag + 1 iterations */
+    w->la_factors_cur = 0;
     for (k = 0; k <= max_it; ++k) {
         fg_state *st = *cur;
         fg_real rn, slope = 0.0, top = 0.0, *d = w->vec3, *qt = w->vec4, alpha = 1.0;
         fg_real floor_;
-        int accepted = 0, indefinite = 0;
+        int accepted = 0, indefinite = 0, step;
         if (st->rel <= set->tol)
             return 1;
         if (k == max_it)
@@ -1591,7 +1623,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
                 d[i] = -s;
             }
             slope = dot(st->r, d, n);
-        } else if (!newton_step(w, st, factored && k == 0, d)) {
+        } else if ((step = newton_step(w, st, factored && k == 0, d)) == STEP_SINGULAR) {
             /* singular K: no Newton step exists (not reached in practice) */
             set_error(w, FG_ERR_LINE_SEARCH, st->lam, st->rel);
             return 0;
@@ -1610,6 +1642,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
             if (predicted <= set->tol && predicted <= set->polish_target
                 && st->rel <= set->linearized_step * set->tol) {
                 step_linearized(w, st, d, predicted);
+                w->la_factors_cur = step == STEP_CHOLESKY;    /* st->K's, which stays */
                 return 1;
             }
         }
@@ -1711,13 +1744,13 @@ static int in_kernel_range(const fg_ws *w, const fg_real *q)
 /* polish the equilibrium *cur, then the answer: q, the output points' poses and compliances.
  * factor: NULL, or the Cholesky factor of cur->K (n x n, not in w->la), used by the first
  * polishing step and, if no step is taken, for the stability and the compliance. */
-static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const fg_real *factor,
+static int finish(fg_ws *w, fg_state *cur, fg_state *spare, fg_real *factor,
                   int iterations, fg_answer *out)
 {
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
     int n = w->n, i, j, a;
-    const fg_real *F = NULL;       /* cur->K's Cholesky factor, when known */
+    fg_real *F = NULL;             /* cur->K's Cholesky factor, when known */
     /* polish: plain Newton steps while they lower the relative residual below polish_target
      * (K^-1 r by Cholesky where K is positive definite, else by LU: the two agree to rounding) */
     if (factor != NULL)
@@ -1745,7 +1778,10 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const fg_real *facto
      * compliance J K^-1 J^T of each */
     if (F != NULL) {
         out->stable = 1;
-        if (F != w->la)
+        if (F == w->lb) {           /* the factor into la by trading the two scratch places */
+            w->lb = w->la;
+            w->la = F;
+        } else if (F != w->la)
             memcpy(w->la, F, sizeof(fg_real) * (size_t)n * (size_t)n);
     } else {
         out->stable = cholesky(p, cur->K, w->la, n);
@@ -1759,28 +1795,32 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, const fg_real *facto
         sym_copy(out->stiffness, cur->K, n);
     for (j = 0; j < p->noutputs; ++j) {
         const fg_real *J = cur->out + (size_t)j * (3 + 3 * (size_t)n) + 3;
-        fg_real *C = out->compliance + 9 * j, *X = w->lc;   /* X = K^-1 J^T, 3 columns */
-        int ok = 1;
+        /* stable (K = U^T U): C = Y^T Y with Y = U^-T J^T, half a solve per column and
+         * symmetric by construction; else C = J X, X = K^-1 J^T by LU, symmetrized */
+        fg_real *C = out->compliance + 9 * j, *X = w->lc;   /* Y or X: 3 columns */
+        int ok = 1, stable = out->stable;
         memcpy(out->pose + 3 * j, J - 3, sizeof(fg_real) * 3);
         for (a = 0; a < 3 && ok; ++a) {
-            if (out->stable)
-                cholesky_solve(p, w->la, n, J + a * n, X + a * n);
+            if (stable)
+                cholesky_forward(w->la, n, J + a * n, X + a * n);
             else
                 ok = lu_solve(p, cur->K, w->lb, w->piv, n, J + a * n, X + a * n);
         }
         for (a = 0; a < 3; ++a)
             for (i = 0; i < 3; ++i) {
-                fg_real sum = 0.0;
-                int m;
-                for (m = 0; m < n; ++m)
-                    sum += J[a * n + m] * X[i * n + m];
-                C[a * 3 + i] = ok ? sum : NAN;
+                if (!ok)
+                    C[a * 3 + i] = NAN;
+                else if (stable)
+                    C[a * 3 + i] = i < a ? C[i * 3 + a] : dot(X + a * n, X + i * n, n);
+                else
+                    C[a * 3 + i] = dot(J + a * n, X + i * n, n);
             }
-        for (a = 0; a < 3; ++a)
-            for (i = 0; i < a; ++i) {
-                fg_real s = 0.5 * (C[a * 3 + i] + C[i * 3 + a]);
-                C[a * 3 + i] = C[i * 3 + a] = s;
-            }
+        if (!stable)
+            for (a = 0; a < 3; ++a)
+                for (i = 0; i < a; ++i) {
+                    fg_real s = 0.5 * (C[a * 3 + i] + C[i * 3 + a]);
+                    C[a * 3 + i] = C[i * 3 + a] = s;
+                }
         if (!finite_all(C, 9))
             ++out->undefined_compliance;
         if (out->ellipse != NULL) {
@@ -1811,10 +1851,26 @@ static int linear_path(const fg_problem *p)
     return 1;
 }
 
+/* w->lb = the Cholesky factor of st->K, st the state newton just returned; 0 if st->K is not
+ * positive definite. When newton's last step was linearized, w->la already holds that factor
+ * (K stays that of the step's start): la and lb trade places instead of a second factorization
+ * (both are n x n scratch of this call's workspace). */
+static int end_factor_of(fg_ws *w, const fg_state *st)
+{
+    if (w->la_factors_cur) {
+        fg_real *t = w->la;
+        w->la = w->lb;
+        w->lb = t;
+        w->la_factors_cur = 0;
+        return 1;
+    }
+    return cholesky(w->p, st->K, w->lb, w->n);
+}
+
 /* The full load in one Newton solve from the unloaded state *st0: 1 with the equilibrium in
  * *cur if every check passes, else 0 (the continuation runs). The caller checked that st0->K,
- * K at lam = 0 (the elastic stiffness: diagonal), is positive definite. end_factor (n x n)
- * receives the Cholesky factor of the end state's K, for the polishing and the compliance.
+ * K at lam = 0 (the elastic stiffness: diagonal), is positive definite. w->lb receives the
+ * Cholesky factor of the end state's K, for the polishing and the compliance.
  *
  * The checks, in an order that spends no chain evaluation on an attempt a cheaper check
  * rejects: K(q0, 1) positive definite (from st0's parts: no evaluation); Newton at lam = 1 (its
@@ -1850,7 +1906,7 @@ static int linear_path(const fg_problem *p)
  * path), and under a force S(q) changes along the path, so no sample follows from the ends.
  * Fewer would take a weaker check: direct_samples = 1 (one sample, t = 1/2) gives 5. */
 static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state **spare,
-                        fg_state *smp, fg_real *end_factor, int *iterations)
+                        fg_state *smp, int *iterations)
 {
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
@@ -1884,9 +1940,9 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     if (!newton(w, cur, spare, NULL, max_it, 1, iterations))
         goto done;
     c = *cur;
-    if (!in_kernel_range(w, c->q) || !cholesky(p, c->K, end_factor, n))
+    if (!in_kernel_range(w, c->q) || !end_factor_of(w, c))
         goto done;
-    cholesky_solve(p, end_factor, n, c->Q, t1);
+    cholesky_solve(p, w->lb, n, c->Q, t1);
     /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
     linear = linear_path(p);
     for (j = 1; j <= set->direct_samples; ++j) {
@@ -2770,7 +2826,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
 {
     fg_ws ws, *w = &ws;
     fg_state *st0, *cur, *spare, *smp;
-    const fg_real *factor = NULL;
+    fg_real *factor = NULL;
     int n, i, j, iterations = 0, status;
 
     if (p == NULL || !well_formed(p, out))
@@ -2795,7 +2851,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
          * unloaded state, the model error cleared */
         int warm = evaluate(w, p->q0, 1.0, cur)
                    && newton(w, &cur, &spare, NULL, p->settings.max_iterations, 0, &iterations)
-                   && cholesky(p, cur->K, w->lb, n);
+                   && end_factor_of(w, cur);
         if (warm) {
             for (i = 0; i < n; ++i)
                 w->vec4[i] = cur->q[i] - p->q0[i];
@@ -2821,7 +2877,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
     {
         int it0 = iterations;
         if (p->settings.max_steps >= 1 && diagonal_positive(st0->K, n)
-            && direct_solve(w, st0, &cur, &spare, smp, w->lb, &iterations)) {
+            && direct_solve(w, st0, &cur, &spare, smp, &iterations)) {
             factor = w->lb;
         } else {
             iterations = it0;     /* a rejected direct attempt leaves no trace */
