@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import importlib.util
 import re
+import sys
 from pathlib import Path
 
 from cffi import FFI
@@ -22,6 +23,12 @@ from cffi import FFI
 ROOT = Path(__file__).resolve().parents[2]
 SOLVER = Path("flexgen") / "compiled"
 KERNELS = Path("generated") / "c"
+
+# Python's own CFLAGS, which extensions inherit, carry -fwrapv (signed overflow defined to wrap).
+# It keeps GCC from vectorizing a loop whose int index starts at another's (j + 1 .. n: the
+# triangular solves, the stiffness rows), as it does without; the solver and kernels do not rely
+# on wrapping (the emitted controller compiles without the flag).
+EXTRA_COMPILE_ARGS = [] if sys.platform == "win32" else ["-fno-wrapv"]
 
 
 def kernel_names() -> list[str]:
@@ -81,6 +88,7 @@ def make_ffi() -> FFI:
         sources=[str(SOLVER / "chain_solver.c"), *(str(KERNELS / f"{n}.c") for n in names)],
         include_dirs=[str(SOLVER), str(KERNELS)],
         libraries=["m"],
+        extra_compile_args=EXTRA_COMPILE_ARGS,
     )
     return ffi
 

@@ -531,6 +531,9 @@ static void add_coefficient(fg_ws *w, int point, fg_real c0, fg_real c1, fg_real
  * of the sum is a_i a_j times the sum of kk over the frames that lie below (or at) both the
  * flexure of i and that of j: none unless one of the two flexures, h, is an ancestor of (or is)
  * the other, g, and then the sum dk_g of kk over g's subtree. Each pair (h, g) is one block.
+ * The blocks of g with its ancestors are a_j (dk_g a_g) on the ancestors' coordinates j, where
+ * a_j is also the parent frame's angle row Jr[j]: they join g's cross terms with that row, one
+ * pass over it per flexure.
  *
  * G is symmetric and only its upper triangle (row-major: column >= row; LAPACK's column-major
  * lower triangle) is built, everywhere in this file: an off-diagonal pair of equal terms goes to
@@ -541,71 +544,57 @@ static void hessian_sum(fg_ws *w, fg_real *G)
     int n = w->n, i, a, b, j;
     for (i = p->nflex - 1; i >= 0; --i) {
         const fg_flexure *f = &p->flex[i];
-        int k = f->ndof, off = f->offset, h;
+        int k = f->ndof, off = f->offset;
         fg_real *acc = w->acc + 4 * i, *d = w->fdata + FG_FDATA * i, *blk = tip_block(w, i);
         fg_real *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
+        const fg_real *ag = tJ + 2 * k;       /* this flexure's tip angle row */
         fg_real c0 = acc[0], c1 = acc[1], c2 = acc[2], kk = acc[3];
-        fg_real c = d[3], s = d[4], e0, e1;
+        fg_real c = d[3], s = d[4], e0, e1, dki;
+        int forces = c0 != 0.0 || c1 != 0.0 || c2 != 0.0;
         /* dk: kk summed over the subtree (the children, later in the list, added theirs) */
         w->dk[i] += kk;
-        if (w->dk[i] != 0.0) {
-            fg_real dki = w->dk[i];
-            const fg_real *ag = tJ + 2 * k;
-            for (h = i; h >= 0; h = p->flex[h].parent) {
-                const fg_flexure *fh = &p->flex[h];
-                int kh = fh->ndof, oh = fh->offset;
-                const fg_real *ah = tip_block(w, h) + 2 * kh;
-                if (h == i || oh < off)     /* the block (h, i) lies in the upper triangle */
-                    for (a = 0; a < kh; ++a) {
-                        fg_real m = dki * ah[a];
-                        if (m != 0.0)
-                            for (b = 0; b < k; ++b)
-                                G[(oh + a) * n + off + b] -= m * ag[b];
-                    }
-                else                        /* its transpose (i, h) does */
-                    for (b = 0; b < k; ++b) {
-                        fg_real *row = G + (size_t)(off + b) * n + oh;
-                        for (a = 0; a < kh; ++a)
-                            row[a] -= (dki * ah[a]) * ag[b];
-                    }
-            }
-        }
+        dki = w->dk[i];
         if (f->parent >= 0)
-            w->dk[f->parent] += w->dk[i];
+            w->dk[f->parent] += dki;
+        /* the diagonal block: the tip Hessian and the block (i, i) of the rank-one terms */
         e0 = c * c0 + s * c1;
         e1 = c * c1 - s * c0;
-        for (a = 0; a < k; ++a)
+        for (a = 0; a < k; ++a) {
+            fg_real *row = G + (size_t)(off + a) * n + off, ra = dki * ag[a];
             for (b = 0; b < k; ++b)
-                G[(off + a) * n + off + b] += e0 * tH[a * k + b] + e1 * tH[k * k + a * k + b]
-                                              + c2 * tH[2 * k * k + a * k + b];
-        if (f->parent < 0 || (c0 == 0.0 && c1 == 0.0 && c2 == 0.0))
+                row[b] += e0 * tH[a * k + b] + e1 * tH[k * k + a * k + b]
+                          + c2 * tH[2 * k * k + a * k + b] - ra * ag[b];
+        }
+        if (f->parent < 0)
             continue;
-        {
+        if (d[0] != 0.0 && (forces || dki != 0.0)) {
+            /* the parent frame moves: the cross terms with its angle row Jr (m: the forces'
+             * through the rotated tip, minus the rank-one blocks with the ancestors). Jr is zero
+             * outside [lo, hi) (kinematics) and on this flexure's own coordinates; each term
+             * with its transpose, in the upper triangle: rows j < off (k entries each), row
+             * off + a right of it */
+            const fg_real *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
+            int lo = (int)w->fdata[FG_FDATA * f->parent + 10];
+            int hi = (int)w->fdata[FG_FDATA * f->parent + 11];
+            int left = hi < off ? hi : off, right = lo > off + k ? lo : off + k;
+            fg_real *m = w->scratch;     /* k entries (the fem scratch, free here) */
+            for (a = 0; a < k; ++a)
+                m[a] = c1 * RJ[a] - c0 * RJ[k + a] - dki * ag[a];
+            for (j = lo; j < left; ++j) {
+                fg_real *row = G + (size_t)j * n + off, jr = Jr[j];
+                for (a = 0; a < k; ++a)
+                    row[a] += m[a] * jr;
+            }
+            for (a = 0; a < k; ++a) {
+                fg_real *row = G + (size_t)(off + a) * n;
+                for (j = right; j < hi; ++j)
+                    row[j] += m[a] * Jr[j];
+            }
+        }
+        if (forces) {             /* the coefficients pass on to the parent frame */
             fg_real wx = d[5], wy = d[6], awx = d[1], awy = d[2];
             fg_real r2 = c2 + c1 * wx - c0 * wy, kr = c0 * wx + c1 * wy;
             fg_real *pa = w->acc + 4 * f->parent;
-            if (d[0] != 0.0) {   /* the parent frame moves: cross terms with its angle */
-                const fg_real *Jr = w->fJ + (size_t)3 * n * f->parent + 2 * (size_t)n;
-                /* the parent's angle row is zero outside [lo, hi) (kinematics) and on this
-                 * flexure's own coordinates; each term with its transpose, in the upper
-                 * triangle: rows j < off (k entries each), row off + a right of it */
-                int lo = (int)w->fdata[FG_FDATA * f->parent + 10];
-                int hi = (int)w->fdata[FG_FDATA * f->parent + 11];
-                int left = hi < off ? hi : off, right = lo > off + k ? lo : off + k;
-                fg_real *m = w->scratch;     /* k entries (the fem scratch, free here) */
-                for (a = 0; a < k; ++a)
-                    m[a] = c1 * RJ[a] - c0 * RJ[k + a];
-                for (j = lo; j < left; ++j) {
-                    fg_real *row = G + (size_t)j * n + off, jr = Jr[j];
-                    for (a = 0; a < k; ++a)
-                        row[a] += m[a] * jr;
-                }
-                for (a = 0; a < k; ++a) {
-                    fg_real *row = G + (size_t)(off + a) * n;
-                    for (j = right; j < hi; ++j)
-                        row[j] += m[a] * Jr[j];
-                }
-            }
             pa[0] += c0;
             pa[1] += c1;
             pa[2] += r2 + c1 * awx - c0 * awy;
