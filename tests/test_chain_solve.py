@@ -268,6 +268,46 @@ def test_compliance_matches_finite_differences_of_resolving():
     assert np.all(np.linalg.eigvalsh(C3) > 0)
 
 
+def _long_chain(n, force=(0.0, -2.0), moment=0.0):
+    """n scm3 flexures of length 1/n in a row (EI = 1) under a load at the last tip: the
+    cantilever cut into n pieces (benchmarks/chain_scaling.py's chain)."""
+    flexures = [
+        flex(f"f{i}", "base" if i == 0 else f"f{i - 1}", (0.0, 0.0, 0.0), 1.0 / n, 1.0)
+        for i in range(n)
+    ]
+    tip = f"f{n - 1}.tip"
+    return scene_of(flexures, loads=[Load(tip, force, moment)], outputs=[tip])
+
+
+def test_long_chain_compliance_against_finite_differences_and_the_builtin_factorization():
+    """32 flexures, 96 coordinates: LAPACK's Cholesky (from lapack_min_size = 32 on), the
+    direct solve's end factor taken over from Newton's last (linearized) step, the rank-one
+    Hessian blocks of every flexure with its ancestors, and the compliance as Y^T Y. The tip
+    compliance against central differences of re-solves; q and the compliance against the
+    built-in factorization (lapack_min_size = 10**9)."""
+    n, tip, h = 32, "f31.tip", 1e-5
+    res = solve(_long_chain(n))
+    assert res.converged and res.stable, res.reason
+    C3 = np.array(res.points[tip].compliance3)
+    cols = []
+    for k in range(3):
+        dF = np.zeros(3)
+        dF[k] = h
+        plus = solve(_long_chain(n, (dF[0], -2.0 + dF[1]), dF[2]))
+        minus = solve(_long_chain(n, (-dF[0], -2.0 - dF[1]), -dF[2]))
+        assert plus.converged and minus.converged
+        cols.append(
+            (np.array(plus.points[tip].pose) - np.array(minus.points[tip].pose)) / (2 * h)
+        )
+    assert np.allclose(C3, np.stack(cols, axis=1), rtol=1e-6, atol=1e-8 * np.max(np.abs(C3)))
+    assert np.array_equal(C3, C3.T) and np.all(np.linalg.eigvalsh(C3) > 0)
+    builtin = solve(_long_chain(n), lapack_min_size=10**9)
+    assert builtin.converged and builtin.stable
+    q, qb = np.concatenate(list(res.q.values())), np.concatenate(list(builtin.q.values()))
+    assert np.allclose(q, qb, rtol=0, atol=1e-12 * np.max(np.abs(q)))
+    assert np.allclose(C3, builtin.points[tip].compliance3, rtol=1e-9, atol=0)
+
+
 def _single(P=None, M=None, modes=3, L=1.0, EI=1.0, **kw):
     loads = (Load("f.tip", P if P is not None else (0.0, 0.0), M or 0.0),)
     sc = scene_of([flex("f", "base", (0, 0, 0), L, EI, modes)], loads=loads)
