@@ -296,9 +296,7 @@ def test_long_chain_compliance_against_finite_differences_and_the_builtin_factor
         plus = solve(_long_chain(n, (dF[0], -2.0 + dF[1]), dF[2]))
         minus = solve(_long_chain(n, (-dF[0], -2.0 - dF[1]), -dF[2]))
         assert plus.converged and minus.converged
-        cols.append(
-            (np.array(plus.points[tip].pose) - np.array(minus.points[tip].pose)) / (2 * h)
-        )
+        cols.append((np.array(plus.points[tip].pose) - np.array(minus.points[tip].pose)) / (2 * h))
     assert np.allclose(C3, np.stack(cols, axis=1), rtol=1e-6, atol=1e-8 * np.max(np.abs(C3)))
     assert np.array_equal(C3, C3.T) and np.all(np.linalg.eigvalsh(C3) > 0)
     builtin = solve(_long_chain(n), lapack_min_size=10**9)

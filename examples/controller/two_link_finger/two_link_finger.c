@@ -2693,30 +2693,23 @@ static int estimate_differences(fg_ws *w, const fg_state *st, const fg_real *d,
                                 const fg_real *scale, fg_real *out)
 {
     const fg_problem *p = w->p;
-    int n = w->n, j, a, i, m;
+    int n = w->n, j, a;
     for (j = 0; j < p->noutputs; ++j) {
         const fg_real *o = st->out + (size_t)j * (3 + 3 * (size_t)n), *J = o + 3;
         const fg_real *P = pose + 3 * j, *C = compliance + 9 * j;
-        fg_real R[3], X[4], Cr[4], dpos, dth, nr, nd;
+        fg_real R[3], Cr[4], dpos, dth, nr, nd;
         fg_real *col = w->lc;
         for (a = 0; a < 3; ++a) {
             R[a] = o[a];
             if (d != NULL)
                 R[a] -= dot(J + (size_t)a * (size_t)n, d, n);
         }
-        /* C_rich = J K^-1 J^T, position rows only */
+        /* C_rich = J K^-1 J^T = Y^T Y with Y = U^-T J^T (K = U^T U), position rows only */
         for (a = 0; a < 2; ++a)
-            cholesky_solve(p, w->la, n, J + (size_t)a * (size_t)n, col + (size_t)a * (size_t)n);
-        for (a = 0; a < 2; ++a)
-            for (i = 0; i < 2; ++i) {
-                fg_real sum = 0.0;
-                for (m = 0; m < n; ++m)
-                    sum += J[(size_t)a * (size_t)n + m] * col[(size_t)i * (size_t)n + m];
-                X[2 * a + i] = sum;
-            }
-        Cr[0] = X[0];
-        Cr[1] = Cr[2] = 0.5 * (X[1] + X[2]);
-        Cr[3] = X[3];
+            cholesky_forward(w->la, n, J + (size_t)a * (size_t)n, col + (size_t)a * (size_t)n);
+        Cr[0] = dot(col, col, n);
+        Cr[1] = Cr[2] = dot(col, col + n, n);
+        Cr[3] = dot(col + n, col + n, n);
         dpos = hypot(P[0] - R[0], P[1] - R[1]) / scale[j];
         dth = fabs(remainder(P[2] - R[2], 2.0 * FG_PI));
         nr = sym2_norm(Cr[0], Cr[1], Cr[3]);
