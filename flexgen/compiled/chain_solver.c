@@ -1401,7 +1401,7 @@ static int in_kernel_range(const fg_ws *w, const fg_real *q)
 /* ---- the solve ---------------------------------------------------------------------------- */
 
 /* polish the equilibrium *cur, then the answer: q, the output points' poses and compliances.
- * factor: NULL, or the Cholesky factor of cur->K (n x n, not in w->la), used by the first
+ * factor: NULL, or the Cholesky factor of cur->K in w->lb (end_factor_of), used by the first
  * polishing step and, if no step is taken, for the stability and the compliance. */
 static int finish(fg_ws *w, fg_state *cur, fg_state *spare, fg_real *factor,
                   int iterations, fg_answer *out)
@@ -1535,7 +1535,8 @@ static int end_factor_of(fg_ws *w, const fg_state *st)
  * rejects: K(q0, 1) positive definite (from st0's parts: no evaluation); Newton at lam = 1 (its
  * first step solves with that factor: no second factorization); the end state in every kernel's
  * range (before the samples, which cannot change that outcome); K at the end positive definite
- * (the factor is also the polishing's and the compliance's); then the direct_samples points of
+ * (the factor is also the polishing's and the compliance's; after a linearized last step it is
+ * Newton's own: end_factor_of); then the direct_samples points of
  * the Hermite path: positive definite and a Newton correction of at most direct_correction
  * max_dq, and in range. The attempt passes only if every check does, so their order changes
  * the cost, never the outcome. A rejected attempt leaves no trace: iterations (the caller), the
