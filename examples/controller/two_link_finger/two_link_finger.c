@@ -1403,13 +1403,21 @@ static fg_real norm_inf(const fg_real *x, int n)
     return s;
 }
 
+/* x . y in four partial sums (a loop the compiler can pair into vector operations, which it
+ * may not do for one running sum: that would reorder its additions) */
 static fg_real dot(const fg_real *x, const fg_real *y, int n)
 {
-    fg_real s = 0.0;
+    fg_real s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
     int i;
-    for (i = 0; i < n; ++i)
-        s += x[i] * y[i];
-    return s;
+    for (i = 0; i + 3 < n; i += 4) {
+        s0 += x[i] * y[i];
+        s1 += x[i + 1] * y[i + 1];
+        s2 += x[i + 2] * y[i + 2];
+        s3 += x[i + 3] * y[i + 3];
+    }
+    for (; i < n; ++i)
+        s0 += x[i] * y[i];
+    return (s0 + s1) + (s2 + s3);
 }
 
 /* ---- symmetric eigen-decomposition (built-in cyclic Jacobi, or LAPACK's dsyev) ----------- */
