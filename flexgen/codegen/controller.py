@@ -55,8 +55,10 @@ SINGLE = replace(
     tie_tol=1e-4,
     circle_tol=1e-6,
     descent_eps=1e-2,
-    linearized_step=0.0,  # every Newton step evaluated: at this tol a linearized end's
-)  # stiffness and Jacobians would leave the compliance too far off
+    # every Newton step evaluated: at this tol a linearized end's stiffness and Jacobians would
+    # leave the compliance too far off
+    linearized_step=0.0,
+)
 
 C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # names C99 reserves or the emitted code uses itself, which a prefix must not take

@@ -1197,6 +1197,23 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
 
 /* ---- dense linear algebra (n is small: a few flexures' coordinates) ----------------------- */
 
+/* x . y in four partial sums (a loop the compiler can pair into vector operations, which it
+ * may not do for one running sum: that would reorder its additions) */
+static fg_real dot(const fg_real *x, const fg_real *y, int n)
+{
+    fg_real s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    int i;
+    for (i = 0; i + 3 < n; i += 4) {
+        s0 += x[i] * y[i];
+        s1 += x[i + 1] * y[i + 1];
+        s2 += x[i + 2] * y[i + 2];
+        s3 += x[i + 3] * y[i + 3];
+    }
+    for (; i < n; ++i)
+        s0 += x[i] * y[i];
+    return (s0 + s1) + (s2 + s3);
+}
+
 /* F = the symmetric matrix whose upper triangle is A's (S and K hold only their upper
  * triangles), for the routines that read a full matrix */
 static void sym_copy(fg_real *F, const fg_real *A, int n)
@@ -1260,24 +1277,15 @@ static void cholesky_forward(const fg_real *F, int n, const fg_real *b, fg_real 
 }
 
 /* x = A^-1 b with A = U^T U, U in F (cholesky's factor, built-in or dpotrf's): U^T y = b
- * (cholesky_forward), U x = y by a dot product along each row (four partial sums). For one
- * right-hand side these loops cost less than dpotrs's blocked dtrsm. */
+ * (cholesky_forward), U x = y by a dot product along each row. For one right-hand side these
+ * loops cost less than dpotrs's blocked dtrsm. */
 static void cholesky_solve_builtin(const fg_real *F, int n, const fg_real *b, fg_real *x)
 {
-    int i, j;
+    int j;
     cholesky_forward(F, n, b, x);
     for (j = n - 1; j >= 0; --j) {
         const fg_real *Fj = F + (size_t)j * (size_t)n;
-        fg_real s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-        for (i = j + 1; i + 3 < n; i += 4) {
-            s0 += Fj[i] * x[i];
-            s1 += Fj[i + 1] * x[i + 1];
-            s2 += Fj[i + 2] * x[i + 2];
-            s3 += Fj[i + 3] * x[i + 3];
-        }
-        for (; i < n; ++i)
-            s0 += Fj[i] * x[i];
-        x[j] = (x[j] - ((s0 + s1) + (s2 + s3))) * (1.0 / Fj[j]);
+        x[j] = (x[j] - dot(Fj + j + 1, x + j + 1, n - j - 1)) * (1.0 / Fj[j]);
     }
 }
 
@@ -1401,23 +1409,6 @@ static fg_real norm_inf(const fg_real *x, int n)
         if (fabs(x[i]) > s)
             s = fabs(x[i]);
     return s;
-}
-
-/* x . y in four partial sums (a loop the compiler can pair into vector operations, which it
- * may not do for one running sum: that would reorder its additions) */
-static fg_real dot(const fg_real *x, const fg_real *y, int n)
-{
-    fg_real s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-    int i;
-    for (i = 0; i + 3 < n; i += 4) {
-        s0 += x[i] * y[i];
-        s1 += x[i + 1] * y[i + 1];
-        s2 += x[i + 2] * y[i + 2];
-        s3 += x[i + 3] * y[i + 3];
-    }
-    for (; i < n; ++i)
-        s0 += x[i] * y[i];
-    return (s0 + s1) + (s2 + s3);
 }
 
 /* ---- symmetric eigen-decomposition (built-in cyclic Jacobi, or LAPACK's dsyev) ----------- */
@@ -2622,10 +2613,19 @@ static int eigenvalues_builtin(const fg_real *A, int n, fg_real *ev, fg_real *sc
     return 1;
 }
 
+/* A = diag(v) K diag(v), upper triangles (fg_margin: v = D^-1/2) */
+static void scale_by(fg_real *A, const fg_real *K, const fg_real *v, int n)
+{
+    int i, j;
+    for (i = 0; i < n; ++i)
+        for (j = i; j < n; ++j)
+            A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j] * v[i] * v[j];
+}
+
 FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork)
 {
     fg_ws ws, *w = &ws;
-    int n = p->ndof, i, j;
+    int n = p->ndof, i;
     fg_real *A;
     for (i = 0; i < n; ++i)
         if (!(p->stiffness[i] > 0.0))
@@ -2636,9 +2636,7 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
     A = w->lc;
     for (i = 0; i < n; ++i)
         w->vec1[i] = 1.0 / sqrt(p->stiffness[i]);
-    for (i = 0; i < n; ++i)
-        for (j = i; j < n; ++j)
-            A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j] * w->vec1[i] * w->vec1[j];
+    scale_by(A, K, w->vec1, n);
 #ifndef FG_SINGLE   /* LAPACK takes doubles */
     if (p->lapack.syev != NULL && n >= p->settings.lapack_min_size) {
         /* eigenvalues only: LAPACK skips the eigenvectors (a third of the work or less) */
@@ -2647,10 +2645,7 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
         p->lapack.syev(&jobz, &uplo, &n, A, &lda, w->ew, w->ework, &lwork, &info);
         if (info == 0)
             return w->ew[0];
-        for (i = 0; i < n; ++i)   /* dsyev failed and overwrote A: scale K again */
-            for (j = i; j < n; ++j)
-                A[(size_t)i * (size_t)n + j] = K[(size_t)i * (size_t)n + j]
-                                               / sqrt(p->stiffness[i] * p->stiffness[j]);
+        scale_by(A, K, w->vec1, n);   /* dsyev failed and overwrote A: scale K again */
     }
 #endif
     if (eigenvalues_builtin(A, n, w->ew, w->ework))
