@@ -1,8 +1,9 @@
 """Find and load the generated kernels: NumPy modules (runtime) and C sources (tests, benchmarks).
 
 Generated modules never import flexgen; flexgen loads them from ``generated/`` by file path, so
-they need not be on sys.path. Kernel names: ``scm{N}`` (polynomial, 90 degrees) and
-``scm{N}_gauss{G}`` (Gauss-Legendre quadrature).
+they need not be on sys.path. Kernel names: ``scm{N}`` (polynomial, 90 degrees),
+``scm{N}_gauss{G}`` (Gauss-Legendre quadrature certified on a range) and ``scm{N}_local{G}``
+(Gauss-Legendre quadrature certified at each q).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ GENERATED = (
     _PACKAGE / "generated" if (_PACKAGE / "generated").is_dir() else _PACKAGE.parent / "generated"
 )
 C_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
-_NAME = re.compile(r"^scm(\d+)(?:_gauss(\d+))?$")
+_NAME = re.compile(r"^scm(\d+)(?:_(gauss|local)(\d+))?$")
 
 
 class KernelNotFound(LookupError):
@@ -42,8 +43,9 @@ def _kernel_match(name: str) -> re.Match[str]:
     return match
 
 
-def gauss_kernel_name(modes: int, folder: Path = GENERATED) -> str:
-    """The Gauss kernel for this many modes with the most nodes (the most accurate).
+def gauss_kernel_name(modes: int, folder: Path = GENERATED, family: str = "gauss") -> str:
+    """The Gauss kernel for this many modes with the most nodes (the most accurate); with
+    ``family="local"``, the local kernel (certified at each q) with the most nodes.
 
     The folder is scanned once per (folder, its modification time): a kernel generated into it
     later (``flexgen generate`` writes the file, which updates the folder's mtime) is seen."""
@@ -54,21 +56,26 @@ def gauss_kernel_name(modes: int, folder: Path = GENERATED) -> str:
         stamp = os.stat(numpy_dir).st_mtime_ns
     except OSError:
         stamp = None
-    return _gauss_kernel_name(modes, folder, stamp)
+    return _gauss_kernel_name(modes, folder, stamp, family)
 
 
 _NUMPY_DIRS: dict = {}
 
 
 @lru_cache(maxsize=256)
-def _gauss_kernel_name(modes: int, folder: Path, stamp) -> str:
-    found = [n for n in available(folder) if _kernel_match(n)[1] == str(modes) and "_gauss" in n]
+def _gauss_kernel_name(modes: int, folder: Path, stamp, family: str) -> str:
+    found = [
+        n
+        for n in available(folder)
+        if _kernel_match(n)[1] == str(modes) and _kernel_match(n)[2] == family
+    ]
     if not found:
+        what = "Gauss" if family == "gauss" else "local Gauss"
         raise KernelNotFound(
-            f"no Gauss kernel for {modes} modes in {folder}/numpy; run "
-            f"`flexgen generate --modes {modes} --kernel gauss`"
+            f"no {what} kernel for {modes} modes in {folder}/numpy; run "
+            f"`flexgen generate --modes {modes} --kernel {family}`"
         )
-    return max(found, key=lambda n: int(_kernel_match(n)[2]))
+    return max(found, key=lambda n: int(_kernel_match(n)[3]))
 
 
 @cache
@@ -79,7 +86,7 @@ def load_numpy(name: str, folder: Path = GENERATED) -> ModuleType:
         match = _NAME.match(name)
         hint = (
             f"`flexgen generate --modes {match[1]}"
-            + (f" --kernel gauss --nodes {match[2]}`" if match and match[2] else "`")
+            + (f" --kernel {match[2]} --nodes {match[3]}`" if match and match[2] else "`")
             if match
             else "a name like scm3 or scm3_gauss25"
         )

@@ -17,9 +17,14 @@ from flexgen.symbolic.flexure import RANGE_SAMPLES, FlexureKernel
 
 # Polynomial kernels at 90 degrees for 1..8 modes (mode selection may need up to 8) and Gauss
 # kernels, certified on 180 degrees, for 1..8 modes (more modes are never worse):
-# the runtime falls back to them past the polynomial range.
-CHECKED_IN = tuple(KernelSpec(n) for n in range(1, 9)) + tuple(
-    KernelSpec(n, "gauss") for n in range(1, 9)
+# the runtime falls back to them past the polynomial range; and local Gauss kernels for 1..8
+# modes (the error estimate's richer models evaluate with them: about a third of the polynomial
+# kernel's time), their error certified at each q to the polynomial kernels' pose bound.
+LOCAL_TOL = 1e-11
+CHECKED_IN = (
+    tuple(KernelSpec(n) for n in range(1, 9))
+    + tuple(KernelSpec(n, "gauss") for n in range(1, 9))
+    + tuple(KernelSpec(n, "local", tol=LOCAL_TOL) for n in range(1, 9))
 )
 
 
@@ -28,6 +33,8 @@ def command_line(kernel: FlexureKernel) -> str:
     s = kernel.spec
     parts = [f"flexgen generate --modes {s.modes} --kernel {s.family} --range {s.range_deg:g}"]
     parts.append(f"--degree {kernel.degree}" if s.family == "poly" else f"--nodes {kernel.nodes}")
+    if s.family == "local":  # the tolerance its in_range certifies
+        parts.append(f"--tol {s.tol:g}")
     return " ".join(parts)
 
 
@@ -52,6 +59,10 @@ def _common(kernel: FlexureKernel) -> dict:
                 f"{kernel.interpolant.degree * s.modes} polynomial in s without error."
                 if s.family == "poly"
                 else " Valid at any angle; the error bound is certified on |phi| <= PHI_MAX."
+                if s.family == "gauss"
+                else " Valid at any angle; the error bounds are certified at each q: where "
+                "in_range(q) is 1 (a bound on the quadrature error at q, flexgen.symbolic."
+                "certificate); the nodes certify the constant-curvature arc of PHI_MAX."
             )
         ),
         "command": command_line(kernel),
@@ -123,6 +134,12 @@ def numpy_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
             "trig_odd": "[" + ", ".join(str(x) for x in odd) + "]",
             "horner_steps": len(coeffs[0]) - 1,
         }
+    if kernel.spec.family == "local":
+        rows = kernel.local_rows
+        context |= {
+            "local_nu": numpy_array([list(r.nu) for r in rows]),
+            "local_limit": numpy_array([r.limit for r in rows]),
+        }
     folder = BACKENDS["numpy"].folder
     name = f"{prefix}_{kernel.name}" if prefix else kernel.name
     return {f"{folder}/{name}.py": render("numpy/kernel.py.jinja", context)}
@@ -158,8 +175,17 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
     margin_terms = [
         f"{printer.doprint(sp.Float(mn, 17))}*fabs(q[{n}])" for n, mn in enumerate(m) if mn
     ]
+    local_rows = [
+        (
+            f"{row.rho:g}",
+            " + ".join(f"{printer.doprint(sp.Float(v, 17))}*a{n}" for n, v in enumerate(row.nu)),
+            printer.doprint(sp.Float(row.limit, 17)),
+        )
+        for row in (kernel.local_rows if kernel.spec.family == "local" else ())
+    ]
     name = f"{prefix}_{kernel.name}" if prefix else kernel.name
     return _common(kernel) | {
+        "local_rows": local_rows,
         "prefix": name,
         "macro": name.upper(),
         "guard": f"FLEXGEN_{name.upper()}_H",

@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-FAMILIES = ("poly", "gauss")
+FAMILIES = ("poly", "gauss", "local")
 MAX_MODES = 8
-DEFAULT_RANGE_DEG = {"poly": 90.0, "gauss": 180.0}
+DEFAULT_RANGE_DEG = {"poly": 90.0, "gauss": 180.0, "local": 270.0}
 DEFAULT_TOL = 1e-10
 
 
@@ -21,12 +21,17 @@ class KernelSpec:
 
     modes     N Legendre curvature modes (1 = constant curvature).
     family    "poly": cos/sin replaced by a Chebyshev interpolant on [-range, range], the pose a
-              closed-form polynomial in q; "gauss": Gauss-Legendre quadrature of cos/sin.
+              closed-form polynomial in q; "gauss": Gauss-Legendre quadrature of cos/sin;
+              "local": Gauss-Legendre quadrature with few nodes, its error bound certified at
+              each q (``in_range(q)``; flexgen.symbolic.certificate) instead of on a range.
     range_deg The angle range: poly kernels are valid only while |phi| <= range along the whole
-              flexure; for gauss kernels it is the range on which their error bound is certified.
+              flexure; for gauss kernels it is the range on which their error bound is certified;
+              for local kernels the bend of the constant-curvature arc their nodes must certify.
     degree    poly: interpolation degree (None: the smallest meeting tol).
-    nodes     gauss: number of nodes (None: the fewest meeting tol on the range).
-    tol       requested bound on the cos/sin error (poly) or the pose error (gauss), units of L.
+    nodes     gauss, local: number of nodes (None: the fewest meeting tol on the range, or
+              certifying the arc of the range).
+    tol       requested bound on the cos/sin error (poly) or the pose error (gauss, local; a
+              local kernel certifies J to 10 tol and H to 100 tol), units of L.
     """
 
     modes: int
@@ -50,8 +55,10 @@ class KernelSpec:
             raise SpecError(
                 f"--range: the polynomial kernel needs a range below 180 degrees, got {r:g}"
             )
-        if self.family == "gauss" and r > 720:
-            raise SpecError(f"--range: gauss kernels certify ranges up to 720 degrees, got {r:g}")
+        if self.family != "poly" and r > 720:
+            raise SpecError(
+                f"--range: {self.family} kernels certify ranges up to 720 degrees, got {r:g}"
+            )
         if not (math.isfinite(self.tol) and 0 < self.tol < 1):
             raise SpecError(f"--tol: must be in (0, 1), got {self.tol}")
         if self.degree is not None and not (
@@ -61,8 +68,8 @@ class KernelSpec:
         if self.nodes is not None and not (isinstance(self.nodes, int) and 1 <= self.nodes <= 200):
             raise SpecError(f"--nodes: must be an integer from 1 to 200, got {self.nodes}")
         if self.family == "poly" and self.nodes is not None:
-            raise SpecError("--nodes: only for --kernel gauss")
-        if self.family == "gauss" and self.degree is not None:
+            raise SpecError("--nodes: only for --kernel gauss or local")
+        if self.family != "poly" and self.degree is not None:
             raise SpecError("--degree: only for --kernel poly")
 
     @property

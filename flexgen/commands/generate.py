@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from flexgen.codegen.spec import FAMILIES, KernelSpec
+from flexgen.codegen.spec import DEFAULT_TOL, FAMILIES, KernelSpec
 from flexgen.commands.common import UsageError, integer
 
 LANGS = ("numpy", "c")
@@ -32,7 +32,8 @@ def register(sub) -> None:
             "Emit the kernel of one flexure: tip pose, Jacobian and Hessian in closed form. "
             "Without "
             "--modes, regenerates the checked-in set (scm1..scm8 polynomial at 90 degrees, Gauss "
-            "kernels for 1..8 modes). With --check, writes nothing and exits 1 naming the files in "
+            "kernels for 1..8 modes certified on 180 degrees, and local Gauss kernels for 1..8 "
+            "modes, which certify their error at each q). With --check, writes nothing and exits 1 naming the files in "
             "--out that differ from a fresh generation. With --scene, emits instead a "
             "self-contained C99 solver of that mechanism for a controller: NAME.h, NAME.c, "
             "NAME_example.c, CMakeLists.txt and NAME.mk (docs/controller.md)."
@@ -63,7 +64,9 @@ def register(sub) -> None:
         default="poly",
         choices=FAMILIES,
         help="poly: cos/sin as a Chebyshev polynomial on the range (closed-form "
-        "polynomial in q); gauss: Gauss-Legendre quadrature, any angle",
+        "polynomial in q); gauss: Gauss-Legendre quadrature, any angle; local: "
+        "Gauss-Legendre quadrature with few nodes whose in_range(q) certifies the error "
+        "at each q",
     )
     gen.add_argument(
         "--range",
@@ -72,18 +75,20 @@ def register(sub) -> None:
         metavar="DEG",
         help="angle range in degrees: poly kernels are valid on |phi| <= DEG "
         "(default 90, must be < 180); gauss kernels certify their bound there "
-        "(default 180)",
+        "(default 180); local kernels take the nodes that certify the constant-curvature "
+        "arc of this bend (default 270)",
     )
     how = gen.add_mutually_exclusive_group()
     how.add_argument("--degree", type=integer(), help="poly: interpolation degree of cos and sin")
     how.add_argument(
         "--tol",
         type=float,
-        default=1e-10,
+        default=DEFAULT_TOL,
         help="poly: bound on the cos/sin error on the range; gauss: bound on the "
-        "pose error (default 1e-10, units of the flexure length)",
+        "pose error; local: the pose error certified at each q (J: 10x, H: 100x) "
+        f"(default {DEFAULT_TOL:g}, units of the flexure length)",
     )
-    gen.add_argument("--nodes", type=integer(), help="gauss: number of quadrature nodes")
+    gen.add_argument("--nodes", type=integer(), help="gauss, local: number of quadrature nodes")
     gen.add_argument(
         "--lang",
         type=_langs,

@@ -37,13 +37,25 @@ class SCMModel:
     CONSTANT_HESSIAN = True  # quadratic energy: energy_hessian does not depend on q
 
     def __init__(
-        self, length: float, EI: float, modes: int = 3, kernel: str = "auto", name: str = "?"
+        self,
+        length: float,
+        EI: float,
+        modes: int = 3,
+        kernel: str = "auto",
+        name: str = "?",
+        local: bool = False,
     ):
         if kernel not in KERNEL_CHOICES:
             raise ValueError(f"kernel: must be one of {', '.join(KERNEL_CHOICES)}, got {kernel!r}")
         self.length, self.EI, self.n_dof, self.kernel = float(length), float(EI), modes, kernel
         self.label = "cc" if modes == 1 else f"scm{modes}"
-        self.poly = kernels.load_numpy(f"scm{modes}") if kernel != "gauss" else None
+        # the first kernel tried (``poly``, with its in_range): the polynomial kernel; with
+        # ``local`` (the error estimate's richer models) the local Gauss kernel, certified at
+        # each q, a third of the polynomial's time; both fall back to the Gauss kernel
+        self.poly_name = (
+            kernels.gauss_kernel_name(modes, family="local") if local else f"scm{modes}"
+        )
+        self.poly = kernels.load_numpy(self.poly_name) if kernel != "gauss" else None
         self.gauss_name = self.gauss = self.no_gauss = None
         if kernel != "poly":
             try:
@@ -74,7 +86,7 @@ class SCMModel:
 
         f.kind, f.length = lib.FG_MODEL_KERNEL, self.length
         if self.poly is not None:
-            f.poly, f.in_range = kernel_functions(f"scm{self.n_dof}")
+            f.poly, f.in_range = kernel_functions(self.poly_name)
         if self.gauss is not None:
             f.gauss, f.gauss_in_range = kernel_functions(self.gauss_name)
         return self.EI / self.length * np.asarray(self.weights, dtype=float)

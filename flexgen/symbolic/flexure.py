@@ -12,6 +12,8 @@ Both kernel families integrate over sigma with a Gauss-Legendre rule on the node
   derivatives of that polynomial: dx/dq_i = sum_g w_g B_i(sigma_g) C'(phi_g), and so on.
 * gauss: c, s are cos and sin themselves; G is chosen so that the certified quadrature error on
   the range is below the tolerance. Valid at any angle; certified only on the range.
+* local: as gauss, with the few nodes that certify the constant-curvature arc of the range;
+  the error is certified at each q instead (``in_range``, flexgen.symbolic.certificate).
 
 Error bounds (units of L; theta is exact):
 * poly: |x - x_true| <= sup|C - cos| (the interpolation bound of trig.py), J and H likewise with
@@ -33,7 +35,7 @@ import mpmath
 import sympy as sp
 
 from flexgen.codegen.spec import KernelSpec
-from flexgen.symbolic import trig
+from flexgen.symbolic import certificate, trig
 from flexgen.symbolic.basis import angle_basis, energy_weights, gauss_legendre, sigma
 
 UNIT_ROUNDOFF = 2.0**-53
@@ -67,6 +69,10 @@ class FlexureKernel:
             self.degree = spec.degree or trig.degree_for_tolerance(self.a, spec.tol)
             self.trig = trig.chebyshev_interpolant(self.a, self.degree)
             self.nodes = max(1, math.ceil((self._poly_degree * N + 1) / 2))
+        elif spec.family == "local":
+            self.degree = None
+            self.trig = None
+            self.nodes = spec.nodes or certificate.nodes_for_arc(N, self.a, spec.tol)
         else:
             self.degree = None
             self.trig = None
@@ -79,7 +85,7 @@ class FlexureKernel:
     def name(self) -> str:
         if self.spec.family == "poly":
             return f"scm{self.modes}"
-        return f"scm{self.modes}_gauss{self.nodes}"
+        return f"scm{self.modes}_{self.spec.family}{self.nodes}"
 
     @property
     def energy_weights(self) -> list[sp.Rational]:
@@ -105,8 +111,8 @@ class FlexureKernel:
 
     # -- the trig stand-ins and their derivatives as polynomials in one symbol -------------
     def trig_polynomials(self, phi: sp.Symbol) -> dict[str, sp.Expr]:
-        """c, c', c'', s, s', s'' at phi: Horner forms (poly) or cos/sin (gauss)."""
-        if self.spec.family == "gauss":
+        """c, c', c'', s, s', s'' at phi: Horner forms (poly) or cos/sin (gauss, local)."""
+        if self.spec.family != "poly":
             c, s = sp.cos(phi), sp.sin(phi)
             return {"c": c, "dc": -s, "ddc": -c, "s": s, "ds": c, "dds": -s}
         out = {}
@@ -172,7 +178,14 @@ class FlexureKernel:
                 _l2_norm(B[i] * B[j]) for i in range(N) for j in range(N)
             ) + rounding * max(1, a * a)
             return ErrorBounds(pose, jac, hess)
+        if self.spec.family == "local":  # where in_range(q) certifies them
+            return ErrorBounds(*certificate.tolerances(self.spec.tol))
         return self._gauss_bounds(self.nodes)
+
+    @cached_property
+    def local_rows(self) -> tuple[certificate.Row, ...]:
+        """A local kernel's in_range rows (flexgen.symbolic.certificate)."""
+        return certificate.certificate(self.modes, self.nodes, self.spec.tol)
 
     def _gauss_bounds(self, G: int) -> ErrorBounds:
         N, a = self.modes, self.a
