@@ -36,8 +36,9 @@ import sympy as sp
 
 from flexgen.symbolic.basis import DIGITS, angle_basis, sigma
 
-# the ellipse parameters tried: large rho suits small bends, small rho large ones (measured: on
-# 1 to 8 modes and bends to 360 degrees the best rho of a finer list is within 25 % of one here)
+# the ellipse parameters tried, one in_range inequality each: a large rho suits small bends (the
+# rho^(1 - 2G) factor), a small rho large ones (the cosh factor); the rows of a kernel are the
+# ones with a positive limit (the shipped 9 to 13 nodes: rho from 3, 4 or 5 to 32)
 RHOS = ("1.25", "1.5", "2", "2.5", "3", "4", "5", "6", "8", "10", "12", "16", "24", "32")
 # the tolerances on J and H relative to the pose's (their integrands carry B_i, B_i B_j)
 JACOBIAN_FACTOR = 10.0
