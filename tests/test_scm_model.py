@@ -46,3 +46,25 @@ def test_auto_switches_to_gauss_past_range_where_one_exists():
         r.points["b.tip"].pose, [math.sin(t) / t, (1 - math.cos(t)) / t, t], atol=1e-9
     )
     assert any("switched to the Gauss kernel" in w for w in r.notes)
+
+
+def test_the_estimates_richer_model_uses_the_local_kernel_and_the_polynomial_without_one(
+    monkeypatch,
+):
+    """``local=True`` (the error estimate's richer models) evaluates with the local Gauss kernel,
+    certified at each q, and the certified Gauss kernel past it; with no local kernel in the
+    kernel folder, with the polynomial one."""
+    from flexgen import kernels
+
+    model = SCMModel(1.0, 1.0, modes=5, local=True)
+    assert model.poly_name.startswith("scm5_local") and model.gauss_name.startswith("scm5_gauss")
+    assert model.poly is kernels.load_numpy(model.poly_name)
+    real = kernels.gauss_kernel_name
+
+    def no_local(modes, folder=kernels.GENERATED, family="gauss"):
+        if family == "local":
+            raise kernels.KernelNotFound("no local kernel")
+        return real(modes, folder, family)
+
+    monkeypatch.setattr(kernels, "gauss_kernel_name", no_local)
+    assert SCMModel(1.0, 1.0, modes=5, local=True).poly_name == "scm5"

@@ -51,10 +51,14 @@ class SCMModel:
         self.label = "cc" if modes == 1 else f"scm{modes}"
         # the first kernel tried (``poly``, with its in_range): the polynomial kernel; with
         # ``local`` (the error estimate's richer models) the local Gauss kernel, certified at
-        # each q, a third of the polynomial's time; both fall back to the Gauss kernel
-        self.poly_name = (
-            kernels.gauss_kernel_name(modes, family="local") if local else f"scm{modes}"
-        )
+        # each q, a third of the polynomial's time; both fall back to the Gauss kernel. No local
+        # kernel in the kernel folder: the polynomial one (slower, as accurate)
+        self.poly_name = f"scm{modes}"
+        if local:
+            try:
+                self.poly_name = kernels.gauss_kernel_name(modes, family="local")
+            except kernels.KernelNotFound:
+                pass
         self.poly = kernels.load_numpy(self.poly_name) if kernel != "gauss" else None
         self.gauss_name = self.gauss = self.no_gauss = None
         if kernel != "poly":
