@@ -267,6 +267,10 @@ def _cli(*args):
         ["--modes", "3", "--kernel", "spline"],
         ["--modes", "3", "--tol", "0"],
         ["--modes", "3", "--kernel", "gauss", "--degree", "4"],
+        ["--modes", "3", "--kernel", "gauss", "--tol", "1e-17"],
+        ["--modes", "3", "--kernel", "local", "--tol", "1e-17"],
+        ["--modes", "3", "--kernel", "local", "--nodes", "2"],
+        ["--modes", "3", "--kernel", "local", "--range", "800"],
     ],
 )
 def test_generate_rejects_bad_arguments(args, tmp_path):

@@ -34,7 +34,7 @@ from functools import cached_property
 import mpmath
 import sympy as sp
 
-from flexgen.codegen.spec import KernelSpec
+from flexgen.codegen.spec import KernelSpec, SpecError
 from flexgen.symbolic import certificate, trig
 from flexgen.symbolic.basis import angle_basis, energy_weights, gauss_legendre, sigma
 
@@ -72,7 +72,19 @@ class FlexureKernel:
         elif spec.family == "local":
             self.degree = None
             self.trig = None
-            self.nodes = spec.nodes or certificate.nodes_for_arc(N, self.a, spec.tol)
+            try:
+                self.nodes = spec.nodes or certificate.nodes_for_arc(N, self.a, spec.tol)
+            except ValueError:
+                raise SpecError(
+                    f"--tol {spec.tol:g}: no local kernel of up to 200 nodes certifies the arc of "
+                    f"{spec.range_deg:g} degrees to it (double rounding allows about 1e-14)"
+                ) from None
+            if not self.local_rows:
+                raise SpecError(
+                    f"--nodes: {self.nodes} nodes certify no q to --tol {spec.tol:g} (in_range "
+                    "would always be 0); without --nodes, the fewest that certify the arc of "
+                    "--range"
+                )
         else:
             self.degree = None
             self.trig = None
@@ -214,9 +226,14 @@ class FlexureKernel:
 
     def _nodes_for_tolerance(self, tol: float, max_nodes: int = 200) -> int:
         for G in range(1, max_nodes + 1):
+            if (self.modes + G + 4) * 2 * UNIT_ROUNDOFF >= tol:
+                break  # the rounding allowance alone exceeds tol: more nodes cannot help
             if self._gauss_bounds(G).pose <= tol:
                 return G
-        raise ValueError(f"--tol {tol:g}: needs more than {max_nodes} Gauss nodes on this range")
+        raise SpecError(
+            f"--tol {tol:g}: no Gauss rule of up to {max_nodes} nodes certifies it on this range "
+            "(double rounding allows about 1e-14)"
+        )
 
     # -- the in_range check --------------------------------------------------------------
     @cached_property
