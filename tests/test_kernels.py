@@ -267,6 +267,7 @@ def _cli(*args):
         ["--modes", "3", "--kernel", "spline"],
         ["--modes", "3", "--tol", "0"],
         ["--modes", "3", "--kernel", "gauss", "--degree", "4"],
+        ["--modes", "3", "--tol", "1e-300"],
         ["--modes", "3", "--kernel", "gauss", "--tol", "1e-17"],
         ["--modes", "3", "--kernel", "local", "--tol", "1e-17"],
         ["--modes", "3", "--kernel", "local", "--nodes", "2"],

@@ -66,7 +66,10 @@ class FlexureKernel:
         self.degree: int | None  # poly only: the interpolation degree
         self.trig: trig.TrigInterpolant | None  # poly only: the cos/sin interpolant
         if spec.family == "poly":
-            self.degree = spec.degree or trig.degree_for_tolerance(self.a, spec.tol)
+            try:
+                self.degree = spec.degree or trig.degree_for_tolerance(self.a, spec.tol)
+            except ValueError as exc:  # a tolerance no interpolant of degree <= 60 meets
+                raise SpecError(f"--tol: {exc}") from None
             self.trig = trig.chebyshev_interpolant(self.a, self.degree)
             self.nodes = max(1, math.ceil((self._poly_degree * N + 1) / 2))
         elif spec.family == "local":
