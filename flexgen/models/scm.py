@@ -51,7 +51,7 @@ class SCMModel:
         self.label = "cc" if modes == 1 else f"scm{modes}"
         # the first kernel tried (``poly``, with its in_range): the polynomial kernel; with
         # ``local`` (the error estimate's richer models) the local Gauss kernel, certified at
-        # each q, a third of the polynomial's time; both fall back to the Gauss kernel. No local
+        # each q, 0.5x to 0.2x the polynomial's time; both fall back to the Gauss kernel. No local
         # kernel in the kernel folder: the polynomial one (slower, as accurate)
         self.poly_name = f"scm{modes}"
         if local:
