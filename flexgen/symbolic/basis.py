@@ -15,6 +15,14 @@ import sympy as sp
 
 sigma = sp.Symbol("sigma", real=True)
 DIGITS = 40
+UNIT_ROUNDOFF = 2.0**-53
+
+
+def gauss_rounding(modes: int, nodes: int) -> float:
+    """The rounding allowance of a Gauss kernel's sums in double (N-term node angles, G-term
+    sums of terms of magnitude at most 1), units of L; the error bounds of the gauss and local
+    kernels add it."""
+    return (modes + nodes + 4) * 2 * UNIT_ROUNDOFF
 
 
 def shifted_legendre(n: int) -> sp.Poly:

@@ -34,7 +34,7 @@ from functools import cache
 import mpmath
 import sympy as sp
 
-from flexgen.symbolic.basis import DIGITS, angle_basis, sigma
+from flexgen.symbolic.basis import DIGITS, angle_basis, gauss_rounding, sigma
 
 # the ellipse parameters tried, one in_range inequality each: a large rho suits small bends (the
 # rho^(1 - 2G) factor), a small rho large ones (the cosh factor); the rows of a kernel are the
@@ -43,7 +43,6 @@ RHOS = ("1.25", "1.5", "2", "2.5", "3", "4", "5", "6", "8", "10", "12", "16", "2
 # the tolerances on J and H relative to the pose's (their integrands carry B_i, B_i B_j)
 JACOBIAN_FACTOR = 10.0
 HESSIAN_FACTOR = 100.0
-UNIT_ROUNDOFF = 2.0**-53
 
 
 def tolerances(tol: float) -> tuple[float, float, float]:
@@ -111,7 +110,7 @@ def certificate(modes: int, nodes: int, tol: float) -> tuple[Row, ...]:
     one row holds for. Floats rounded to the safe side (nu up, limits down)."""
     rows = []
     with mpmath.workdps(DIGITS):
-        rounding = (modes + nodes + 4) * 2 * UNIT_ROUNDOFF
+        rounding = gauss_rounding(modes, nodes)
         for rho, W, W1, nu in _ellipse_terms(modes):
             scale = 4 * rho ** (1 - 2 * nodes) / (rho - 1)
             limit = mpmath.inf

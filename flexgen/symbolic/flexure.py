@@ -36,9 +36,15 @@ import sympy as sp
 
 from flexgen.codegen.spec import KernelSpec, SpecError
 from flexgen.symbolic import certificate, trig
-from flexgen.symbolic.basis import angle_basis, energy_weights, gauss_legendre, sigma
+from flexgen.symbolic.basis import (
+    UNIT_ROUNDOFF,
+    angle_basis,
+    energy_weights,
+    gauss_legendre,
+    gauss_rounding,
+    sigma,
+)
 
-UNIT_ROUNDOFF = 2.0**-53
 RANGE_SAMPLES = 33  # sigma samples of the in_range check (h = 1/32)
 
 
@@ -206,7 +212,7 @@ class FlexureKernel:
         N, a = self.modes, self.a
         sig, w = gauss_legendre(G)
         B = self.basis
-        rounding = (N + G + 4) * 2 * UNIT_ROUNDOFF
+        rounding = gauss_rounding(N, G)
 
         def term(h: sp.Poly, h_degree: int) -> float:
             d = (2 * G - 1 - h_degree) // N
@@ -229,7 +235,7 @@ class FlexureKernel:
 
     def _nodes_for_tolerance(self, tol: float, max_nodes: int = 200) -> int:
         for G in range(1, max_nodes + 1):
-            if (self.modes + G + 4) * 2 * UNIT_ROUNDOFF >= tol:
+            if gauss_rounding(self.modes, G) >= tol:
                 break  # the rounding allowance alone exceeds tol: more nodes cannot help
             if self._gauss_bounds(G).pose <= tol:
                 return G
