@@ -111,7 +111,8 @@ def certificate(modes: int, nodes: int, tol: float) -> tuple[Row, ...]:
     rows = []
     with mpmath.workdps(DIGITS):
         rounding = gauss_rounding(modes, nodes)
-        for rho, W, W1, nu in _ellipse_terms(modes):
+        W1, terms = _ellipse_terms(modes)
+        for rho, W, nu in terms:
             scale = 4 * rho ** (1 - 2 * nodes) / (rho - 1)
             limit = mpmath.inf
             for w, w1, bound in zip(W, W1, tolerances(tol)):
@@ -131,18 +132,19 @@ def certificate(modes: int, nodes: int, tol: float) -> tuple[Row, ...]:
 
 @cache
 def _ellipse_terms(modes: int) -> tuple:
-    """Per rho of RHOS: rho, W(rho) of (pose, J, H), their bounds on [-1, 1], nu(rho)."""
+    """(the bounds of the (pose, J, H) weights on [-1, 1], and per rho of RHOS: rho, W(rho) of
+    (pose, J, H), nu(rho))."""
     out = []
     with mpmath.workdps(DIGITS):
         basis, products = _weights(modes)
         families = ([[mpmath.mpf(1)]], basis, products)
+        W1 = tuple(_on_ellipse_max(fam) for fam in families)
         for text in RHOS:
             rho = mpmath.mpf(text)
             W = tuple(max(_on_ellipse(w, rho, 1) for w in fam) for fam in families)
-            W1 = tuple(_on_ellipse_max(fam) for fam in families)
             nu = tuple(_on_ellipse(b, rho, -1) for b in basis)
-            out.append((rho, W, W1, nu))
-    return tuple(out)
+            out.append((rho, W, nu))
+    return W1, tuple(out)
 
 
 def _on_ellipse_max(weights: list[list[mpmath.mpf]]) -> mpmath.mpf:
