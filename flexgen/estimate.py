@@ -42,8 +42,8 @@ The richer smooth curvature models evaluate with the local Gauss kernels (``scmN
 few nodes, the error certified at each q, 0.5x to 0.2x the polynomial kernel's time for 3 to 8
 modes; where the certificate fails, the Gauss kernel certified on 180 degrees), whatever kernel
 the answer's model uses. Every smooth curvature flexure also adds its kernel's certified bounds
-(the answer's and the richer model's: ``ERROR_BOUND L_i / L_p`` on the positions beyond it, ``2 JACOBIAN_ERROR_BOUND``
-on the compliance), a floor below which the comparison cannot see.
+(the answer's and the richer model's: ``ERROR_BOUND L_i / L_p`` on the positions beyond it,
+``2 JACOBIAN_ERROR_BOUND`` on the compliance), a floor below which the comparison cannot see.
 
 When the richer model finds no stable equilibrium (or an equilibrium with undefined
 compliance), the estimate is inf and ``Estimate.warning`` says why. With several flexures the
