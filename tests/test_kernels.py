@@ -211,7 +211,11 @@ def test_c_kernels_match_numpy(c_libraries, name):
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-13)
         for got, want in zip(_call(lib, name, q, "_f", ctypes.c_float, np.float32), expected):
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)
-    q = rng.normal(size=(200, m.N)) * 2
+    # random q, and q near the range's edge, where the C test's quick bound must not accept
+    # what the sampled test (NumPy's, for a batch) rejects
+    q = np.vstack(
+        [rng.normal(size=(200, m.N)) * 2, reference.near_edge(m.N, m.PHI_MAX, 200, seed=8)]
+    )
     flags = [
         lib[f"{name}_in_range"](
             np.ascontiguousarray(x).ctypes.data_as(ctypes.POINTER(ctypes.c_double))

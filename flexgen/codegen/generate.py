@@ -175,6 +175,13 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
     margin_terms = [
         f"{printer.doprint(sp.Float(mn, 17))}*fabs(q[{n}])" for n, mn in enumerate(m) if mn
     ]
+    # |q| . (max_k |S[k, n]| + m[n]) bounds the sampled test (the NumPy kernel's RANGE_BOUND)
+    bound = [
+        max((abs(float(row[n])) for row in S), default=0.0) + float(m[n]) for n in range(len(q))
+    ]
+    bound_line = " + ".join(
+        f"{printer.doprint(sp.Float(b, 17))}*fabs(q[{n}])" for n, b in enumerate(bound) if b
+    )
     local_rows = [
         (
             f"{row.rho:g}",
@@ -194,6 +201,7 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
         "variants": variants,
         "range_lines": range_lines,
         "margin_line": " + ".join(margin_terms) if margin_terms else "0.0",
+        "bound_line": bound_line or "0.0",
     }
 
 
