@@ -182,8 +182,10 @@ def test_the_newton_estimate_is_the_solved_richer_models(scene, kw):
     assert est._solve_richer(s) == core.lib.FG_ESTIMATED  # the richer model solved
     solved = est.out.copy()
     assert np.all(np.isfinite(solved)) and np.all(solved > 0)
-    assert fast[0::2] == pytest.approx(solved[0::2], rel=1e-3)
-    assert fast[1::2] == pytest.approx(solved[1::2], rel=0.1)
+    m = 2 * est.n  # per point (pose, compliance), then the total
+    assert fast[0:m:2] == pytest.approx(solved[0:m:2], rel=1e-3)
+    assert fast[1:m:2] == pytest.approx(solved[1:m:2], rel=0.1)
+    assert fast[m] == max(fast[:m]) and solved[m] == max(solved[:m])
 
 
 def test_fg_estimate_refuses_a_malformed_call():
@@ -194,9 +196,10 @@ def test_fg_estimate_refuses_a_malformed_call():
     args = list(s.estimator()._args)
     args[1] = core.ffi.NULL  # no q map
     assert core.lib.fg_estimate(*args) == core.lib.FG_ESTIMATE_MALFORMED
-    args = list(s.estimator()._args)
-    args[7] = 0.0  # no reach
-    assert core.lib.fg_estimate(*args) == core.lib.FG_ESTIMATE_MALFORMED
+    for i, bad in ((7, core.ffi.NULL), (8, 0.0), (9, 0.0)):  # no floors, factor, reach
+        args = list(s.estimator()._args)
+        args[i] = bad
+        assert core.lib.fg_estimate(*args) == core.lib.FG_ESTIMATE_MALFORMED
 
 
 def test_a_coarse_answer_far_from_the_richer_one_is_solved_for():

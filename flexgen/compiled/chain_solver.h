@@ -298,14 +298,19 @@ enum {
  * (T q itself, where the maps are exact) or whose step d_k is at most 0.1 of the step before; the richer pose is the
  * first-order pose(q_k) - J d_k, the richer compliance J K^-1 J^T at q_k (off by O(|d_k|); at
  * T q alone, off by O(|d_0|), measured too far off to be honest). Usually two evaluations of the
- * richer model. Per output j: out[2 j] = max(|r_j - r_j,rich| / scale[j], |angle_j -
- * angle_j,rich|) and out[2 j + 1] = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position
- * compliances, spectral norm). FG_ESTIMATE_FAR: no convergence within settings.max_iterations
- * steps and within reach (largest change of a coordinate from T q) of T q. Workspace: the
- * richer problem's (fg_work_size, fg_iwork_size); nothing is kept between calls. */
+ * richer model. Per output j the differences dp_j = max(|r_j - r_j,rich| / scale[j], |angle_j -
+ * angle_j,rich|) and dc_j = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position
+ * compliances, spectral norm) become the estimates out[2 j] = factor dp_j + floors[j] and
+ * out[2 j + 1] = factor dc_j + floors[noutputs] (factor: the margin of the model pair, floors:
+ * the kernels' bounds, noutputs + 1 entries), and out[2 noutputs] = the largest of them (the whole
+ * answer's); FG_ESTIMATE_UNDEFINED leaves out unspecified. FG_ESTIMATE_FAR: no convergence
+ * within settings.max_iterations steps and within reach (largest change of a coordinate from
+ * T q) of T q. Workspace: the richer problem's (fg_work_size, fg_iwork_size); nothing is kept
+ * between calls. */
 FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, const fg_real *q,
                        const fg_real *pose, const fg_real *compliance, const fg_real *scale,
-                       fg_real reach, fg_real *work, int *iwork, fg_real *out);
+                       const fg_real *floors, fg_real factor, fg_real reach, fg_real *work,
+                       int *iwork, fg_real *out);
 
 #ifdef __cplusplus
 }

@@ -380,14 +380,19 @@ enum {
  * (T q itself, where the maps are exact) or whose step d_k is at most 0.1 of the step before; the richer pose is the
  * first-order pose(q_k) - J d_k, the richer compliance J K^-1 J^T at q_k (off by O(|d_k|); at
  * T q alone, off by O(|d_0|), measured too far off to be honest). Usually two evaluations of the
- * richer model. Per output j: out[2 j] = max(|r_j - r_j,rich| / scale[j], |angle_j -
- * angle_j,rich|) and out[2 j + 1] = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position
- * compliances, spectral norm). FG_ESTIMATE_FAR: no convergence within settings.max_iterations
- * steps and within reach (largest change of a coordinate from T q) of T q. Workspace: the
- * richer problem's (fg_work_size, fg_iwork_size); nothing is kept between calls. */
+ * richer model. Per output j the differences dp_j = max(|r_j - r_j,rich| / scale[j], |angle_j -
+ * angle_j,rich|) and dc_j = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position
+ * compliances, spectral norm) become the estimates out[2 j] = factor dp_j + floors[j] and
+ * out[2 j + 1] = factor dc_j + floors[noutputs] (factor: the margin of the model pair, floors:
+ * the kernels' bounds, noutputs + 1 entries), and out[2 noutputs] = the largest of them (the whole
+ * answer's); FG_ESTIMATE_UNDEFINED leaves out unspecified. FG_ESTIMATE_FAR: no convergence
+ * within settings.max_iterations steps and within reach (largest change of a coordinate from
+ * T q) of T q. Workspace: the richer problem's (fg_work_size, fg_iwork_size); nothing is kept
+ * between calls. */
 FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, const fg_real *q,
                        const fg_real *pose, const fg_real *compliance, const fg_real *scale,
-                       fg_real reach, fg_real *work, int *iwork, fg_real *out);
+                       const fg_real *floors, fg_real factor, fg_real reach, fg_real *work,
+                       int *iwork, fg_real *out);
 
 #ifdef __cplusplus
 }
@@ -2752,19 +2757,36 @@ static int estimate_differences(fg_ws *w, const fg_state *st, const fg_real *d,
     return 1;
 }
 
+/* the differences in out (estimate_differences) made estimates: factor times each, plus its
+ * floor (floors); the largest after them (FG_ESTIMATED: every one finite and >= 0) */
+static void estimate_margins(int m, const fg_real *floors, fg_real factor, fg_real *out)
+{
+    fg_real total = 0.0;
+    int j;
+    for (j = 0; j < m; ++j) {
+        out[2 * j] = factor * out[2 * j] + floors[j];
+        out[2 * j + 1] = factor * out[2 * j + 1] + floors[m];
+        if (out[2 * j] > total)
+            total = out[2 * j];
+        if (out[2 * j + 1] > total)
+            total = out[2 * j + 1];
+    }
+    out[2 * m] = total;
+}
+
 FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, const fg_real *q,
                        const fg_real *pose, const fg_real *compliance, const fg_real *scale,
-                       fg_real reach, fg_real *work, int *iwork, fg_real *out)
+                       const fg_real *floors, fg_real factor, fg_real reach, fg_real *work,
+                       int *iwork, fg_real *out)
 {
     fg_ws ws, *w = &ws;
     fg_state *st, *prev, *swap;
     fg_real *q0, *d, *dprev, *tmp, last, first = 0.0;
     int n, i, k;
     if (rich == NULL || !problem_well_formed(rich) || nbase < 0 || (nbase > 0 && q == NULL)
-        || !(reach > 0.0)
+        || !(reach > 0.0) || !(factor > 0.0) || floors == NULL || out == NULL
         || (rich->ndof > 0 && T == NULL)
-        || (rich->noutputs > 0 && (pose == NULL || compliance == NULL || scale == NULL
-                                   || out == NULL)))
+        || (rich->noutputs > 0 && (pose == NULL || compliance == NULL || scale == NULL)))
         return FG_ESTIMATE_MALFORMED;
     n = rich->ndof;
     prepare(w, rich, work, iwork);
@@ -2827,8 +2849,10 @@ FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, cons
         if (!evaluate(w, w->t1, 1.0, st))
             return FG_ESTIMATE_NO_EVALUATION;
     }
-    return estimate_differences(w, st, d, pose, compliance, scale, out) ? FG_ESTIMATED
-                                                                        : FG_ESTIMATE_UNDEFINED;
+    if (!estimate_differences(w, st, d, pose, compliance, scale, out))
+        return FG_ESTIMATE_UNDEFINED;
+    estimate_margins(rich->noutputs, floors, factor, out);
+    return FG_ESTIMATED;
 }
 
 /* Solve: the warm start, else the unloaded state, the direct solve, else the continuation;
