@@ -160,15 +160,15 @@ def richer(model: Any) -> tuple[Any, Any, float, str]:
 
         n = int(model.n_dof)
         if n == 1:
-            m = SCMModel(model.length, model.EI, 3, "auto", name=model.name, local=True)
+            m = SCMModel(model.length, model.EI, 3, "local", name=model.name)
             return m, _scm_pad(3), COARSE_FACTOR, "scm3"
         k = n + 2 if n + 2 <= MAX_SCM else n - 2
-        m = SCMModel(model.length, model.EI, k, "auto", name=model.name, local=True)
+        m = SCMModel(model.length, model.EI, k, "local", name=model.name)
         return m, _scm_pad(k), SCM_FACTOR, f"scm{k}"
     if kind == "prb":
         from .models.scm import SCMModel
 
-        m = SCMModel(model.length, model.EI, 3, "auto", local=True)
+        m = SCMModel(model.length, model.EI, 3, "local")
         return m, _tip_angle(3), COARSE_FACTOR, "scm3"
     if kind == "fem":
         from .models.fem import FEMModel

@@ -131,7 +131,7 @@ class Result:
     # 1 - P/P_cr on an axial load, < 0 unstable; computed on first access; Solver.margin()
     # gives the last answer's), each flexure's largest bend max |phi(s)|
     # relative to its root (rad), and the kernel evaluating each smooth curvature flexure
-    # ("poly", "gauss", "gauss past its certified range", ...)
+    # ("local", "poly", "gauss", "gauss past its certified range", ...)
     stability_margin: float | None = None
     bend: dict[str, float] = field(default_factory=dict, compare=False)
     kernel: dict[str, str] = field(default_factory=dict, compare=False)

@@ -28,7 +28,7 @@ from .models.registry import MODEL_KINDS
 from .tomlorder import array_table_headers
 from .units import Units, UnitsError, normalise
 
-KERNELS = ("auto", "poly", "gauss")
+KERNELS = ("auto", "poly", "gauss", "local")
 BASE = "base"
 TIP = "tip"
 
@@ -80,7 +80,7 @@ class ModelSpec:
     kind: str = "scm"  # one of MODEL_KINDS
     modes: int = 3  # scm: Legendre curvature modes
     elements: int = 16  # fem: rigid elements per flexure
-    kernel: str = "auto"  # scm: "poly", "gauss" or "auto" (poly while in range)
+    kernel: str = "auto"  # scm: "auto" (poly while in range), "poly", "gauss" or "local"
     tolerance: float | None = None  # choose modes per flexure to meet this accuracy
 
 

@@ -136,7 +136,7 @@ class Solved:
     modes: tuple[int, ...]
     result: Result
     outputs: Outputs | None  # None: no stable equilibrium
-    kernels: tuple[str, ...]  # kernel used at equilibrium per flexure ("poly"/"gauss")
+    kernels: tuple[str, ...]  # kernel used at equilibrium per flexure ("local"/"poly"/"gauss")
     seconds: float
 
 
@@ -165,7 +165,7 @@ class _Problem:
             return "gauss" if N <= self.gauss_max else None
         if want == "poly" or N > self.gauss_max:
             return "poly" if N <= MAX_MODES else None
-        return "auto"
+        return want  # "auto" or "local"
 
     def models(self, modes: Sequence[int]):
         from .models.scm import SCMModel
@@ -198,15 +198,22 @@ class _Problem:
         for name in self.names:
             m = models[name]
             q = np.asarray(res.q.get(name, np.zeros(m.n_dof)), float)
-            used.append("poly" if m.poly is not None and m.poly.in_range(q) else "gauss")
+            first = getattr(m.poly, "FAMILY", "poly")  # "local" for kernel "local", else "poly"
+            used.append(first if m.poly is not None and m.poly.in_range(q) else "gauss")
         solved = Solved(modes, res, outs, tuple(used), dt)
         self.cache[modes] = solved
         return solved
 
 
+def _kernel_name(N: int, kernel: str) -> str:
+    """The shipped kernel of N modes a flexure used ("local", "poly" or "gauss")."""
+    if kernel == "poly":
+        return f"scm{N}"
+    return kernels.gauss_kernel_name(N, family=kernel)
+
+
 def _kernel_module(N: int, kernel: str):
-    name = f"scm{N}" if kernel == "poly" else kernels.gauss_kernel_name(N)
-    return kernels.load_numpy(name)
+    return kernels.load_numpy(_kernel_name(N, kernel))
 
 
 def kernel_term(
@@ -596,7 +603,7 @@ _COST = re.compile(r"Cost:\s*(\d+)\s*ops")
 
 def kernel_ops(modes: int, kernel: str) -> int | None:
     """Operation count per call of the C kernel (from the generated source's header), if known."""
-    name = f"scm{modes}" if kernel == "poly" else kernels.gauss_kernel_name(modes)
+    name = _kernel_name(modes, kernel)
     path = kernels.GENERATED / "c" / f"{name}.c"
     try:
         m = _COST.search(path.read_text()[:4000])

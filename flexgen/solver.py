@@ -57,6 +57,16 @@ KERNEL_STATES = {
 }
 
 
+def kernel_state(model: Any, kernel: int) -> str:
+    """``KERNEL_STATES[kernel]``, "poly" read as "local" where the model's first kernel is the
+    local Gauss kernel ("auto"): "local", "local past its range", "gauss", ..."""
+    state = KERNEL_STATES[kernel]
+    first = getattr(model, "poly", None)
+    if state.startswith("poly") and getattr(first, "FAMILY", "poly") == "local":
+        return "local" + state[len("poly") :]
+    return state
+
+
 _SOLVED, _MODEL_ERROR = core.SOLVED, core.MODEL_ERROR
 _fg_solve = core.lib.fg_solve
 
@@ -352,7 +362,9 @@ class Solver:
         if name == "stability_margin":
             return margin_of(p, K)
         if name == "kernel":
-            return {n: KERNEL_STATES[k] for n, k in zip(p.flexure_order, kernel) if k}
+            return {
+                n: kernel_state(self.models[n], k) for n, k in zip(p.flexure_order, kernel) if k
+            }
         if name == "flexures":
             qs = {n: q[sl] for n, sl in self._slices}
             return flexure_stresses(self.scene, self.models, qs)

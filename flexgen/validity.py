@@ -253,12 +253,11 @@ def assess(
         m = models[name]
         state = kernels[name]
         switched |= m.poly is not None and state.startswith("gauss")
-        if state == "poly past its range":
+        if state in ("poly past its range", "local past its range"):
             oor = True
             warnings.append(
-                f"flexure {name!r} ({labels[name]}): bend {_deg(bends[name])} is past the "
-                f"{math.degrees(m.poly.PHI_MAX):.0f} deg range of the polynomial kernel "
-                f"scm{m.n_dof}; the answer may be wrong by any amount"
+                f"flexure {name!r} ({labels[name]}): bend {_deg(bends[name])}, past "
+                f"{m.first_range()}; the answer may be wrong by any amount"
             )
         elif state == "gauss past its certified range":
             oor = True

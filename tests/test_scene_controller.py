@@ -45,6 +45,8 @@ def random_scene(seed: int) -> str:
     lines = [f'name = "random {seed}"', "", "[model]", f'kind = "{kind}"']
     if kind == "scm":
         lines.append(f"modes = {int(rng.integers(1, 7))}")
+        if seed % 8 == 1:  # the local Gauss kernels (no draw: the other scenes stay as they were)
+            lines.append('kernel = "local"')
     if kind == "fem":
         lines.append(f"elements = {int(rng.integers(3, 9))}")
     lines += ["", "[base]", "points = { r0 = [-0.2, 0.3] }"]
@@ -194,6 +196,7 @@ def test_random_scenes_cover_what_the_issue_names():
         flex_parents = parents[: t.count("[[flexure]]")]
         trees += len(flex_parents) != len(set(flex_parents))
     assert trees >= 3
+    assert sum('kernel = "local"' in t for t in texts) >= 3  # the local Gauss kernels too
     assert {k for t in texts for k in ("scm", "fem", "prb") if f'kind = "{k}"' in t} == {
         "scm",
         "fem",

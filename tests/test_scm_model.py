@@ -2,6 +2,7 @@
 when no Gauss kernel exists for that many modes (7 and 8 ship polynomial kernels only)."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -51,12 +52,13 @@ def test_auto_switches_to_gauss_past_range_where_one_exists():
 def test_the_estimates_richer_model_uses_the_local_kernel_and_the_polynomial_without_one(
     monkeypatch,
 ):
-    """``local=True`` (the error estimate's richer models) evaluates with the local Gauss kernel,
-    certified at each q, and the certified Gauss kernel past it; with no local kernel in the
-    kernel folder, with the polynomial one."""
+    """kernel "local" (also the error estimate's richer models) evaluates with the local Gauss
+    kernel, certified at each q, and the certified Gauss kernel past it; with no local kernel in
+    the kernel folder, with the polynomial one. "auto" keeps the polynomial kernel first."""
     from flexgen import kernels
 
-    model = SCMModel(1.0, 1.0, modes=5, local=True)
+    model = SCMModel(1.0, 1.0, modes=5, kernel="local")
+    assert SCMModel(1.0, 1.0, modes=5).poly_name == "scm5"
     assert model.poly_name.startswith("scm5_local") and model.gauss_name.startswith("scm5_gauss")
     assert model.poly is kernels.load_numpy(model.poly_name)
     real = kernels.gauss_kernel_name
@@ -67,4 +69,51 @@ def test_the_estimates_richer_model_uses_the_local_kernel_and_the_polynomial_wit
         return real(modes, folder, family)
 
     monkeypatch.setattr(kernels, "gauss_kernel_name", no_local)
-    assert SCMModel(1.0, 1.0, modes=5, local=True).poly_name == "scm5"
+    assert SCMModel(1.0, 1.0, modes=5, kernel="local").poly_name == "scm5"
+
+
+def _arc_scene(t: float, kernel: str, modes: int = 3) -> dict:
+    scene = cantilever((0.0, 0.0), t)
+    scene["model"] = {"modes": modes, "kernel": kernel}
+    return scene
+
+
+@pytest.mark.parametrize("modes", [3, 5])
+def test_kernel_local_certifies_smooth_bends_the_polynomial_kernel_does_not(modes):
+    """A 143-degree arc (tip moment 2.5 EI/L): "local" evaluates it with the local kernel (its
+    bound certified there: no note), "auto" switches from the polynomial kernel (90 degrees) to
+    the Gauss kernel with a note; both give the closed-form arc. A 355-degree arc is past the
+    local kernel's certificate too: the Gauss kernel, with a note naming the local kernel."""
+    t = 2.5
+    arc = [math.sin(t) / t, (1 - math.cos(t)) / t, t]
+    local = flexgen.solve(_arc_scene(t, "local", modes))
+    auto = flexgen.solve(_arc_scene(t, "auto", modes))
+    np.testing.assert_allclose(local.points["b.tip"].pose, arc, atol=1e-10)
+    np.testing.assert_allclose(auto.points["b.tip"].pose, arc, atol=1e-10)
+    assert local.kernel == {"b": "local"} and local.notes == [] and local.warnings == []
+    assert auto.kernel == {"b": "gauss"} and "polynomial kernel" in auto.notes[0]
+    far = flexgen.solve(_arc_scene(6.2, "local", modes))
+    assert far.converged and far.points["b.tip"].pose[2] == pytest.approx(6.2, abs=1e-9)
+    assert far.kernel == {"b": "gauss past its certified range"}
+    assert any(f"local kernel scm{modes}_local" in n for n in far.notes)
+
+
+@pytest.mark.parametrize("scene", ["cantilever_tip_load", "two_link_finger", "steel_finger"])
+def test_kernel_local_answers_as_auto_within_the_kernels_bounds(scene):
+    """The same model through either kernel: the two kernels' errors (pose 1.3e-11 and 1e-11 of
+    L, Jacobians 8e-10 and 1e-10) move the equilibrium by far less than 1e-9 of the length
+    scale, and the compliance by less than 1e-8 relative."""
+    from flexgen.scene import load_scene
+
+    path = Path(__file__).resolve().parents[1] / "examples" / f"{scene}.toml"
+    base = load_scene(path)
+    local = flexgen.solve(base.with_value("model.kernel", "local"))
+    auto = flexgen.solve(base)
+    assert set(local.kernel.values()) == {"local"}
+    L = sum(f.length for f in base.flexures)
+    for name, p in auto.points.items():
+        q = local.points[name]
+        assert np.max(np.abs(np.subtract(q.pose[:2], p.pose[:2]))) <= 1e-9 * L
+        assert abs(q.pose[2] - p.pose[2]) <= 1e-9
+        C, Cl = np.asarray(p.compliance3), np.asarray(q.compliance3)
+        assert np.max(np.abs(Cl - C)) <= 1e-8 * np.max(np.abs(C))

@@ -4,9 +4,12 @@ q are the Legendre curvature coefficients (kappa L = sum q_n P_n(2s/L - 1)), dim
 q[0] is the tip angle. kernel = "poly" uses the closed-form polynomial kernel scm{N} (valid while
 |phi| <= its PHI_MAX along the flexure); "gauss" the Gauss kernel scm{N}_gauss{G} (any angle,
 certified on its range); "auto" the polynomial while in range and the Gauss kernel past it
-(the core reports each flexure that switched, and the Result warns). With "poly" alone a pose past
-the range raises ValueError naming the flexure (``name``) and the range, so the solver reports no
-equilibrium instead of a wrong one. ``cc`` is this model with one mode.
+(the core reports each flexure that switched, and the Result notes it); "local" the local Gauss
+kernel scm{N}_local{G} wherever its error bound is certified at the q it evaluates (smooth bends
+up to about 270 degrees, tighter bounds, 0.5x to 0.2x the polynomial kernel's time) and the
+Gauss kernel elsewhere (without a local kernel in the kernel folder: as "auto"). With "poly"
+alone a pose past the range raises ValueError naming the flexure (``name``) and the range, so
+the solver reports no equilibrium instead of a wrong one. ``cc`` is this model with one mode.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from numpy.polynomial import legendre
 from flexgen import kernels
 from flexgen.models.base import TipKinematics
 
-KERNEL_CHOICES = ("auto", "poly", "gauss")
+KERNEL_CHOICES = ("auto", "poly", "gauss", "local")
 
 
 def angle_basis(modes: int, sigma: np.ndarray) -> np.ndarray:
@@ -43,18 +46,17 @@ class SCMModel:
         modes: int = 3,
         kernel: str = "auto",
         name: str = "?",
-        local: bool = False,
     ):
         if kernel not in KERNEL_CHOICES:
             raise ValueError(f"kernel: must be one of {', '.join(KERNEL_CHOICES)}, got {kernel!r}")
         self.length, self.EI, self.n_dof, self.kernel = float(length), float(EI), modes, kernel
         self.label = "cc" if modes == 1 else f"scm{modes}"
-        # the first kernel tried (``poly``, with its in_range): the polynomial kernel; with
-        # ``local`` (the error estimate's richer models) the local Gauss kernel, certified at
-        # each q, 0.5x to 0.2x the polynomial's time; both fall back to the Gauss kernel. No local
-        # kernel in the kernel folder: the polynomial one (slower, as accurate)
+        # the first kernel tried (``poly``: the core's fg_flexure.poly, with its in_range): the
+        # polynomial kernel; for "local" (also the error estimate's richer models) the local
+        # Gauss kernel, certified at each q; both fall back to the Gauss kernel. No local kernel
+        # in the kernel folder: the polynomial one (slower, as accurate)
         self.poly_name = f"scm{modes}"
-        if local:
+        if kernel == "local":
             try:
                 self.poly_name = kernels.gauss_kernel_name(modes, family="local")
             except kernels.KernelNotFound:
@@ -68,7 +70,7 @@ class SCMModel:
             except kernels.KernelNotFound as missing:
                 if kernel == "gauss":
                     raise
-                self.no_gauss = str(missing)  # "auto": fine while the polynomial is in range
+                self.no_gauss = str(missing)  # "auto", "local": fine while the first is in range
         loaded = self.poly if self.poly is not None else self.gauss
         assert loaded is not None  # "gauss" (no polynomial) raises above if its kernel is missing
         self.weights = loaded.ENERGY_WEIGHTS
@@ -95,23 +97,34 @@ class SCMModel:
             f.gauss, f.gauss_in_range = kernel_functions(self.gauss_name)
         return self.EI / self.length * np.asarray(self.weights, dtype=float)
 
+    def first_range(self) -> str:
+        """Where the first kernel tried (``poly``) holds, in words: the polynomial kernel's
+        range, or the local kernel's certified set."""
+        assert self.poly is not None, "first_range: this model has no first kernel"
+        if getattr(self.poly, "FAMILY", "poly") == "local":
+            return (
+                f"the set where the local kernel {self.poly_name} certifies its error bound "
+                f"(smooth bends up to about {math.degrees(self.poly.PHI_MAX):g} deg)"
+            )
+        return (
+            f"the range of the polynomial kernel {self.poly_name} "
+            f"(|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the flexure)"
+        )
+
     def range_error(self) -> str:
-        """Why this flexure cannot be evaluated past its polynomial kernel's range."""
+        """Why this flexure cannot be evaluated past its first kernel's range."""
         assert self.poly is not None, "range_error: this model has no polynomial kernel"
         why = (
             f"and {self.no_gauss}"
             if self.no_gauss
             else "kernel 'poly' was asked for, 'auto' switches to the Gauss kernel"
         )
-        return (
-            f"flexure {self.name!r}: bent past the range of the polynomial kernel "
-            f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the "
-            f"flexure; {why})"
-        )
+        return f"flexure {self.name!r}: bent past {self.first_range()}; {why}"
 
     def kernel_at(self, q):
-        """The kernel that evaluates q: the polynomial while in range, else the Gauss kernel
-        ("auto", "gauss"); ValueError (``range_error``) when there is none."""
+        """The kernel that evaluates q: the first (polynomial or local) while in range, else the
+        Gauss kernel ("auto", "local", "gauss"); ValueError (``range_error``) when there is
+        none."""
         if self.poly is not None and self.gauss is None:
             if not self.poly.in_range(q):
                 raise ValueError(self.range_error())
@@ -132,9 +145,8 @@ class SCMModel:
         else:
             where = "at equilibrium"
         return (
-            f"flexure {self.name!r}: bent past the range of the polynomial kernel "
-            f"scm{self.n_dof} (|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg) "
-            f"{where}; switched to the Gauss kernel {self.gauss_name}"
+            f"flexure {self.name!r}: bent past {self.first_range()} {where}; "
+            f"switched to the Gauss kernel {self.gauss_name}"
         )
 
     def error_bound(self, q) -> float:

@@ -94,16 +94,17 @@ enum {
                                           * bifurcation (buckled: the stable side the library's
                                           * rule picks) or snapped through; critical_load_factor
                                           * says where */
-    TWO_LINK_FINGER_NOTE_GAUSS = 2            /* a flexure left its polynomial kernel's range during
-                                          * the solve and its Gauss kernel took over (kernel[]
-                                          * says which evaluates it at the answer) */
+    TWO_LINK_FINGER_NOTE_GAUSS = 2            /* a flexure left its first kernel's range during the
+                                          * solve and its Gauss kernel took over (kernel[] says
+                                          * which evaluates it at the answer) */
 };
 
 /* which kernel evaluated each flexure at the answer (two_link_finger_outputs.kernel) */
 enum {
     TWO_LINK_FINGER_KERNEL_NONE = 0,        /* not a kernel model (fem, prb) */
-    TWO_LINK_FINGER_KERNEL_POLY = 1,        /* the polynomial kernel, within its range */
-    TWO_LINK_FINGER_KERNEL_POLY_PAST = 2,   /* a polynomial kernel past its range (FLAG_PAST_RANGE) */
+    TWO_LINK_FINGER_KERNEL_POLY = 1,        /* its first kernel (polynomial; with kernel = "local"
+                                        * the local Gauss kernel), within its range */
+    TWO_LINK_FINGER_KERNEL_POLY_PAST = 2,   /* a first kernel past its range (FLAG_PAST_RANGE) */
     TWO_LINK_FINGER_KERNEL_GAUSS = 3,       /* the Gauss kernel, within its certified range */
     TWO_LINK_FINGER_KERNEL_GAUSS_PAST = 4   /* the Gauss kernel past its range (FLAG_PAST_RANGE) */
 };
