@@ -67,7 +67,7 @@ def examples_dir(what: str = "flexgen bench") -> Path:
 @dataclass(frozen=True)
 class ModelDef:
     label: str  # "scm3 poly", "fem16", "exact" ...
-    family: str  # "cc", "prb", "scm-poly", "scm-gauss", "fem", "exact"
+    family: str  # "cc", "prb", "scm-poly", "scm-gauss", "scm-local", "fem", "exact"
     kind: str  # model kind (scene.MODEL_KINDS)
     modes: int = 0
     elements: int = 0
@@ -94,15 +94,16 @@ class ModelDef:
         """Name of the generated C kernel this model calls, if any."""
         if self.kind not in ("scm", "cc"):
             return None
-        if self.kernel == "gauss":
+        if self.kernel in ("gauss", "local"):
             from flexgen import kernels
 
-            return kernels.gauss_kernel_name(self.modes)
+            return kernels.gauss_kernel_name(self.modes, family=self.kernel)
         return f"scm{self.modes}"
 
 
 def model_defs(quick: bool = False) -> list[ModelDef]:
-    """cc, prb, scm2..6 with the poly and the gauss kernel, fem 4..64, exact (quick: a subset)."""
+    """cc, prb, scm2..6 with the poly, the gauss and the local kernel, fem 4..64, exact (quick: a
+    subset)."""
     defs = [ModelDef("cc", "cc", "cc", modes=1, kernel="auto"), ModelDef("prb", "prb", "prb")]
     modes = (2, 3, 4, 5) if quick else (2, 3, 4, 5, 6)
     defs += [
@@ -110,6 +111,7 @@ def model_defs(quick: bool = False) -> list[ModelDef]:
         for n in ((3,) if quick else modes)
     ]
     defs += [ModelDef(f"scm{n} gauss", "scm-gauss", "scm", modes=n, kernel="gauss") for n in modes]
+    defs += [ModelDef(f"scm{n} local", "scm-local", "scm", modes=n, kernel="local") for n in modes]
     defs += [
         ModelDef(f"fem{e}", "fem", "fem", elements=e)
         for e in ((4, 8, 16) if quick else (4, 8, 16, 32, 64))
@@ -614,7 +616,7 @@ def compute_targets(data: BenchData, rounds: int, exact_repeats: int) -> dict:
             if key == "smooth" and SMOOTH_SCENE not in data.scenes:
                 continue
             fam = {}
-            for name in ("scm-gauss", "scm-poly", "fem"):
+            for name in ("scm-gauss", "scm-poly", "scm-local", "fem"):
                 pts = [
                     (data.summary[md.label][timing], data.summary[md.label]["pose"])
                     if key == "suite"
@@ -629,7 +631,11 @@ def compute_targets(data: BenchData, rounds: int, exact_repeats: int) -> dict:
             tg[f"equal_{key}_{timing}"] = fam
             t_fem = fam["fem"][0]
             best = min(
-                (fam[n][0] for n in ("scm-gauss", "scm-poly") if math.isfinite(fam[n][0])),
+                (
+                    fam[n][0]
+                    for n in ("scm-gauss", "scm-poly", "scm-local")
+                    if math.isfinite(fam[n][0])
+                ),
                 default=math.nan,
             )
             tg[f"equal_{key}_{timing}_ratio"] = (
@@ -691,12 +697,21 @@ def run_bench(
 
 # -- outputs ---------------------------------------------------------------------------------
 
-MARKERS = {"cc": "s", "prb": "D", "scm-poly": "o", "scm-gauss": "^", "fem": "v", "exact": "*"}
+MARKERS = {
+    "cc": "s",
+    "prb": "D",
+    "scm-poly": "o",
+    "scm-gauss": "^",
+    "scm-local": "P",
+    "fem": "v",
+    "exact": "*",
+}
 COLORS = {
     "cc": "tab:gray",
     "prb": "tab:brown",
     "scm-poly": "tab:blue",
     "scm-gauss": "tab:cyan",
+    "scm-local": "tab:green",
     "fem": "tab:red",
     "exact": "black",
 }
@@ -851,7 +866,9 @@ def render_markdown(data: BenchData) -> str:
         "- **C ns/call**: one call of the generated C kernel (pose, J, H) in double, timed "
         "with `benchmarks/kernels.py`'s harness (min over repeats).",
         "- cc is one Legendre mode (`auto` kernel); `scmN poly` uses the polynomial kernel only "
-        "(valid to 90 degrees), `scmN gauss` the Gauss kernel.",
+        "(valid to 90 degrees), `scmN gauss` the Gauss kernel, `scmN local` the local Gauss "
+        'kernel (`[model] kernel = "local"`: its bound certified at each q, the Gauss kernel '
+        "where it is not).",
         "",
         "## Per model",
         "",
