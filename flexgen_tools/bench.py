@@ -717,6 +717,12 @@ COLORS = {
 }
 
 
+# a label's offset (points) and alignment by family (default: above-right). scm N's three
+# kernels lie close in time, local left of poly left of gauss: local's label goes below-left,
+# poly's below-right, gauss's above-right, so that none sits on a neighbour's marker
+LABEL_PLACES = {"scm-local": ((-5, -10), "right"), "scm-poly": ((5, -11), "left")}
+
+
 def plot(data: BenchData, path: Path) -> None:
     """Two log-log panels (pose error, compliance error against time per solve): filled markers
     a prepared ``Solver.solve()``, hollow markers ``flexgen.solve`` (the API), each with its
@@ -756,14 +762,14 @@ def plot(data: BenchData, path: Path) -> None:
                     label=name if key not in seen else None,
                 )
                 seen.add(key)
-                if filled:  # poly labels below-left of the marker, the rest above-right
-                    left = md.family == "scm-poly"
+                if filled:  # the label beside the marker, where its neighbours' are not
+                    offset, align = LABEL_PLACES.get(md.family, ((5, 4), "left"))
                     ax.annotate(
                         lab,
                         (t * 1e3, e),
                         textcoords="offset points",
-                        xytext=(-5, -10) if left else (5, 4),
-                        ha="right" if left else "left",
+                        xytext=offset,
+                        ha=align,
                         fontsize=7,
                     )
             front = pareto_front(pts)
