@@ -17,8 +17,8 @@ def register(sub) -> None:
         help="accuracy against speed of every model on a fixed suite",
         description=(
             "Solve the examples and a seeded set of random chains and trees with every model (cc, "
-            "prb, scm2..6 with the poly and the gauss kernel, fem 4..64, exact); measure pose and "
-            "compliance errors against exact; time per solve three ways (flexgen.solve through "
+            "prb, scm2..6 with the poly, the gauss and the local kernel, fem 4..64, exact); measure "
+            "pose and compliance errors against exact; time per solve three ways (flexgen.solve through "
             "the API, a prepared Solver.solve(), the bare core call), the kernel evaluations per "
             "solve where the core counts them, and ns per C kernel call; write "
             "accuracy-vs-speed.png (log-log, Pareto fronts) and accuracy-vs-speed.md into --out. "
