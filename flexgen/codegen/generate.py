@@ -126,6 +126,7 @@ def numpy_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
         "hessian_weights": numpy_array(hw),
         "range_samples_matrix": numpy_array(S),
         "range_margin": numpy_array(m),
+        "range_bound": numpy_array(kernel.range_bound),
     }
     if kernel.spec.family == "poly":
         coeffs, odd = trig_coefficients(kernel)
@@ -175,12 +176,10 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
     margin_terms = [
         f"{printer.doprint(sp.Float(mn, 17))}*fabs(q[{n}])" for n, mn in enumerate(m) if mn
     ]
-    # |q| . (max_k |S[k, n]| + m[n]) bounds the sampled test (the NumPy kernel's RANGE_BOUND)
-    bound = [
-        max((abs(float(row[n])) for row in S), default=0.0) + float(m[n]) for n in range(len(q))
-    ]
     bound_line = " + ".join(
-        f"{printer.doprint(sp.Float(b, 17))}*fabs(q[{n}])" for n, b in enumerate(bound) if b
+        f"{printer.doprint(sp.Float(b, 17))}*fabs(q[{n}])"
+        for n, b in enumerate(kernel.range_bound)
+        if b
     )
     local_rows = [
         (

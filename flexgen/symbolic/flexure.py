@@ -258,6 +258,14 @@ class FlexureKernel:
         m = [h * h / 8 * n * (n + 1) for n in range(self.modes)]
         return S, m
 
+    @cached_property
+    def range_bound(self) -> list[float]:
+        """b_n = max_k |S_kn| + m_n: |q| . b bounds the range check's max_k |S q|_k + m . |q|,
+        so |q| . b <= a decides in N multiply-adds where q is clearly in range (both backends'
+        in_range ask it first)."""
+        S, m = self.range_check
+        return [max(abs(row[n]) for row in S) + m[n] for n in range(self.modes)]
+
 
 def _poly_at(poly: sp.Poly, s) -> mpmath.mpf:
     """Evaluate an exact rational polynomial at an mpf point, in mpmath."""

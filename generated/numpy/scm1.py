@@ -92,7 +92,7 @@ RANGE_SAMPLES = np.array([
     ])
 RANGE_MARGIN = np.array([0.0])
 # max_k |RANGE_SAMPLES[k, n]| + RANGE_MARGIN[n]: |q| @ RANGE_BOUND bounds in_range's test
-RANGE_BOUND = np.max(np.abs(RANGE_SAMPLES), axis=0) + RANGE_MARGIN
+RANGE_BOUND = np.array([1.0])
 # rows c, c', c'', s, s', s'': coefficients of u = phi^2, highest power first; TRIG_ODD rows
 # are then multiplied by phi
 TRIG_COEFFS = np.array([

@@ -120,7 +120,7 @@ RANGE_SAMPLES = np.array([
     ])
 RANGE_MARGIN = np.array([0.0, 0.000244140625])
 # max_k |RANGE_SAMPLES[k, n]| + RANGE_MARGIN[n]: |q| @ RANGE_BOUND bounds in_range's test
-RANGE_BOUND = np.max(np.abs(RANGE_SAMPLES), axis=0) + RANGE_MARGIN
+RANGE_BOUND = np.array([1.0, 0.250244140625])
 # rows evaluated per block: keeps the (rows, NODES) temporaries in cache (2-3x faster at 1e5)
 CHUNK = 1024
 

@@ -96,7 +96,7 @@ RANGE_SAMPLES = np.array([
     ])
 RANGE_MARGIN = np.array([0.0, 0.000244140625])
 # max_k |RANGE_SAMPLES[k, n]| + RANGE_MARGIN[n]: |q| @ RANGE_BOUND bounds in_range's test
-RANGE_BOUND = np.max(np.abs(RANGE_SAMPLES), axis=0) + RANGE_MARGIN
+RANGE_BOUND = np.array([1.0, 0.250244140625])
 # in_range: the error bounds hold where LOCAL_NU[r] @ |q| <= LOCAL_LIMIT[r] for one row r (a
 # Bernstein ellipse each; flexgen/symbolic/certificate.py)
 LOCAL_NU = np.array([

@@ -200,7 +200,7 @@ RANGE_SAMPLES = np.array([
     ])
 RANGE_MARGIN = np.array([0.0, 0.000244140625, 0.000732421875, 0.00146484375, 0.00244140625, 0.003662109375, 0.005126953125])
 # max_k |RANGE_SAMPLES[k, n]| + RANGE_MARGIN[n]: |q| @ RANGE_BOUND bounds in_range's test
-RANGE_BOUND = np.max(np.abs(RANGE_SAMPLES), axis=0) + RANGE_MARGIN
+RANGE_BOUND = np.array([1.0, 0.250244140625, 0.09686279296875, 0.06396484375, 0.04326552152633667, 0.034912109375, 0.028959274291992188])
 # rows c, c', c'', s, s', s'': coefficients of u = phi^2, highest power first; TRIG_ODD rows
 # are then multiplied by phi
 TRIG_COEFFS = np.array([
