@@ -238,22 +238,18 @@ class Estimator:
         scales = length_scales(scene, refs) if scene.flexures and refs else {}
         self.scales = [float(scales[r]) for r in refs]
         self._scale = np.array(self.scales or [1.0])
-        # kernel floors per point: positions add along the path, compliance takes the largest
-        pos_floor = np.zeros(len(refs))
-        comp_floor = 0.0
+        # the kernel floors fg_estimate adds: each point's position floor (they add along the
+        # path), then the compliance floor (the largest)
+        self._floors = floors = np.zeros(len(refs) + 1)
         for name, m in solver.models.items():
             a = _kernel_bounds(m)
             b = _kernel_bounds(rich[name])
-            comp_floor = max(comp_floor, a[1] + b[1])
+            floors[-1] = max(floors[-1], a[1] + b[1])
             L = scene.flexure(name).length
             for i, ref in enumerate(refs):
                 body, _ = scene.resolve_point(ref)
                 if body != "base" and name in scene.flexure_path(_path_owner(scene, body)):
-                    pos_floor[i] += (a[0] + b[0]) * L / self.scales[i]
-        self.pos_floor = pos_floor.tolist()
-        self.comp_floor = comp_floor
-        # fg_estimate adds them: each point's position floor, then the compliance floor
-        self._floors = np.array([*self.pos_floor, comp_floor])
+                    floors[i] += (a[0] + b[0]) * L / self.scales[i]
         self.rich_label = ", ".join(sorted(set(labels.values())))
         # fg_estimate's output (2 per point, then the total) and every pointer it takes, made once
         self.out = np.zeros(2 * self.n + 1)
