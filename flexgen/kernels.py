@@ -59,6 +59,14 @@ def gauss_kernel_name(modes: int, folder: Path = GENERATED, family: str = "gauss
     return _gauss_kernel_name(modes, folder, stamp, family)
 
 
+def kernel_name(modes: int, family: str = "poly", folder: Path = GENERATED) -> str:
+    """The shipped kernel of a family for this many modes: ``scm{N}`` (poly), else the Gauss or
+    local kernel with the most nodes (``gauss_kernel_name``)."""
+    if family == "poly":
+        return f"scm{modes}"
+    return gauss_kernel_name(modes, folder, family)
+
+
 _NUMPY_DIRS: dict = {}
 
 

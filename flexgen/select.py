@@ -205,15 +205,8 @@ class _Problem:
         return solved
 
 
-def _kernel_name(N: int, kernel: str) -> str:
-    """The shipped kernel of N modes a flexure used ("local", "poly" or "gauss")."""
-    if kernel == "poly":
-        return f"scm{N}"
-    return kernels.gauss_kernel_name(N, family=kernel)
-
-
 def _kernel_module(N: int, kernel: str):
-    return kernels.load_numpy(_kernel_name(N, kernel))
+    return kernels.load_numpy(kernels.kernel_name(N, kernel))
 
 
 def kernel_term(
@@ -603,7 +596,7 @@ _COST = re.compile(r"Cost:\s*(\d+)\s*ops")
 
 def kernel_ops(modes: int, kernel: str) -> int | None:
     """Operation count per call of the C kernel (from the generated source's header), if known."""
-    name = _kernel_name(modes, kernel)
+    name = kernels.kernel_name(modes, kernel)
     path = kernels.GENERATED / "c" / f"{name}.c"
     try:
         m = _COST.search(path.read_text()[:4000])

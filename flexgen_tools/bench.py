@@ -94,11 +94,10 @@ class ModelDef:
         """Name of the generated C kernel this model calls, if any."""
         if self.kind not in ("scm", "cc"):
             return None
-        if self.kernel in ("gauss", "local"):
-            from flexgen import kernels
+        from flexgen import kernels
 
-            return kernels.gauss_kernel_name(self.modes, family=self.kernel)
-        return f"scm{self.modes}"
+        # "auto" (cc) evaluates its polynomial kernel while in range
+        return kernels.kernel_name(self.modes, "poly" if self.kernel == "auto" else self.kernel)
 
 
 def model_defs(quick: bool = False) -> list[ModelDef]:
