@@ -51,6 +51,9 @@ class SolverSettings:
     moderate_growth: float = 1.2  # this much longer
     step_shrink: float = 0.5  # after a failed step the next is this fraction of it
     lapack_min_size: int = 32  # LAPACK factorizations from this many coordinates on
+    # the stiffness factorized by first eliminating, flexure by flexure, the coordinates that
+    # couple only within their flexure and with the angles, from this many coordinates on
+    elimination_min_size: int = 12
     bend_samples: int = 65  # points along a flexure where its bend is sampled
     circle_tol: float = 1e-14  # ellipse axes equal to this (relative): a circle, angle 0
     # Newton's last step taken unevaluated (its end linearized) from a residual of at most this
@@ -138,6 +141,7 @@ _ZERO_OK = {
     "fast_iterations",
     "moderate_iterations",
     "lapack_min_size",
+    "elimination_min_size",
     "direct_max_iterations",
     "max_iterations",
 }

@@ -815,6 +815,99 @@ def test_lapack_and_builtin_factorizations_agree(name, label):
         assert np.linalg.norm(Ca - Cb) <= 1e-9 * np.linalg.norm(Ca)
 
 
+# a chain of six flexures of mixed models: a tendon from the base to f1's tip (f0 and f1 keep
+# every coordinate), f2 a 4-element chain, a branch g off f3, loads with moments
+MIXED = scene_from_dict(
+    {
+        "name": "mixed chain",
+        "base": {"points": {"r0": [0.0, 0.2]}},
+        "flexure": [
+            {
+                "name": f"f{i}",
+                "parent": "base" if i == 0 else f"f{i - 1}",
+                "length": 0.4,
+                "EI": 1.0 + 0.1 * i,
+                "at": [0.0, 0.0, 0.1],
+            }
+            for i in range(6)
+        ]
+        + [{"name": "g", "parent": "f3", "length": 0.3, "EI": 0.5, "at": [0.0, 0.05, -0.4]}],
+        "link": [{"name": "h", "parent": "f1", "points": {"hole": [0.02, 0.06]}}],
+        "load": [
+            {"point": "f5.tip", "force": [0.4, -1.1], "moment": 0.2},
+            {"point": "g.tip", "force": [-0.3, 0.5], "moment": -0.1},
+        ],
+        "tendon": [{"tension": 0.9, "route": ["base.r0", "h.hole"]}],
+        "output": {"points": ["f5.tip", "g.tip"]},
+    }
+)
+MIXED_MODELS = {"f2": fem(4), "f4": scm(5), "g": scm(4, "gauss")}
+
+
+def mixed_models(scene):
+    return build_models(scene, None, lambda f: MIXED_MODELS.get(f.name, scm(3))(f))
+
+
+ELIMINATION_CASES = {
+    "tree": (lambda: TREE, "scm3"),
+    "tree gauss": (lambda: TREE, "scm5 gauss"),
+    "tendon chain": (lambda: TENDON_CHAIN, "scm4"),
+    "finger": (lambda: example("two_link_finger"), "scm3"),
+    "column buckling": (lambda: column(25.0, 0.3), "scm5 gauss"),
+    "snap": (lambda: cantilever(**SNAP), "scm3"),
+    "rectangular elastica": (lambda: example("rectangular_elastica"), "scm6 gauss"),
+    "mixed": (lambda: MIXED, None),
+}
+
+
+@pytest.mark.parametrize("name", list(ELIMINATION_CASES))
+def test_the_factorization_in_elimination_order_agrees_with_the_dense_one(name):
+    """From elimination_min_size coordinates on the core factorizes K after eliminating each
+    kernel flexure's non-angle coordinates (those no tendon reaches): the answer (poses,
+    compliances, stiffness, stability, the sides taken at bifurcations and snap-throughs) must
+    be the dense factorization's to rounding, tendons, branches and fem flexures included."""
+    factory, label = ELIMINATION_CASES[name]
+    scene = factory()
+    ms = (lambda: mixed_models(scene)) if label is None else (lambda: models(scene, label))
+    a = solve_models(scene, ms(), elimination_min_size=0)
+    b = solve_models(scene, ms(), elimination_min_size=10**9)
+    assert a.converged and b.converged
+    assert a.stable == b.stable and sides(a) == sides(b)
+    assert a.critical_load_factors == pytest.approx(b.critical_load_factors, rel=1e-9)
+    for p in a.points:
+        assert np.allclose(a.points[p].pose, b.points[p].pose, rtol=0, atol=1e-11)
+        Ca, Cb = np.asarray(a.points[p].compliance3), np.asarray(b.points[p].compliance3)
+        assert np.linalg.norm(Ca - Cb) <= 1e-9 * np.linalg.norm(Cb)
+    Ka, Kb = np.asarray(a.stiffness), np.asarray(b.stiffness)
+    assert np.linalg.norm(Ka - Kb) <= 1e-9 * np.linalg.norm(Kb)
+
+
+def test_the_elimination_order_keeps_what_tendons_and_other_models_couple():
+    """The order the core factorizes in (fg_ws.perm, in iwork after the pivots and the four
+    per-flexure arrays: bind): in MIXED, the non-angle coordinates of f3, f5 (scm3), f4 (scm5)
+    and g (scm4) come first, flexure by flexure; f0 and f1 (under the tendon) and the fem f2
+    keep every coordinate, the others their angle."""
+    solver = Solver(MIXED, mixed_models(MIXED), SolverSettings(elimination_min_size=0))
+    assert solver.solve().converged
+    offsets, at = {}, 0
+    for f in MIXED.flexures:
+        offsets[f.name] = (at, solver.models[f.name].n_dof)
+        at += offsets[f.name][1]
+    n, nflex = at, len(MIXED.flexures)
+    perm = list(solver.workspace.iwork[n + 1 + 4 * nflex :][:n])
+
+    def coords(name, first, last=None):
+        o, k = offsets[name]
+        return list(range(o + first, o + (k if last is None else last)))
+
+    eliminated = coords("f3", 1) + coords("f4", 1) + coords("f5", 1) + coords("g", 1)
+    kept = (
+        coords("f0", 0) + coords("f1", 0) + coords("f2", 0) + coords("f3", 0, 1)
+        + coords("f4", 0, 1) + coords("f5", 0, 1) + coords("g", 0, 1)
+    )
+    assert perm == eliminated + kept
+
+
 def test_critical_events_beyond_the_capacity_are_counted_and_said():
     """The caller gives the capacity of the critical arrays (fg_answer.max_critical): a path
     with more critical events than that is still solved; the first ones are listed and a

@@ -156,6 +156,9 @@ typedef struct {
     double moderate_growth;         /* this much longer */
     double step_shrink;             /* a failed step: the next one this fraction of it */
     int lapack_min_size;            /* LAPACK (fg_lapack) from this many coordinates on */
+    int elimination_min_size;       /* from this many coordinates on, K is factorized by first
+                                     * eliminating each flexure's coordinates that couple only
+                                     * within it and with the angles (chain_solver.c) */
     int bend_samples;               /* fg_answer.bend: points along each flexure (>= 2) */
     double circle_tol;              /* an ellipse whose axes differ by less than this (relative)
                                      * is a circle: its angle is 0 */

@@ -59,7 +59,9 @@
  *
  * Cost: a chain evaluation (kinematics, potential, residual, stiffness: evaluate) is O(n^2) in
  * the n coordinates (the Hessian accumulation's blockwise rank-one terms, each frame's rotation
- * computed once); the factorizations are O(n^3) (LAPACK's from lapack_min_size coordinates on).
+ * computed once); the factorizations are O(n^3) (LAPACK's from lapack_min_size coordinates on),
+ * in the coordinates that remain after each flexure's non-angle ones are eliminated
+ * (plan_elimination, from elimination_min_size coordinates on).
  *
  * Flexure models: the generated smooth curvature kernels (scm{N}, scm{N}_gauss{G}: function
  * pointers, so this file needs no header of theirs), the n-element chain ("fem", the
@@ -238,6 +240,9 @@ typedef struct {
     double moderate_growth;         /* this much longer */
     double step_shrink;             /* a failed step: the next one this fraction of it */
     int lapack_min_size;            /* LAPACK (fg_lapack) from this many coordinates on */
+    int elimination_min_size;       /* from this many coordinates on, K is factorized by first
+                                     * eliminating each flexure's coordinates that couple only
+                                     * within it and with the angles (chain_solver.c) */
     int bend_samples;               /* fg_answer.bend: points along each flexure (>= 2) */
     double circle_tol;              /* an ellipse whose axes differ by less than this (relative)
                                      * is a circle: its angle is 0 */
@@ -472,6 +477,13 @@ typedef struct {
     fg_real *scratch;        /* fem tip: 4 (kmax + 1) */
     fg_real *reach;          /* n */
     fg_real *la, *lb, *lc;   /* n x n linear algebra scratch, n-vectors */
+    /* the factorization's elimination order (plan_elimination): nelim = 0, the natural order;
+     * else perm (n) lists the coordinates in the factor's order, the eliminated ones first in
+     * nblocks blocks (blocks: 3 ints each: first row, rows, kept columns reached), and etmp is
+     * an n-vector in that order */
+    int nelim, nblocks;
+    int *perm, *blocks;
+    fg_real *etmp;
     fg_real *vec1, *vec2, *vec3, *vec4, *t0, *t1;   /* n-vectors */
     fg_real *vmin, *cvec, *qplus, *qminus;          /* n-vectors (stability, descent) */
     fg_real *mr;             /* n-vector: a tendon segment's rank-one vector over its length */
@@ -512,14 +524,17 @@ FG_API size_t fg_work_size(const fg_problem *p)
     size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
     return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
         + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 11 * n + (size_t)p->nloads
-        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + 16;
+        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + n + 16;
 }
 
 FG_API size_t fg_iwork_size(const fg_problem *p)
 {
-    /* pivots, kernel-switch flags (2), the kernels of the last kinematics, rotated frames */
-    return (size_t)p->ndof + 1 + 4 * (size_t)p->nflex;
+    /* pivots, kernel-switch flags (2), the kernels of the last kinematics, rotated frames,
+     * the elimination order (perm, blocks, a mark per flexure) */
+    return (size_t)p->ndof + 1 + 4 * (size_t)p->nflex + (size_t)p->ndof + 4 * (size_t)p->nflex;
 }
+
+static void plan_elimination(fg_ws *w);
 
 static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
 {
@@ -574,6 +589,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->ew = x; x += n;
     w->eV = x; x += n * n;
     w->ework = x; x += 2 * n * n + FG_LWORK(n);
+    w->etmp = x; x += n;
     for (i = 0; i < FG_NSTATES; ++i) {
         fg_state *s = &w->st[i];
         s->q = x; x += n;
@@ -591,9 +607,69 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->saved_switched = w->switched + p->nflex;
     w->kin_poly = w->saved_switched + p->nflex;
     w->rotated = w->kin_poly + p->nflex;
+    w->perm = w->rotated + p->nflex;
+    w->blocks = w->perm + p->ndof;
+    w->nelim = w->nblocks = 0;
+    if (p->ndof >= p->settings.elimination_min_size)
+        plan_elimination(w);
     for (i = 0; i < p->nflex; ++i) {    /* every frame's J: any column may hold garbage */
         w->fdata[FG_FDATA * (size_t)i + 10] = 0.0;
         w->fdata[FG_FDATA * (size_t)i + 11] = (fg_real)p->ndof;
+    }
+}
+
+/* The order in which the stiffness K is factorized (fg_ws.perm).
+ *
+ * A kernel flexure's tip angle is its first coordinate alone (the Legendre modes above the
+ * first integrate to zero along the flexure), so its other coordinates move its own tip position
+ * and nothing else. In K (hessian_sum) they couple with each other and with the angle-like
+ * coordinates of the flexure and its ancestors, and with nothing else, unless a tendon routes
+ * through a frame at or below the flexure (a tendon's length couples every coordinate under its
+ * route points). Those coordinates are eliminated first, flexure by flexure, and the rest are
+ * kept, in flexure order: the Cholesky factor then has no fill between the eliminated blocks,
+ * and a block's rows reach only its own columns and the kept columns of the flexures up to its
+ * own (parents are listed before children). On the 32-flexure scm3 chain of the bench (64 of
+ * 96 coordinates eliminated) a factorization costs a few times less than the dense one. */
+static void plan_elimination(fg_ws *w)
+{
+    const fg_problem *p = w->p;
+    int F = p->nflex, i, r, a, ne = 0, nk = 0;
+    int *mark = w->blocks + 3 * F;   /* per flexure: 1 eliminable, 0 kept, 2 under a tendon */
+    for (i = 0; i < F; ++i) {
+        const fg_flexure *f = &p->flex[i];
+        mark[i] = f->kind == FG_MODEL_KERNEL && f->ndof > 1;
+    }
+    for (r = 0; r < p->ntendons; ++r) {
+        int e, end = p->route_start[r] + p->route_len[r];
+        for (e = p->route_start[r]; e < end; ++e) {
+            int fr = p->points[p->route[e]].frame;
+            while (fr >= 0 && mark[fr] != 2) {   /* up to a frame already marked */
+                mark[fr] = 2;
+                fr = p->flex[fr].parent;
+            }
+        }
+    }
+    for (i = 0; i < F; ++i)
+        if (mark[i] == 1)
+            ne += p->flex[i].ndof - 1;
+    if (ne == 0)
+        return;
+    w->nelim = ne;
+    w->nblocks = 0;
+    ne = 0;
+    for (i = 0; i < F; ++i) {
+        const fg_flexure *f = &p->flex[i];
+        int first = mark[i] == 1 ? 1 : 0;   /* the kept coordinates: the angle, or all */
+        for (a = 0; a < (first ? 1 : f->ndof); ++a)
+            w->perm[w->nelim + nk++] = f->offset + a;
+        if (first) {
+            int *blk = w->blocks + 3 * w->nblocks++;
+            blk[0] = ne;
+            blk[1] = f->ndof - 1;
+            blk[2] = nk;
+            for (a = 1; a < f->ndof; ++a)
+                w->perm[ne++] = f->offset + a;
+        }
     }
 }
 
@@ -1259,14 +1335,11 @@ static void sym_copy(fg_real *F, const fg_real *A, int n)
 /* The Cholesky factor U (A = U^T U, row-major upper: dpotrf's column-major lower L = U^T, the
  * same array) of the symmetric A (its upper triangle) in F, by rows: each pivot row scaled,
  * then subtracted from the trailing rows (an axpy along each); 0 if A is not positive definite */
-static int cholesky_builtin(const fg_real *A, fg_real *F, int n)
+static int factor_builtin(fg_real *F, int n, int lda)
 {
     int i, j, k;
-    for (i = 0; i < n; ++i)
-        memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
-               sizeof(fg_real) * (size_t)(n - i));
     for (k = 0; k < n; ++k) {
-        fg_real *Fk = F + (size_t)k * (size_t)n, d = Fk[k];
+        fg_real *Fk = F + (size_t)k * (size_t)lda, d = Fk[k];
         if (!(d > 0.0))
             return 0;
         d = sqrt(d);
@@ -1275,7 +1348,7 @@ static int cholesky_builtin(const fg_real *A, fg_real *F, int n)
         for (j = k + 1; j < n; ++j)
             Fk[j] *= d;
         for (i = k + 1; i < n; ++i) {
-            fg_real u = Fk[i], *Fi = F + (size_t)i * (size_t)n;
+            fg_real u = Fk[i], *Fi = F + (size_t)i * (size_t)lda;
             if (u != 0.0)
                 for (j = i; j < n; ++j)
                     Fi[j] -= u * Fk[j];
@@ -1289,13 +1362,13 @@ static int cholesky_builtin(const fg_real *A, fg_real *F, int n)
  * its reciprocal: the reciprocal does not depend on y, so the processor computes it ahead, and
  * the chain of dependent steps holds a multiplication where a division's latency stood (on a
  * small stiffness, most of a solve's time). */
-static void cholesky_forward(const fg_real *F, int n, const fg_real *b, fg_real *y)
+static void forward_dense(const fg_real *F, int n, int lda, const fg_real *b, fg_real *y)
 {
     int i, j;
     if (y != b)
         memcpy(y, b, sizeof(fg_real) * (size_t)n);
     for (j = 0; j < n; ++j) {
-        const fg_real *Fj = F + (size_t)j * (size_t)n;
+        const fg_real *Fj = F + (size_t)j * (size_t)lda;
         fg_real yj = y[j] * (1.0 / Fj[j]);
         y[j] = yj;
         for (i = j + 1; i < n; ++i)
@@ -1303,17 +1376,133 @@ static void cholesky_forward(const fg_real *F, int n, const fg_real *b, fg_real 
     }
 }
 
-/* x = A^-1 b with A = U^T U, U in F (cholesky's factor, built-in or dpotrf's): U^T y = b
- * (cholesky_forward), U x = y by a dot product along each row. For one right-hand side these
- * loops cost less than dpotrs's blocked dtrsm. */
-static void cholesky_solve_builtin(const fg_real *F, int n, const fg_real *b, fg_real *x)
+/* x = U^-1 y in place (the back substitution of a solve): a dot product along each row.
+ * For one right-hand side these loops cost less than dpotrs's blocked dtrsm. */
+static void backward_dense(const fg_real *F, int n, int lda, fg_real *x)
 {
     int j;
-    cholesky_forward(F, n, b, x);
     for (j = n - 1; j >= 0; --j) {
-        const fg_real *Fj = F + (size_t)j * (size_t)n;
+        const fg_real *Fj = F + (size_t)j * (size_t)lda;
         x[j] = (x[j] - dot(Fj + j + 1, x + j + 1, n - j - 1)) * (1.0 / Fj[j]);
     }
+}
+
+/* ---- the factorization in elimination order (plan_elimination) ----------------------------
+ * F holds the factor U of P A P^T (P: w->perm), row-major upper as above, written only where
+ * it can be non-zero: an eliminated block's rows over the block and its kept columns, the kept
+ * rows over the kept columns. Every routine below reads no other entry. */
+
+static fg_real sym_at(const fg_real *A, int n, int i, int j)   /* A's upper triangle */
+{
+    return i <= j ? A[(size_t)i * (size_t)n + j] : A[(size_t)j * (size_t)n + i];
+}
+
+static int cholesky_eliminated(const fg_ws *w, const fg_real *A, fg_real *F)
+{
+    const fg_problem *p = w->p;
+    const int *perm = w->perm;
+    int n = w->n, ne = w->nelim, nk = n - ne, b, i, j, k;
+    for (b = 0; b < w->nblocks; ++b) {        /* P A P^T where U can be non-zero */
+        const int *blk = w->blocks + 3 * b;
+        int s = blk[0], e = s + blk[1], kh = ne + blk[2];
+        for (i = s; i < e; ++i) {
+            fg_real *Fi = F + (size_t)i * (size_t)n;
+            for (j = i; j < e; ++j)
+                Fi[j] = sym_at(A, n, perm[i], perm[j]);
+            for (j = ne; j < kh; ++j)
+                Fi[j] = sym_at(A, n, perm[i], perm[j]);
+        }
+    }
+    for (i = ne; i < n; ++i) {
+        fg_real *Fi = F + (size_t)i * (size_t)n;
+        for (j = i; j < n; ++j)
+            Fi[j] = sym_at(A, n, perm[i], perm[j]);
+    }
+    for (b = 0; b < w->nblocks; ++b) {        /* each block's rows, and their rank-one updates
+                                               * of its kept columns' leading block */
+        const int *blk = w->blocks + 3 * b;
+        int s = blk[0], e = s + blk[1], kh = ne + blk[2];
+        for (k = s; k < e; ++k) {
+            fg_real *Fk = F + (size_t)k * (size_t)n, d = Fk[k];
+            if (!(d > 0.0))
+                return 0;
+            d = sqrt(d);
+            Fk[k] = d;
+            d = 1.0 / d;
+            for (j = k + 1; j < e; ++j)
+                Fk[j] *= d;
+            for (j = ne; j < kh; ++j)
+                Fk[j] *= d;
+            for (i = k + 1; i < e; ++i) {
+                fg_real u = Fk[i], *Fi = F + (size_t)i * (size_t)n;
+                for (j = i; j < e; ++j)
+                    Fi[j] -= u * Fk[j];
+                for (j = ne; j < kh; ++j)
+                    Fi[j] -= u * Fk[j];
+            }
+            for (i = ne; i < kh; ++i) {
+                fg_real u = Fk[i], *Fi = F + (size_t)i * (size_t)n;
+                if (u != 0.0)
+                    for (j = i; j < kh; ++j)
+                        Fi[j] -= u * Fk[j];
+            }
+        }
+    }
+    F += (size_t)ne * (size_t)n + (size_t)ne;   /* the kept block: its Schur complement, dense */
+#ifndef FG_SINGLE
+    if (p->lapack.potrf != NULL && nk >= p->settings.lapack_min_size) {
+        char uplo = 'L';
+        int info = 0, lda = n;
+        p->lapack.potrf(&uplo, &nk, F, &lda, &info);
+        return info == 0;
+    }
+#endif
+    (void)p;
+    return factor_builtin(F, nk, n);
+}
+
+/* y = U^-T P b (y is not b), in the factor's order */
+static void forward_eliminated(const fg_ws *w, const fg_real *F, const fg_real *b, fg_real *y)
+{
+    int n = w->n, ne = w->nelim, a, b_, i, k;
+    for (a = 0; a < n; ++a)
+        y[a] = b[w->perm[a]];
+    for (b_ = 0; b_ < w->nblocks; ++b_) {
+        const int *blk = w->blocks + 3 * b_;
+        int s = blk[0], e = s + blk[1], kh = ne + blk[2];
+        for (k = s; k < e; ++k) {
+            const fg_real *Fk = F + (size_t)k * (size_t)n;
+            fg_real yk = y[k] * (1.0 / Fk[k]);
+            y[k] = yk;
+            for (i = k + 1; i < e; ++i)
+                y[i] -= Fk[i] * yk;
+            for (i = ne; i < kh; ++i)
+                y[i] -= Fk[i] * yk;
+        }
+    }
+    forward_dense(F + (size_t)ne * (size_t)n + (size_t)ne, n - ne, n, y + ne, y + ne);
+}
+
+/* x = A^-1 b: forward_eliminated, the back substitution in the factor's order, x = P^T of it */
+static void solve_eliminated(const fg_ws *w, const fg_real *F, const fg_real *b, fg_real *x)
+{
+    int n = w->n, ne = w->nelim, a, b_, j, k;
+    fg_real *y = w->etmp;
+    forward_eliminated(w, F, b, y);
+    backward_dense(F + (size_t)ne * (size_t)n + (size_t)ne, n - ne, n, y + ne);
+    for (b_ = 0; b_ < w->nblocks; ++b_) {
+        const int *blk = w->blocks + 3 * b_;
+        int s = blk[0], e = s + blk[1], kh = blk[2];
+        for (k = e - 1; k >= s; --k) {
+            const fg_real *Fk = F + (size_t)k * (size_t)n;
+            fg_real t = y[k] - dot(Fk + ne, y + ne, kh);
+            for (j = k + 1; j < e; ++j)
+                t -= Fk[j] * y[j];
+            y[k] = t * (1.0 / Fk[k]);
+        }
+    }
+    for (a = 0; a < n; ++a)
+        x[w->perm[a]] = y[a];
 }
 
 /* x = A^-1 b by LU with partial pivoting (the symmetric A, its lower triangle, copied into F);
@@ -1374,29 +1563,49 @@ static int use_lapack(const fg_problem *p, int n)
 }
 #endif
 
-static int cholesky(const fg_problem *p, const fg_real *A, fg_real *F, int n)
+/* F = the Cholesky factor of A (n = w->n: in elimination order when w->nelim, else the
+ * natural one); 0 if A is not positive definite */
+static int cholesky(const fg_ws *w, const fg_real *A, fg_real *F)
 {
-    (void)p;                  /* (single precision: no LAPACK) */
+    const fg_problem *p = w->p;
+    int n = w->n, i;
+    if (w->nelim > 0)
+        return cholesky_eliminated(w, A, F);
+    for (i = 0; i < n; ++i)
+        memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
+               sizeof(fg_real) * (size_t)(n - i));
 #ifndef FG_SINGLE   /* LAPACK takes doubles */
     if (use_lapack(p, n)) {
         char uplo = 'L';          /* column-major lower: the row-major upper triangle */
-        int info = 0, lda = n, i;
-        for (i = 0; i < n; ++i)   /* that triangle is all dpotrf reads */
-            memcpy(F + (size_t)i * (size_t)n + i, A + (size_t)i * (size_t)n + i,
-                   sizeof(fg_real) * (size_t)(n - i));
+        int info = 0, lda = n;
         p->lapack.potrf(&uplo, &n, F, &lda, &info);
         return info == 0;
     }
 #endif
-    return cholesky_builtin(A, F, n);
+    (void)p;                  /* (single precision: no LAPACK) */
+    return factor_builtin(F, n, n);
 }
 
-static void cholesky_solve(const fg_problem *p, const fg_real *F, int n, const fg_real *b,
-                           fg_real *x)
+/* x = A^-1 b with A = U^T U, U in F (cholesky's factor; built-in and dpotrf's have the same
+ * layout): U^T y = b, U x = y */
+static void cholesky_solve(const fg_ws *w, const fg_real *F, const fg_real *b, fg_real *x)
 {
-    (void)p;                  /* both factors have the same layout (cholesky_solve_builtin);
-                               * dpotrs's blocked dtrsm costs more for one right-hand side */
-    cholesky_solve_builtin(F, n, b, x);
+    if (w->nelim > 0) {
+        solve_eliminated(w, F, b, x);
+        return;
+    }
+    forward_dense(F, w->n, w->n, b, x);
+    backward_dense(F, w->n, w->n, x);
+}
+
+/* y = U^-T P b (y is not b; P: the elimination order, or none): the columns whose dot
+ * products are J K^-1 J^T */
+static void cholesky_forward(const fg_ws *w, const fg_real *F, const fg_real *b, fg_real *y)
+{
+    if (w->nelim > 0)
+        forward_eliminated(w, F, b, y);
+    else
+        forward_dense(F, w->n, w->n, b, y);
 }
 
 static int lu_solve(const fg_problem *p, const fg_real *A, fg_real *F, int *piv, int n,
@@ -1553,8 +1762,8 @@ static int newton_step(fg_ws *w, const fg_state *st, int factored, fg_real *d)
 {
     const fg_problem *p = w->p;
     int n = w->n;
-    if (factored || cholesky(p, st->K, w->la, n)) {
-        cholesky_solve(p, w->la, n, st->r, d);
+    if (factored || cholesky(w, st->K, w->la)) {
+        cholesky_solve(w, w->la, st->r, d);
         return STEP_CHOLESKY;
     }
     return lu_solve(p, st->K, w->la, w->piv, n, st->r, d) ? STEP_LU : STEP_SINGULAR;
@@ -1777,7 +1986,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, fg_real *factor,
     for (j = 0; j < set->polish_steps && cur->rel > set->polish_target; ++j) {
         fg_real *d = w->vec3, *qt = w->vec4;
         if (F != NULL)
-            cholesky_solve(p, F, n, cur->r, d);
+            cholesky_solve(w, F, cur->r, d);
         else if (!newton_step(w, cur, 0, d))
             break;
         for (i = 0; i < n; ++i)
@@ -1803,7 +2012,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, fg_real *factor,
         } else if (F != w->la)
             memcpy(w->la, F, sizeof(fg_real) * (size_t)n * (size_t)n);
     } else {
-        out->stable = cholesky(p, cur->K, w->la, n);
+        out->stable = cholesky(w, cur->K, w->la);
     }
     out->iterations = iterations;
     out->undefined_compliance = 0;
@@ -1821,7 +2030,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, fg_real *factor,
         memcpy(out->pose + 3 * j, J - 3, sizeof(fg_real) * 3);
         for (a = 0; a < 3 && ok; ++a) {
             if (stable)
-                cholesky_forward(w->la, n, J + a * n, X + a * n);
+                cholesky_forward(w, w->la, J + a * n, X + a * n);
             else
                 ok = lu_solve(p, cur->K, w->lb, w->piv, n, J + a * n, X + a * n);
         }
@@ -1883,7 +2092,7 @@ static int end_factor_of(fg_ws *w, const fg_state *st)
         w->la_factors_cur = 0;
         return 1;
     }
-    return cholesky(w->p, st->K, w->lb, w->n);
+    return cholesky(w, st->K, w->lb);
 }
 
 /* The full load in one Newton solve from the unloaded state *st0: 1 with the equilibrium in
@@ -1955,14 +2164,14 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     /* K(q0, 1) from st0's S, not copied: the states of this solve at lam = 1 never need
      * their S again (Newton, finish: r, K, Pi, out), so c->S is left as it is */
     at_lambda(w, c, st0->S, 1.0, 0);
-    if (!state_finite(w, c) || !cholesky(p, c->K, w->la, n))
+    if (!state_finite(w, c) || !cholesky(w, c->K, w->la))
         goto done;                /* the full load may buckle the unloaded state */
     if (!newton(w, cur, spare, NULL, max_it, 1, iterations))
         goto done;
     c = *cur;
     if (!in_kernel_range(w, c->q) || !end_factor_of(w, c))
         goto done;
-    cholesky_solve(p, w->lb, n, c->Q, t1);
+    cholesky_solve(w, w->lb, c->Q, t1);
     /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
     linear = linear_path(p);
     for (j = 1; j <= set->direct_samples; ++j) {
@@ -1983,9 +2192,9 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
             w->poly_in_range = 1;     /* in range (above): in_range is not asked again */
             evaluated = evaluate(w, qt, t, smp);
             w->poly_in_range = 0;
-            if (!evaluated || !cholesky(p, smp->K, w->la, n))
+            if (!evaluated || !cholesky(w, smp->K, w->la))
                 goto done;
-            cholesky_solve(p, w->la, n, smp->r, corr);
+            cholesky_solve(w, w->la, smp->r, corr);
         }
         if (!(norm_inf(corr, n) <= set->direct_correction * set->max_dq))
             goto done;
@@ -2036,7 +2245,7 @@ static fg_state *descend(fg_ws *w, const fg_real *q, fg_real lam, const fg_state
     if (!evaluate(w, q, lam, a)
         || !newton(w, &a, &b, &c, w->set->descent_iteration_factor * w->set->max_iterations, 0,
                    iterations)
-        || !cholesky(w->p, a->K, w->la, w->n))
+        || !cholesky(w, a->K, w->la))
         return NULL;
     return a;
 }
@@ -2193,7 +2402,6 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
  * a bifurcation or beyond a limit point). */
 static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answer *out)
 {
-    const fg_problem *p = w->p;
     const fg_settings *set = w->set;
     int n = w->n, i, steps = 0;
     fg_real lam = 0.0, dlam = set->initial_step;
@@ -2207,13 +2415,13 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
             out->failure_load_factor = lam;
             return NULL;
         }
-        stable_before = cholesky(p, path->K, w->la, n);
+        stable_before = cholesky(w, path->K, w->la);
         for (attempt = 0; attempt < 2 && !found; ++attempt) {
             fg_real *start = w->vec1;
             if (attempt == 0) {            /* the tangent predictor */
                 if (!stable_before)
                     continue;
-                cholesky_solve(p, w->la, n, path->Q, w->t0);
+                cholesky_solve(w, w->la, path->Q, w->t0);
                 for (i = 0; i < n; ++i)
                     start[i] = path->q[i] + (lam_n - lam) * w->t0[i];
             } else {
@@ -2234,7 +2442,7 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
                 set_error(w, FG_ERR_JUMP, lam_n, 0.0);
         }
         used = *iterations - it0;
-        if (found && stable_before && !cholesky(p, a->K, w->la, n)) {
+        if (found && stable_before && !cholesky(w, a->K, w->la)) {
             if (is_bifurcation(w, a)) {
                 fg_state *next = cross_bifurcation(w, path, a, iterations, out);
                 if (next == NULL) {
@@ -2699,7 +2907,7 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
                sizeof(fg_real) * (size_t)(n - i));
         A[(size_t)i * (size_t)n + i] -= margin * p->stiffness[i];
     }
-    return cholesky(p, A, w->la, n);
+    return cholesky(w, A, w->la);
 }
 
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
@@ -2741,7 +2949,7 @@ static int estimate_differences(fg_ws *w, const fg_state *st, const fg_real *d,
         }
         /* C_rich = J K^-1 J^T = Y^T Y with Y = U^-T J^T (K = U^T U), position rows only */
         for (a = 0; a < 2; ++a)
-            cholesky_forward(w->la, n, J + (size_t)a * (size_t)n, col + (size_t)a * (size_t)n);
+            cholesky_forward(w, w->la, J + (size_t)a * (size_t)n, col + (size_t)a * (size_t)n);
         Cr[0] = dot(col, col, n);
         Cr[1] = Cr[2] = dot(col, col + n, n);
         Cr[3] = dot(col + n, col + n, n);
@@ -2815,9 +3023,9 @@ FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, cons
     last = 0.0;
     for (k = 0;; ++k) {
         fg_real step;
-        if (!cholesky(rich, st->K, w->la, n))
+        if (!cholesky(w, st->K, w->la))
             return FG_ESTIMATE_UNSTABLE;
-        cholesky_solve(rich, w->la, n, st->r, d);
+        cholesky_solve(w, w->la, st->r, d);
         step = norm_inf(d, n);
         if (k == 0)
             first = step;
@@ -3506,6 +3714,7 @@ static const fg_problem two_link_finger_problem = {
         .moderate_growth = 1.2,
         .step_shrink = 0.5,
         .lapack_min_size = 32,
+        .elimination_min_size = 12,
         .bend_samples = 65,
         .circle_tol = 1e-14,
         .linearized_step = 30.0
