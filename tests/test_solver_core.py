@@ -902,8 +902,13 @@ def test_the_elimination_order_keeps_what_tendons_and_other_models_couple():
 
     eliminated = coords("f3", 1) + coords("f4", 1) + coords("f5", 1) + coords("g", 1)
     kept = (
-        coords("f0", 0) + coords("f1", 0) + coords("f2", 0) + coords("f3", 0, 1)
-        + coords("f4", 0, 1) + coords("f5", 0, 1) + coords("g", 0, 1)
+        coords("f0", 0)
+        + coords("f1", 0)
+        + coords("f2", 0)
+        + coords("f3", 0, 1)
+        + coords("f4", 0, 1)
+        + coords("f5", 0, 1)
+        + coords("g", 0, 1)
     )
     assert perm == eliminated + kept
 
