@@ -181,10 +181,10 @@ def richer(model: Any) -> tuple[Any, Any, float, str]:
 
 def _kernel_bounds(model: Any) -> tuple[float, float]:
     """(position bound / length, compliance bound) of a smooth curvature model's kernels (the
-    larger of its polynomial and Gauss kernels: either may evaluate the answer)."""
+    largest of its local, polynomial and Gauss kernels: any may evaluate the answer)."""
     if getattr(model, "kind", None) != "scm":
         return 0.0, 0.0
-    mods = [k for k in (model.poly, model.gauss) if k is not None]
+    mods = [k for k in (model.local, model.poly, model.gauss) if k is not None]
     pos = max(float(k.ERROR_BOUND) for k in mods)
     jac = max(float(k.JACOBIAN_ERROR_BOUND) for k in mods)
     return pos, 2.0 * jac

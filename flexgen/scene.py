@@ -80,7 +80,9 @@ class ModelSpec:
     kind: str = "scm"  # one of MODEL_KINDS
     modes: int = 3  # scm: Legendre curvature modes
     elements: int = 16  # fem: rigid elements per flexure
-    kernel: str = "auto"  # scm: "auto" (poly while in range), "poly", "gauss" or "local"
+    kernel: str = (
+        "auto"  # scm: "auto" (local, poly, gauss: models/scm.py), "poly", "gauss", "local"
+    )
     tolerance: float | None = None  # choose modes per flexure to meet this accuracy
 
 

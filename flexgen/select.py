@@ -2,8 +2,9 @@
 
 ``solve_to_tolerance(scene, T) -> Result`` (what ``flexgen solve --tol T``, ``[model] tolerance``
 and ``flexgen select`` use) picks, for every flexure, the fewest Legendre modes N (1..8) and the
-kernel (the polynomial kernel while the flexure stays in its range, the Gauss kernel past it; Gauss
-kernels exist for N <= 6) whose a-posteriori error estimate on the reported output points is <= T,
+kernel (the scene's choice: for "auto" the local kernel where it certifies q, the polynomial
+kernel within its range, the Gauss kernel past both) whose a-posteriori error estimate on the
+reported output points is <= T,
 and reports the estimate. ``select_models`` returns the whole ``Selection`` (choices, estimates,
 solves used); ``estimate_table`` + ``choose`` split the work so a sweep over several T solves once.
 
@@ -198,8 +199,8 @@ class _Problem:
         for name in self.names:
             m = models[name]
             q = np.asarray(res.q.get(name, np.zeros(m.n_dof)), float)
-            first = getattr(m.poly, "FAMILY", "poly")  # "local" for kernel "local", else "poly"
-            used.append(first if m.poly is not None and m.poly.in_range(q) else "gauss")
+            first = m.first(q)  # the local or polynomial kernel, as the core picks them
+            used.append(getattr(first, "FAMILY", "poly") if first is not None else "gauss")
         solved = Solved(modes, res, outs, tuple(used), dt)
         self.cache[modes] = solved
         return solved
@@ -280,7 +281,7 @@ def _rich_modes(pb: _Problem) -> tuple[tuple[int, ...], Solved | None, str | Non
         if tuple(rich) == base:
             return base, pre, None
         sol = pb.solve(rich, q0=pre.result.q)
-        bad = [i for i, n in enumerate(rich) if n != base[i] and sol.kernels[i] != "poly"]
+        bad = [i for i, n in enumerate(rich) if n != base[i] and sol.kernels[i] == "gauss"]
         if sol.outputs is not None and not bad:
             return tuple(rich), sol, None
         for i in bad or [i for i, n in enumerate(rich) if n != base[i]]:
@@ -385,7 +386,7 @@ def _contraction(d: Mapping[int, np.ndarray], M: int) -> np.ndarray | float:
 class FlexureChoice:
     name: str
     modes: int
-    kernel: str  # "poly" or "gauss": the kernel used at the equilibrium
+    kernel: str  # "local", "poly" or "gauss": the kernel used at the equilibrium
     error_estimate: float  # this flexure's share: truncation estimate + kernel bound
     rich: int  # modes of the rich model the estimate was measured against
 

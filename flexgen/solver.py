@@ -50,6 +50,7 @@ BUCKLING_SIDES = (
 
 # fg_answer.kernel (FG_KERNEL_*): the kernel evaluating a smooth curvature flexure at equilibrium
 KERNEL_STATES = {
+    core.lib.FG_KERNEL_LOCAL: "local",
     core.lib.FG_KERNEL_POLY: "poly",
     core.lib.FG_KERNEL_POLY_PAST: "poly past its range",
     core.lib.FG_KERNEL_GAUSS: "gauss",
@@ -58,12 +59,11 @@ KERNEL_STATES = {
 
 
 def kernel_state(model: Any, kernel: int) -> str:
-    """``KERNEL_STATES[kernel]``, "poly" read as "local" where the model's first kernel is the
-    local Gauss kernel ("auto"): "local", "local past its range", "gauss", ..."""
+    """``KERNEL_STATES[kernel]``, "poly past its range" read as "local past its range" where the
+    model's only first kernel is the local one (kernel "local" with no Gauss kernel)."""
     state = KERNEL_STATES[kernel]
-    first = getattr(model, "poly", None)
-    if state.startswith("poly") and getattr(first, "FAMILY", "poly") == "local":
-        return "local" + state[len("poly") :]
+    if state == "poly past its range" and getattr(model, "poly", None) is None:
+        return "local past its range"
     return state
 
 
@@ -140,7 +140,8 @@ class Solver:
         self._kernel_models = any(model_info(m)["kind"] == "scm" for m in self.models.values())
         # any flexure whose model may switch kernels (no other sets the core's switch flag)
         self._switchable = any(
-            getattr(m, "gauss", None) is not None and getattr(m, "poly", None) is not None
+            getattr(m, "gauss", None) is not None
+            and (getattr(m, "poly", None) is not None or getattr(m, "local", None) is not None)
             for m in self.models.values()
         )
         # with a strength given, every answer computes its stresses at once (its safety-factor

@@ -252,7 +252,7 @@ def assess(
     for name in ctx.scm:
         m = models[name]
         state = kernels[name]
-        switched |= m.poly is not None and state.startswith("gauss")
+        switched |= (m.poly is not None or m.local is not None) and state.startswith("gauss")
         if state in ("poly past its range", "local past its range"):
             oor = True
             warnings.append(
@@ -377,7 +377,9 @@ def _screen(solver) -> _Screen:
         always=bool(ctx.prb) and ctx.prb_problem is not None,
         limits=tuple(limits),
         scm=tuple(order.index(name) for name in ctx.scm),
-        kernels_ok=frozenset((core.lib.FG_KERNEL_POLY, core.lib.FG_KERNEL_GAUSS)),
+        kernels_ok=frozenset(
+            (core.lib.FG_KERNEL_LOCAL, core.lib.FG_KERNEL_POLY, core.lib.FG_KERNEL_GAUSS)
+        ),
         near=(core.lib.fg_margin_above, solver.margin_above_args(NEAR_SINGULAR)),
     )
 

@@ -183,8 +183,19 @@ def honesty_cases(
     return cases
 
 
+# What the exact reference resolves: its compliances are central differences (h = 1e-6) of
+# shooting solutions integrated at rtol 1e-13, and they move by 1e-9 to 2.4e-9 (relative) when
+# h changes to 3e-6 or 1e-5 (cantilever 4 (moment) of seed 0, cantilever 2 (both) of seed 3,
+# chain 2 of seed 0). A measured true error is the answer's error plus the reference's own, so
+# an answer is within its estimate when the measured error is within the estimate plus this:
+# scm5, scm7 and scm8 all differ from the reference of that moment case by 1.4e-9, with any
+# kernel, while their estimates are 2e-10.
+REFERENCE_NOISE = 3e-9
+
+
 def honesty_rates(cases: Sequence[HonestyCase]) -> dict[float, dict[str, float]]:
-    """Per tolerance: cases, covered (true <= estimate), worst true/estimate, reached, cheapest."""
+    """Per tolerance: cases, covered (true <= estimate + the reference's own noise
+    ``REFERENCE_NOISE``), worst true/estimate, reached, cheapest."""
     out = {}
     for tol in sorted({c.tol for c in cases}, reverse=True):
         cs = [c for c in cases if c.tol == tol]
@@ -198,7 +209,7 @@ def honesty_rates(cases: Sequence[HonestyCase]) -> dict[float, dict[str, float]]
         met = [c for c in cs if c.reached]
         out[tol] = {
             "cases": len(cs),
-            "covered": sum(r <= 1.0 for r in ratios) / len(cs),
+            "covered": sum(c.true_error <= c.estimate + REFERENCE_NOISE for c in cs) / len(cs),
             "worst_ratio": max(ratios),
             "reached": sum(c.reached for c in cs) / len(cs),
             "true_within_tol": (sum(c.true_error <= c.tol for c in met) / len(met)) if met else 1.0,

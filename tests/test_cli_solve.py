@@ -288,31 +288,37 @@ def test_bad_input_in_a_subprocess_has_no_traceback(tmp_path):
 # ---- no equilibrium, and the scm kernel switch -----------------------------------------------
 
 
-def _bent(kernel: str) -> dict:
+def _bent(kernel: str, moment: float = 2.5) -> dict:
     """A flexure under a tip moment of 2.5 EI/L: a 143-degree arc, past the polynomial range."""
     return {
         "name": "bent",
         "model": {"kind": "scm", "modes": 3, "kernel": kernel},
         "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
-        "load": [{"point": "beam.tip", "force": [0.0, 0.0], "moment": 2.5}],
+        "load": [{"point": "beam.tip", "force": [0.0, 0.0], "moment": moment}],
     }
 
 
-def test_auto_kernel_switches_to_gauss_past_the_range_with_a_warning():
+def _arc(t: float) -> tuple:
+    """The tip pose of a flexure bent into a circular arc of angle t (L = 1)."""
+    return (
+        pytest.approx(math.sin(t) / t, abs=1e-9),
+        pytest.approx((1 - math.cos(t)) / t, abs=1e-9),
+        pytest.approx(t),
+    )
+
+
+def test_auto_kernel_is_local_then_switches_to_gauss_with_a_note():
+    """ "auto": the local kernel wherever it certifies its bound (the 143-degree arc: no note),
+    the Gauss kernel where it does not (a 332-degree arc), with a note naming both."""
     res = flexgen.solve(_bent("auto"))
     assert res.converged and res.stable
-    x, y, th = res.points["beam.tip"].pose  # a circular arc: closed form
-    assert (x, y, th) == (
-        pytest.approx(math.sin(2.5) / 2.5, abs=1e-9),
-        pytest.approx((1 - math.cos(2.5)) / 2.5, abs=1e-9),
-        pytest.approx(2.5),
-    )
-    switch = [w for w in res.notes if "Gauss kernel" in w]
-    assert len(switch) == 1 and "'beam'" in switch[0] and "90 deg" in switch[0]
-    # in range: no warning
-    inside = _bent("auto")
-    inside["load"][0]["moment"] = 1.0
-    assert not any("Gauss" in w for w in flexgen.solve(inside).warnings)
+    assert tuple(res.points["beam.tip"].pose) == _arc(2.5)
+    assert res.kernel == {"beam": "local"} and res.notes == [] and res.warnings == []
+    far = flexgen.solve(_bent("auto", 5.8))
+    assert far.converged and tuple(far.points["beam.tip"].pose) == _arc(5.8)
+    switch = [w for w in far.notes if "Gauss kernel" in w]
+    assert len(switch) == 1 and "'beam'" in switch[0] and "local kernel scm3_local9" in switch[0]
+    assert far.kernel == {"beam": "gauss past its certified range"}
 
 
 def test_poly_kernel_out_of_range_is_no_equilibrium_naming_flexure_and_range():

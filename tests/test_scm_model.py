@@ -40,27 +40,41 @@ def test_a_poly_only_kernel_past_its_range_says_so():
     assert "'b'" in r.reason and "polynomial kernel scm7" in r.reason
 
 
-def test_auto_switches_to_gauss_past_range_where_one_exists():
-    r = flexgen.solve(cantilever((0.0, 0.0), 2.5), modes=5)
-    t = 2.5
+@pytest.mark.parametrize("t, kernel", [(2.5, "local"), (6.2, "gauss past its certified range")])
+def test_auto_switches_to_gauss_past_the_local_kernels_certificate(t, kernel):
+    """scm5 "auto": the local kernel on a 143-degree arc (past the polynomial kernel's 90
+    degrees, a bend the local kernel certifies: no note), the Gauss kernel (with a note) on a
+    355-degree one, which the local kernel does not certify; the exact arc either way."""
+    r = flexgen.solve(cantilever((0.0, 0.0), t), modes=5)
     np.testing.assert_allclose(
         r.points["b.tip"].pose, [math.sin(t) / t, (1 - math.cos(t)) / t, t], atol=1e-9
     )
-    assert any("switched to the Gauss kernel" in w for w in r.notes)
+    assert r.kernel == {"b": kernel}
+    switched = any("switched to the Gauss kernel" in w for w in r.notes)
+    assert switched == (kernel != "local")
 
 
-def test_the_estimates_richer_model_uses_the_local_kernel_and_the_polynomial_without_one(
-    monkeypatch,
-):
-    """kernel "local" (also the error estimate's richer models) evaluates with the local Gauss
-    kernel, certified at each q, and the certified Gauss kernel past it; with no local kernel in
-    the kernel folder, with the polynomial one. "auto" keeps the polynomial kernel first."""
+def test_each_kernel_choice_has_its_kernels_and_local_falls_back_to_the_polynomial(monkeypatch):
+    """The kernels each choice tries, in order: "auto" the local, polynomial and Gauss kernels;
+    "local" (also the error estimate's richer models) the local and Gauss kernels; "poly" and
+    "gauss" theirs alone. With no local kernel in the kernel folder, "local" takes the
+    polynomial kernel in its place and "auto" goes without."""
     from flexgen import kernels
 
-    model = SCMModel(1.0, 1.0, modes=5, kernel="local")
-    assert SCMModel(1.0, 1.0, modes=5).poly_name == "scm5"
-    assert model.poly_name.startswith("scm5_local") and model.gauss_name.startswith("scm5_gauss")
-    assert model.poly is kernels.load_numpy(model.poly_name)
+    def names(m):
+        return (m.local_name, m.poly_name, m.gauss_name)
+
+    auto = SCMModel(1.0, 1.0, modes=5)
+    assert auto.local_name.startswith("scm5_local") and auto.poly_name == "scm5"
+    assert auto.gauss_name.startswith("scm5_gauss")
+    assert auto.local is kernels.load_numpy(auto.local_name)
+    assert names(SCMModel(1.0, 1.0, modes=5, kernel="local")) == (
+        auto.local_name,
+        None,
+        auto.gauss_name,
+    )
+    assert names(SCMModel(1.0, 1.0, modes=5, kernel="poly")) == (None, "scm5", None)
+    assert names(SCMModel(1.0, 1.0, modes=5, kernel="gauss")) == (None, None, auto.gauss_name)
     real = kernels.gauss_kernel_name
 
     def no_local(modes, folder=kernels.GENERATED, family="gauss"):
@@ -69,7 +83,8 @@ def test_the_estimates_richer_model_uses_the_local_kernel_and_the_polynomial_wit
         return real(modes, folder, family)
 
     monkeypatch.setattr(kernels, "gauss_kernel_name", no_local)
-    assert SCMModel(1.0, 1.0, modes=5, kernel="local").poly_name == "scm5"
+    assert names(SCMModel(1.0, 1.0, modes=5, kernel="local")) == (None, "scm5", auto.gauss_name)
+    assert names(SCMModel(1.0, 1.0, modes=5)) == (None, "scm5", auto.gauss_name)
 
 
 def _arc_scene(t: float, kernel: str, modes: int = 3) -> dict:
@@ -80,10 +95,10 @@ def _arc_scene(t: float, kernel: str, modes: int = 3) -> dict:
 
 @pytest.mark.parametrize("modes", [3, 5])
 def test_kernel_local_certifies_smooth_bends_the_polynomial_kernel_does_not(modes):
-    """A 143-degree arc (tip moment 2.5 EI/L): "local" evaluates it with the local kernel (its
-    bound certified there: no note), "auto" switches from the polynomial kernel (90 degrees) to
-    the Gauss kernel with a note; both give the closed-form arc. A 355-degree arc is past the
-    local kernel's certificate too: the Gauss kernel, with a note naming the local kernel."""
+    """A 143-degree arc (tip moment 2.5 EI/L): "local" and "auto" evaluate it with the local
+    kernel (its bound certified there: no note), "poly" finds no equilibrium (past its 90
+    degrees); both give the closed-form arc. A 355-degree arc is past the local kernel's
+    certificate too: the Gauss kernel, with a note naming the local kernel."""
     t = 2.5
     arc = [math.sin(t) / t, (1 - math.cos(t)) / t, t]
     local = flexgen.solve(_arc_scene(t, "local", modes))
@@ -91,7 +106,8 @@ def test_kernel_local_certifies_smooth_bends_the_polynomial_kernel_does_not(mode
     np.testing.assert_allclose(local.points["b.tip"].pose, arc, atol=1e-10)
     np.testing.assert_allclose(auto.points["b.tip"].pose, arc, atol=1e-10)
     assert local.kernel == {"b": "local"} and local.notes == [] and local.warnings == []
-    assert auto.kernel == {"b": "gauss"} and "polynomial kernel" in auto.notes[0]
+    assert auto.kernel == {"b": "local"} and auto.notes == [] and auto.warnings == []
+    assert not flexgen.solve(_arc_scene(t, "poly", modes)).converged
     far = flexgen.solve(_arc_scene(6.2, "local", modes))
     assert far.converged and far.points["b.tip"].pose[2] == pytest.approx(6.2, abs=1e-9)
     assert far.kernel == {"b": "gauss past its certified range"}

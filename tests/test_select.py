@@ -98,7 +98,7 @@ def test_tolerance_adds_modes_and_estimates_to_json():
     d = json.loads(res.to_json())
     info = d["model"]["beam"]
     assert isinstance(info["modes"], int) and 1 <= info["modes"] <= 8
-    assert info["kernel"] in ("poly", "gauss")
+    assert info["kernel"] in ("local", "poly", "gauss")
     assert 0 <= info["error_estimate"] <= 1e-6
     assert 0 < d["error_estimate"] <= 1e-6
     assert res.tolerance == 1e-6

@@ -217,7 +217,7 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
     p = problem.struct
     for i, name in enumerate(problem.flexure_order):
         f, fl = p.flex[i], by_name[name]
-        poly, gauss = _kernel_name(f.poly), _kernel_name(f.gauss)
+        poly, gauss, local = _kernel_name(f.poly), _kernel_name(f.gauss), _kernel_name(f.local)
         info = model_info(models[name])
         model = ", ".join(f"{k} {v}" for k, v in info.items() if k != "kind")
         rows.append(
@@ -237,9 +237,11 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
                 "gamma": float(f.gamma),
                 "poly": poly,
                 "gauss": gauss,
+                "local": local,
                 "tip0": _tip0(problem.tip0[i], number),
                 "poly_bound": f"{poly.upper()}_ERROR_BOUND" if poly else "0",
                 "gauss_bound": f"{gauss.upper()}_ERROR_BOUND" if gauss else "0",
+                "local_bound": f"{local.upper()}_ERROR_BOUND" if local else "0",
             }
         )
     return rows
@@ -292,7 +294,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
     outputs = _enum("output.points", list(problem.outputs))
     flex_names = _enum("flexure.name", [f.name for f in scene.flexures])
     rows = _flexure_rows(scene, problem, models, number)
-    kernel_names = sorted({k for r in rows for k in (r["poly"], r["gauss"]) if k})
+    kernel_names = sorted({k for r in rows for k in (r["local"], r["poly"], r["gauss"]) if k})
     points = [
         {"frame": int(p.points[i].frame), "x": float(p.points[i].x), "y": float(p.points[i].y)}
         for i in range(max(int(p.npoints), 0))

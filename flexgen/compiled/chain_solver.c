@@ -119,12 +119,15 @@ typedef struct {
     fg_real *dk;             /* per flexure: the rank-one coefficients summed over its subtree */
     fg_real *kq;             /* the q of the last kinematics (kin_ok: they succeeded) */
     int kin_ok;
-    int *kin_poly;          /* per flexure: 1 if the last kinematics evaluated its polynomial
-                             * kernel, so q was within that kernel's range (in_range) */
+    int *kin_kernel;        /* per flexure: the kernel the last kinematics evaluated
+                             * (FG_KERNEL_LOCAL or _POLY: q was in that kernel's set; _GAUSS;
+                             * FG_KERNEL_NONE: not a kernel model) */
     int *rotated;           /* per flexure: 1 if its tip frame's rotation is read (a child, or a
                              * point off its origin: set by fg_solve); else not computed */
-    int poly_in_range;      /* 1: the next kinematics' q is known to be within the range of
-                             * every polynomial kernel (in_kernel_range said so): not asked again */
+    int poly_in_range;      /* 1: the next kinematics' q is known to be within the set of every
+                             * flexure's first kernels (in_kernel_range said so): a flexure whose
+                             * local kernel is not certified there takes its polynomial kernel
+                             * without asking its range */
     int la_factors_cur;     /* 1: newton returned with la holding its state's K's Cholesky
                              * factor (its last step linearized: K is that of the step's start) */
     int evaluations;        /* kinematics evaluated in this solve */
@@ -267,8 +270,8 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->piv = iwork;
     w->switched = iwork + p->ndof + 1;
     w->saved_switched = w->switched + p->nflex;
-    w->kin_poly = w->saved_switched + p->nflex;
-    w->rotated = w->kin_poly + p->nflex;
+    w->kin_kernel = w->saved_switched + p->nflex;
+    w->rotated = w->kin_kernel + p->nflex;
     w->perm = w->rotated + p->nflex;
     w->blocks = w->perm + p->ndof;
     w->nelim = w->nblocks = 0;
@@ -344,14 +347,17 @@ static fg_real *tip_block(const fg_ws *w, int i)
 /* ---- flexure models ------------------------------------------------------------------------ */
 
 /* pose (3), J (3 x k), H (3 x k x k) of the tip in the root frame, physical units; 0 if the
- * model cannot be evaluated at q (a polynomial-only kernel past its range). in_range: 1 if q is
- * known to be within the polynomial kernel's range (not asked again), else -1; *poly: 1 if the
- * polynomial kernel was evaluated (q within its range), else 0 */
+ * model cannot be evaluated at q (past the range of its only kernels). A kernel flexure's kernels
+ * are tried in order: the local kernel where it certifies its bound at q, the polynomial kernel
+ * within its range, the Gauss kernel (*switched = 1 if it has either of the others). in_range:
+ * 1 if q is known to be within the set of the first two (in_kernel_range): the polynomial
+ * kernel's range is then not asked, else -1; *used: the kernel evaluated (FG_KERNEL_LOCAL,
+ * _POLY, _GAUSS; FG_KERNEL_NONE for the other models) */
 static int flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
-                       fg_real *scratch, int *switched, int in_range, int *poly, int *computed)
+                       fg_real *scratch, int *switched, int in_range, int *used, int *computed)
 {
     int k = f->ndof, i, j;
-    *poly = 0;
+    *used = FG_KERNEL_NONE;
     if (f->kind == FG_MODEL_KERNEL) {
         fg_kernel kernel;
         fg_real L = f->length;
@@ -362,19 +368,24 @@ static int flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_
             memcpy(pose, f->tip0, sizeof(fg_real) * 3);
             memcpy(J, f->tip0 + 3, sizeof(fg_real) * 3 * (size_t)k);
             memcpy(H, f->tip0 + 3 + 3 * k, sizeof(fg_real) * 3 * (size_t)k * (size_t)k);
-            *poly = f->poly != NULL;   /* q = 0 is within every kernel's range */
+            /* q = 0 is within every kernel's set */
+            *used = f->local != NULL  ? FG_KERNEL_LOCAL
+                    : f->poly != NULL ? FG_KERNEL_POLY
+                                      : FG_KERNEL_GAUSS;
         } else {
-            if (f->poly != NULL && in_range < 0)
-                in_range = f->in_range(q) != 0;
-            if (f->poly != NULL && in_range) {
+            if (f->local != NULL && f->local_in_range(q)) {
+                kernel = f->local;
+                *used = FG_KERNEL_LOCAL;
+            } else if (f->poly != NULL && (in_range > 0 || f->in_range(q))) {
                 kernel = f->poly;
-                *poly = 1;
+                *used = FG_KERNEL_POLY;
             } else if (f->gauss != NULL) {
                 kernel = f->gauss;
-                if (f->poly != NULL)
+                *used = FG_KERNEL_GAUSS;
+                if (f->poly != NULL || f->local != NULL)
                     *switched = 1;
             } else
-                return 0;       /* a polynomial-only kernel past its range */
+                return 0;       /* past the range of its only kernels */
             kernel(q, pose, J, H);
             *computed = 1;
         }
@@ -482,7 +493,7 @@ static int kinematics(fg_ws *w, const fg_real *q)
         rp[1] = pp[1] + awy;
         rp[2] = th + f->at[2];
         if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i],
-                         w->poly_in_range ? 1 : -1, &w->kin_poly[i], &computed)) {
+                         w->poly_in_range ? 1 : -1, &w->kin_kernel[i], &computed)) {
             w->evaluations += computed;
             w->fail_flex = i;
             w->fail_route = -1;
@@ -1596,22 +1607,32 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
     return 0;
 }
 
-/* q is the q of the last kinematics (which succeeded): their kernel choices (kin_poly) hold */
+/* q is the q of the last kinematics (which succeeded): their kernel choices (kin_kernel) hold */
 static int at_kinematics(const fg_ws *w, const fg_real *q)
 {
     return w->kin_ok && (q == w->kq || memcmp(q, w->kq, sizeof(fg_real) * (size_t)w->n) == 0);
 }
 
-/* flexure i (a kernel flexure with a polynomial kernel) within that kernel's range at q (all
- * coordinates); known: q is the last kinematics' (at_kinematics), which asked in_range there */
-static int poly_in_range(const fg_ws *w, int i, const fg_real *q, int known)
+/* which of its first kernels evaluates kernel flexure i at q (all coordinates): FG_KERNEL_LOCAL
+ * where its local kernel certifies q, else FG_KERNEL_POLY within its polynomial kernel's range,
+ * else 0 (the Gauss kernel would); known: q is the last kinematics' (at_kinematics), which asked
+ * the same there */
+static int first_kernel(const fg_ws *w, int i, const fg_real *q, int known)
 {
     const fg_flexure *f = &w->p->flex[i];
-    return known ? w->kin_poly[i] : f->in_range(q + f->offset) != 0;
+    const fg_real *qf = q + f->offset;
+    if (known)
+        return w->kin_kernel[i] == FG_KERNEL_GAUSS ? 0 : w->kin_kernel[i];
+    if (f->local != NULL && f->local_in_range(qf))
+        return FG_KERNEL_LOCAL;
+    if (f->poly != NULL && f->in_range(qf))
+        return FG_KERNEL_POLY;
+    return 0;
 }
 
-/* every smooth curvature flexure within its range: the polynomial kernel's when it has one
- * (an "auto" flexure past it would switch kernels), else the Gauss kernel's certified range */
+/* every smooth curvature flexure within its range: the set of its first kernels (local,
+ * polynomial) when it has one (an "auto" flexure past it would switch kernels), else the Gauss
+ * kernel's certified range */
 static int in_kernel_range(const fg_ws *w, const fg_real *q)
 {
     const fg_problem *p = w->p;
@@ -1620,8 +1641,8 @@ static int in_kernel_range(const fg_ws *w, const fg_real *q)
         const fg_flexure *f = &p->flex[i];
         if (f->kind != FG_MODEL_KERNEL)
             continue;
-        if (f->poly != NULL) {
-            if (!poly_in_range(w, i, q, known))
+        if (f->poly != NULL || f->local != NULL) {
+            if (!first_kernel(w, i, q, known))
                 return 0;
         } else if (f->gauss_in_range != NULL && !f->gauss_in_range(q + f->offset))
             return 0;
@@ -2383,8 +2404,9 @@ static void describe_answer(fg_ws *w, fg_answer *out)
         if (out->kernel != NULL) {
             int state = FG_KERNEL_NONE;
             if (f->kind == FG_MODEL_KERNEL) {
-                if (f->poly != NULL && poly_in_range(w, i, q, known))
-                    state = FG_KERNEL_POLY;
+                int first = f->poly != NULL || f->local != NULL ? first_kernel(w, i, q, known) : 0;
+                if (first)
+                    state = first;
                 else if (f->gauss != NULL)
                     state = f->gauss_in_range(qf) ? FG_KERNEL_GAUSS : FG_KERNEL_GAUSS_PAST;
                 else
@@ -2575,8 +2597,8 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch)
 {
-    int switched = 0, poly, computed = 0;
-    return flexure_tip(f, q, pose, J, H, scratch, &switched, -1, &poly, &computed);
+    int switched = 0, used, computed = 0;
+    return flexure_tip(f, q, pose, J, H, scratch, &switched, -1, &used, &computed);
 }
 
 /* ---- the error estimate: one Newton step of a richer model from an answer ---------------- */

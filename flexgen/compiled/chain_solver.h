@@ -86,6 +86,9 @@ typedef struct {
     fg_range in_range;    /* its range check */
     fg_kernel gauss;      /* Gauss kernel (NULL: none) */
     fg_range gauss_in_range;   /* its certified range */
+    fg_kernel local;      /* local Gauss kernel (NULL: none), tried first: where local_in_range
+                           * certifies its bound at q; then poly within its range, then gauss */
+    fg_range local_in_range;
     const fg_real *tip0;  /* FG_MODEL_KERNEL: NULL, or the kernel's value at q = 0 as it returns
                            * it (pose 3, J 3 x ndof, H 3 x ndof x ndof, for length 1): a constant
                            * of the model, so the unloaded state evaluates no kernel */
@@ -242,9 +245,11 @@ typedef struct {
 enum {
     FG_KERNEL_NONE = 0,         /* not a kernel model (fem, prb) */
     FG_KERNEL_POLY = 1,         /* the polynomial kernel, within its range */
-    FG_KERNEL_POLY_PAST = 2,    /* a polynomial kernel past its range (no Gauss kernel) */
+    FG_KERNEL_POLY_PAST = 2,    /* past the range of the first kernels (polynomial or local) and
+                                 * no Gauss kernel */
     FG_KERNEL_GAUSS = 3,        /* the Gauss kernel, within its certified range */
-    FG_KERNEL_GAUSS_PAST = 4    /* the Gauss kernel past its certified range */
+    FG_KERNEL_GAUSS_PAST = 4,   /* the Gauss kernel past its certified range */
+    FG_KERNEL_LOCAL = 5         /* the local Gauss kernel, certified at the equilibrium */
 };
 
 FG_API size_t fg_work_size(const fg_problem *p);

@@ -1,15 +1,20 @@
 """The smooth curvature model of one flexure, through the generated NumPy kernels.
 
 q are the Legendre curvature coefficients (kappa L = sum q_n P_n(2s/L - 1)), dimensionless, so
-q[0] is the tip angle. kernel = "poly" uses the closed-form polynomial kernel scm{N} (valid while
-|phi| <= its PHI_MAX along the flexure); "gauss" the Gauss kernel scm{N}_gauss{G} (any angle,
-certified on its range); "auto" the polynomial while in range and the Gauss kernel past it
-(the core reports each flexure that switched, and the Result notes it); "local" the local Gauss
-kernel scm{N}_local{G} wherever its error bound is certified at the q it evaluates (smooth bends
-up to about 270 degrees, tighter bounds, 0.5x to 0.2x the polynomial kernel's time) and the
-Gauss kernel elsewhere (without a local kernel in the kernel folder: as "auto"). With "poly"
-alone a pose past the range raises ValueError naming the flexure (``name``) and the range, so
-the solver reports no equilibrium instead of a wrong one. ``cc`` is this model with one mode.
+q[0] is the tip angle. The kernels, tried in this order where a choice has them:
+
+- the local Gauss kernel scm{N}_local{G}, wherever its error bound is certified at the q it
+  evaluates (smooth bends up to about 270 degrees, tighter bounds, 0.5x to 0.2x the polynomial
+  kernel's time): "auto" and "local";
+- the closed-form polynomial kernel scm{N}, valid while |phi| <= its PHI_MAX along the flexure:
+  "auto" and "poly" (and "local" without a local kernel in the kernel folder);
+- the Gauss kernel scm{N}_gauss{G}, any angle, certified on its range: "auto", "local" and
+  "gauss". Reaching it from one of the others is a switch: the core reports each flexure that
+  switched, and the Result notes it.
+
+With "poly" alone a pose past the range raises ValueError naming the flexure (``name``) and the
+range, so the solver reports no equilibrium instead of a wrong one. ``cc`` is this model with one
+mode.
 """
 
 from __future__ import annotations
@@ -51,17 +56,19 @@ class SCMModel:
             raise ValueError(f"kernel: must be one of {', '.join(KERNEL_CHOICES)}, got {kernel!r}")
         self.length, self.EI, self.n_dof, self.kernel = float(length), float(EI), modes, kernel
         self.label = "cc" if modes == 1 else f"scm{modes}"
-        # the first kernel tried (``poly``: the core's fg_flexure.poly, with its in_range): the
-        # polynomial kernel; for "local" (also the error estimate's richer models) the local
-        # Gauss kernel, certified at each q; both fall back to the Gauss kernel. No local kernel
-        # in the kernel folder: the polynomial one (slower, as accurate)
-        self.poly_name = f"scm{modes}"
-        if kernel == "local":
+        # the kernels in the order the core tries them (fg_flexure.local, .poly, .gauss; the
+        # module docstring); a name and a NumPy module each, None where the choice has none
+        self.local_name = self.local = None
+        if kernel in ("auto", "local"):
             try:
-                self.poly_name = kernels.gauss_kernel_name(modes, family="local")
+                self.local_name = kernels.gauss_kernel_name(modes, family="local")
+                self.local = kernels.load_numpy(self.local_name)
             except kernels.KernelNotFound:
-                pass
-        self.poly = kernels.load_numpy(self.poly_name) if kernel != "gauss" else None
+                pass  # the polynomial kernel in its place (slower, as accurate)
+        self.poly_name = self.poly = None
+        if kernel in ("auto", "poly") or (kernel == "local" and self.local is None):
+            self.poly_name = f"scm{modes}"
+            self.poly = kernels.load_numpy(self.poly_name)
         self.gauss_name = self.gauss = self.no_gauss = None
         if kernel != "poly":
             try:
@@ -71,18 +78,28 @@ class SCMModel:
                 if kernel == "gauss":
                     raise
                 self.no_gauss = str(missing)  # "auto", "local": fine while the first is in range
-        loaded = self.poly if self.poly is not None else self.gauss
-        assert loaded is not None  # "gauss" (no polynomial) raises above if its kernel is missing
+        loaded = self.poly or self.local or self.gauss
+        assert loaded is not None  # "gauss" (no other) raises above if its kernel is missing
         self.weights = loaded.ENERGY_WEIGHTS
         self.name = name
 
     # -- kernels -------------------------------------------------------------------------
+    def first(self, q):
+        """The first kernel (local, then polynomial) that evaluates q, or None: past both (or
+        kernel "gauss")."""
+        if self.local is not None and self.local.in_range(q):
+            return self.local
+        if self.poly is not None and self.poly.in_range(q):
+            return self.poly
+        return None
+
     def in_range(self, q) -> bool:
-        """Is the polynomial kernel valid at q (or, for "gauss", the Gauss bound certified)?"""
+        """Is q within the set of the first kernels (local, polynomial), so that no switch to the
+        Gauss kernel is needed (for "gauss": is its bound certified)?"""
         q = np.asarray(q, dtype=float)
-        if self.poly is not None:
-            return bool(self.poly.in_range(q))
-        assert self.gauss is not None  # no polynomial: kernel "gauss", whose kernel must exist
+        if self.local is not None or self.poly is not None:
+            return self.first(q) is not None
+        assert self.gauss is not None  # no other: kernel "gauss", whose kernel must exist
         return bool(self.gauss.in_range(q))
 
     def core_flexure(self, f) -> np.ndarray:
@@ -91,6 +108,8 @@ class SCMModel:
         from flexgen.core import kernel_functions, lib
 
         f.kind, f.length = lib.FG_MODEL_KERNEL, self.length
+        if self.local is not None:
+            f.local, f.local_in_range = kernel_functions(self.local_name)
         if self.poly is not None:
             f.poly, f.in_range = kernel_functions(self.poly_name)
         if self.gauss is not None:
@@ -98,22 +117,25 @@ class SCMModel:
         return self.EI / self.length * np.asarray(self.weights, dtype=float)
 
     def first_range(self) -> str:
-        """Where the first kernel tried (``poly``) holds, in words: the polynomial kernel's
-        range, or the local kernel's certified set."""
-        assert self.poly is not None, "first_range: this model has no first kernel"
-        if getattr(self.poly, "FAMILY", "poly") == "local":
-            return (
-                f"the set where the local kernel {self.poly_name} certifies its error bound "
-                f"(smooth bends up to about {math.degrees(self.poly.PHI_MAX):g} deg)"
+        """Where the first kernels (local, polynomial) hold, in words: the local kernel's
+        certified set, the polynomial kernel's range, or both."""
+        assert self.local is not None or self.poly is not None, "first_range: Gauss kernel only"
+        words = []
+        if self.local is not None:
+            words.append(
+                f"the set where the local kernel {self.local_name} certifies its error bound "
+                f"(smooth bends up to about {math.degrees(self.local.PHI_MAX):g} deg)"
             )
-        return (
-            f"the range of the polynomial kernel {self.poly_name} "
-            f"(|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the flexure)"
-        )
+        if self.poly is not None:
+            words.append(
+                f"the range of the polynomial kernel {self.poly_name} "
+                f"(|phi| <= {math.degrees(self.poly.PHI_MAX):g} deg along the flexure)"
+            )
+        return " and ".join(words)
 
     def range_error(self) -> str:
-        """Why this flexure cannot be evaluated past its first kernel's range."""
-        assert self.poly is not None, "range_error: this model has no polynomial kernel"
+        """Why this flexure cannot be evaluated past its first kernels' range."""
+        assert self.local is not None or self.poly is not None, "range_error: Gauss kernel only"
         why = (
             f"and {self.no_gauss}"
             if self.no_gauss
@@ -122,25 +144,24 @@ class SCMModel:
         return f"flexure {self.name!r}: bent past {self.first_range()}; {why}"
 
     def kernel_at(self, q):
-        """The kernel that evaluates q: the first (polynomial or local) while in range, else the
-        Gauss kernel ("auto", "local", "gauss"); ValueError (``range_error``) when there is
-        none."""
-        if self.poly is not None and self.gauss is None:
-            if not self.poly.in_range(q):
-                raise ValueError(self.range_error())
-            return self.poly
-        if self.poly is not None and self.poly.in_range(q):
-            return self.poly
+        """The kernel that evaluates q, as the core picks it: the local kernel where it
+        certifies q, the polynomial one within its range, else the Gauss kernel; ValueError
+        (``range_error``) when there is none."""
+        first = self.first(q)
+        if first is not None:
+            return first
+        if self.gauss is None:
+            raise ValueError(self.range_error())
         return self.gauss
 
     def switch_warning(self, q=None) -> str | None:
-        """The warning for a solve in which this flexure left the polynomial kernel's range
-        (the core reports that it did); ``q`` is the equilibrium, if one was found."""
-        if self.poly is None:
+        """The note for a solve in which this flexure left its first kernels' set (the core
+        reports that it did); ``q`` is the equilibrium, if one was found."""
+        if self.local is None and self.poly is None:
             return None
         if q is None:
             where = "during the solve"
-        elif self.poly.in_range(np.asarray(q, dtype=float)):
+        elif self.in_range(q):
             where = "during the solve (the equilibrium is back in range)"
         else:
             where = "at equilibrium"

@@ -4,7 +4,7 @@
  * from templates/controller/controller.c.jinja; do not edit: change the scene and regenerate.
  * The interface and its documentation: two_link_finger.h. This file holds, in one translation unit
  * and all static: flexgen's chain solver core (flexgen/compiled/chain_solver.h and .c, the
- * solver flexgen.solve runs), the kernels this scene uses (scm3, scm3_gauss25),
+ * solver flexgen.solve runs), the kernels this scene uses (scm3, scm3_gauss25, scm3_local9),
  * the scene as constant tables, and two_link_finger_solve.
  */
 #include <math.h>
@@ -170,6 +170,9 @@ typedef struct {
     fg_range in_range;    /* its range check */
     fg_kernel gauss;      /* Gauss kernel (NULL: none) */
     fg_range gauss_in_range;   /* its certified range */
+    fg_kernel local;      /* local Gauss kernel (NULL: none), tried first: where local_in_range
+                           * certifies its bound at q; then poly within its range, then gauss */
+    fg_range local_in_range;
     const fg_real *tip0;  /* FG_MODEL_KERNEL: NULL, or the kernel's value at q = 0 as it returns
                            * it (pose 3, J 3 x ndof, H 3 x ndof x ndof, for length 1): a constant
                            * of the model, so the unloaded state evaluates no kernel */
@@ -326,9 +329,11 @@ typedef struct {
 enum {
     FG_KERNEL_NONE = 0,         /* not a kernel model (fem, prb) */
     FG_KERNEL_POLY = 1,         /* the polynomial kernel, within its range */
-    FG_KERNEL_POLY_PAST = 2,    /* a polynomial kernel past its range (no Gauss kernel) */
+    FG_KERNEL_POLY_PAST = 2,    /* past the range of the first kernels (polynomial or local) and
+                                 * no Gauss kernel */
     FG_KERNEL_GAUSS = 3,        /* the Gauss kernel, within its certified range */
-    FG_KERNEL_GAUSS_PAST = 4    /* the Gauss kernel past its certified range */
+    FG_KERNEL_GAUSS_PAST = 4,   /* the Gauss kernel past its certified range */
+    FG_KERNEL_LOCAL = 5         /* the local Gauss kernel, certified at the equilibrium */
 };
 
 FG_API size_t fg_work_size(const fg_problem *p);
@@ -457,12 +462,15 @@ typedef struct {
     fg_real *dk;             /* per flexure: the rank-one coefficients summed over its subtree */
     fg_real *kq;             /* the q of the last kinematics (kin_ok: they succeeded) */
     int kin_ok;
-    int *kin_poly;          /* per flexure: 1 if the last kinematics evaluated its polynomial
-                             * kernel, so q was within that kernel's range (in_range) */
+    int *kin_kernel;        /* per flexure: the kernel the last kinematics evaluated
+                             * (FG_KERNEL_LOCAL or _POLY: q was in that kernel's set; _GAUSS;
+                             * FG_KERNEL_NONE: not a kernel model) */
     int *rotated;           /* per flexure: 1 if its tip frame's rotation is read (a child, or a
                              * point off its origin: set by fg_solve); else not computed */
-    int poly_in_range;      /* 1: the next kinematics' q is known to be within the range of
-                             * every polynomial kernel (in_kernel_range said so): not asked again */
+    int poly_in_range;      /* 1: the next kinematics' q is known to be within the set of every
+                             * flexure's first kernels (in_kernel_range said so): a flexure whose
+                             * local kernel is not certified there takes its polynomial kernel
+                             * without asking its range */
     int la_factors_cur;     /* 1: newton returned with la holding its state's K's Cholesky
                              * factor (its last step linearized: K is that of the step's start) */
     int evaluations;        /* kinematics evaluated in this solve */
@@ -605,8 +613,8 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->piv = iwork;
     w->switched = iwork + p->ndof + 1;
     w->saved_switched = w->switched + p->nflex;
-    w->kin_poly = w->saved_switched + p->nflex;
-    w->rotated = w->kin_poly + p->nflex;
+    w->kin_kernel = w->saved_switched + p->nflex;
+    w->rotated = w->kin_kernel + p->nflex;
     w->perm = w->rotated + p->nflex;
     w->blocks = w->perm + p->ndof;
     w->nelim = w->nblocks = 0;
@@ -682,14 +690,17 @@ static fg_real *tip_block(const fg_ws *w, int i)
 /* ---- flexure models ------------------------------------------------------------------------ */
 
 /* pose (3), J (3 x k), H (3 x k x k) of the tip in the root frame, physical units; 0 if the
- * model cannot be evaluated at q (a polynomial-only kernel past its range). in_range: 1 if q is
- * known to be within the polynomial kernel's range (not asked again), else -1; *poly: 1 if the
- * polynomial kernel was evaluated (q within its range), else 0 */
+ * model cannot be evaluated at q (past the range of its only kernels). A kernel flexure's kernels
+ * are tried in order: the local kernel where it certifies its bound at q, the polynomial kernel
+ * within its range, the Gauss kernel (*switched = 1 if it has either of the others). in_range:
+ * 1 if q is known to be within the set of the first two (in_kernel_range): the polynomial
+ * kernel's range is then not asked, else -1; *used: the kernel evaluated (FG_KERNEL_LOCAL,
+ * _POLY, _GAUSS; FG_KERNEL_NONE for the other models) */
 static int flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
-                       fg_real *scratch, int *switched, int in_range, int *poly, int *computed)
+                       fg_real *scratch, int *switched, int in_range, int *used, int *computed)
 {
     int k = f->ndof, i, j;
-    *poly = 0;
+    *used = FG_KERNEL_NONE;
     if (f->kind == FG_MODEL_KERNEL) {
         fg_kernel kernel;
         fg_real L = f->length;
@@ -700,19 +711,24 @@ static int flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_
             memcpy(pose, f->tip0, sizeof(fg_real) * 3);
             memcpy(J, f->tip0 + 3, sizeof(fg_real) * 3 * (size_t)k);
             memcpy(H, f->tip0 + 3 + 3 * k, sizeof(fg_real) * 3 * (size_t)k * (size_t)k);
-            *poly = f->poly != NULL;   /* q = 0 is within every kernel's range */
+            /* q = 0 is within every kernel's set */
+            *used = f->local != NULL  ? FG_KERNEL_LOCAL
+                    : f->poly != NULL ? FG_KERNEL_POLY
+                                      : FG_KERNEL_GAUSS;
         } else {
-            if (f->poly != NULL && in_range < 0)
-                in_range = f->in_range(q) != 0;
-            if (f->poly != NULL && in_range) {
+            if (f->local != NULL && f->local_in_range(q)) {
+                kernel = f->local;
+                *used = FG_KERNEL_LOCAL;
+            } else if (f->poly != NULL && (in_range > 0 || f->in_range(q))) {
                 kernel = f->poly;
-                *poly = 1;
+                *used = FG_KERNEL_POLY;
             } else if (f->gauss != NULL) {
                 kernel = f->gauss;
-                if (f->poly != NULL)
+                *used = FG_KERNEL_GAUSS;
+                if (f->poly != NULL || f->local != NULL)
                     *switched = 1;
             } else
-                return 0;       /* a polynomial-only kernel past its range */
+                return 0;       /* past the range of its only kernels */
             kernel(q, pose, J, H);
             *computed = 1;
         }
@@ -820,7 +836,7 @@ static int kinematics(fg_ws *w, const fg_real *q)
         rp[1] = pp[1] + awy;
         rp[2] = th + f->at[2];
         if (!flexure_tip(f, q + off, tp, tJ, tH, w->scratch, &w->switched[i],
-                         w->poly_in_range ? 1 : -1, &w->kin_poly[i], &computed)) {
+                         w->poly_in_range ? 1 : -1, &w->kin_kernel[i], &computed)) {
             w->evaluations += computed;
             w->fail_flex = i;
             w->fail_route = -1;
@@ -1934,22 +1950,32 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
     return 0;
 }
 
-/* q is the q of the last kinematics (which succeeded): their kernel choices (kin_poly) hold */
+/* q is the q of the last kinematics (which succeeded): their kernel choices (kin_kernel) hold */
 static int at_kinematics(const fg_ws *w, const fg_real *q)
 {
     return w->kin_ok && (q == w->kq || memcmp(q, w->kq, sizeof(fg_real) * (size_t)w->n) == 0);
 }
 
-/* flexure i (a kernel flexure with a polynomial kernel) within that kernel's range at q (all
- * coordinates); known: q is the last kinematics' (at_kinematics), which asked in_range there */
-static int poly_in_range(const fg_ws *w, int i, const fg_real *q, int known)
+/* which of its first kernels evaluates kernel flexure i at q (all coordinates): FG_KERNEL_LOCAL
+ * where its local kernel certifies q, else FG_KERNEL_POLY within its polynomial kernel's range,
+ * else 0 (the Gauss kernel would); known: q is the last kinematics' (at_kinematics), which asked
+ * the same there */
+static int first_kernel(const fg_ws *w, int i, const fg_real *q, int known)
 {
     const fg_flexure *f = &w->p->flex[i];
-    return known ? w->kin_poly[i] : f->in_range(q + f->offset) != 0;
+    const fg_real *qf = q + f->offset;
+    if (known)
+        return w->kin_kernel[i] == FG_KERNEL_GAUSS ? 0 : w->kin_kernel[i];
+    if (f->local != NULL && f->local_in_range(qf))
+        return FG_KERNEL_LOCAL;
+    if (f->poly != NULL && f->in_range(qf))
+        return FG_KERNEL_POLY;
+    return 0;
 }
 
-/* every smooth curvature flexure within its range: the polynomial kernel's when it has one
- * (an "auto" flexure past it would switch kernels), else the Gauss kernel's certified range */
+/* every smooth curvature flexure within its range: the set of its first kernels (local,
+ * polynomial) when it has one (an "auto" flexure past it would switch kernels), else the Gauss
+ * kernel's certified range */
 static int in_kernel_range(const fg_ws *w, const fg_real *q)
 {
     const fg_problem *p = w->p;
@@ -1958,8 +1984,8 @@ static int in_kernel_range(const fg_ws *w, const fg_real *q)
         const fg_flexure *f = &p->flex[i];
         if (f->kind != FG_MODEL_KERNEL)
             continue;
-        if (f->poly != NULL) {
-            if (!poly_in_range(w, i, q, known))
+        if (f->poly != NULL || f->local != NULL) {
+            if (!first_kernel(w, i, q, known))
                 return 0;
         } else if (f->gauss_in_range != NULL && !f->gauss_in_range(q + f->offset))
             return 0;
@@ -2721,8 +2747,9 @@ static void describe_answer(fg_ws *w, fg_answer *out)
         if (out->kernel != NULL) {
             int state = FG_KERNEL_NONE;
             if (f->kind == FG_MODEL_KERNEL) {
-                if (f->poly != NULL && poly_in_range(w, i, q, known))
-                    state = FG_KERNEL_POLY;
+                int first = f->poly != NULL || f->local != NULL ? first_kernel(w, i, q, known) : 0;
+                if (first)
+                    state = first;
                 else if (f->gauss != NULL)
                     state = f->gauss_in_range(qf) ? FG_KERNEL_GAUSS : FG_KERNEL_GAUSS_PAST;
                 else
@@ -2913,8 +2940,8 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch)
 {
-    int switched = 0, poly, computed = 0;
-    return flexure_tip(f, q, pose, J, H, scratch, &switched, -1, &poly, &computed);
+    int switched = 0, used, computed = 0;
+    return flexure_tip(f, q, pose, J, H, scratch, &switched, -1, &used, &computed);
 }
 
 /* ---- the error estimate: one Newton step of a richer model from an answer ---------------- */
@@ -3605,12 +3632,125 @@ static int scm3_gauss25_in_range(const double *q)
 
 
 
+/* scm3_local9: tip pose, Jacobian and Hessian of a 3-mode smooth curvature flexure, 9-node Gauss-Legendre quadrature.
+ * (as `flexgen generate --modes 3 --kernel local --range 270 --nodes 9 --tol 1e-11` emits it; pose error <= 1e-11 L on the range) */
+#define SCM3_LOCAL9_N 3
+#define SCM3_LOCAL9_NODES 9
+#define SCM3_LOCAL9_PHI_MAX 4.71238898038469 /* rad (270 degrees) */
+#define SCM3_LOCAL9_ERROR_BOUND 1e-11 /* pose, units of L */
+#define SCM3_LOCAL9_JACOBIAN_ERROR_BOUND 1e-10
+#define SCM3_LOCAL9_HESSIAN_ERROR_BOUND 1e-09
+
+
+static void scm3_local9_evaluate(const double *q, double *pose, double *J, double *H)
+{
+    const double t0 = 0.06292220663530765*q[2];
+    const double t1 = 0.0752629968955498*q[1];
+    const double t2 = -0.9180155536633179*q[0] + t0 + t1;
+    const double t3 = cos(t2);
+    const double t4 = 0.0819844463366821*q[0] + t0 - t1;
+    const double t5 = cos(t4);
+    const double t6 = 0.09565151581334064*q[2];
+    const double t7 = 0.1559438713867063*q[1];
+    const double t8 = 0.1933142836497048*q[0] + t6 - t7;
+    const double t9 = cos(t8);
+    const double t10 = -0.8066857163502952*q[0] + t6 + t7;
+    const double t11 = cos(t10);
+    const double t12 = 0.07254033170916317*q[2];
+    const double t13 = 0.22371492935272755*q[1];
+    const double t14 = 0.33787328829809554*q[0] + t12 - t13;
+    const double t15 = cos(t14);
+    const double t16 = -0.6621267117019045*q[0] + t12 + t13;
+    const double t17 = cos(t16);
+    const double t18 = 0.01566643765913402*q[1];
+    const double t19 = 0.015167622036298487*q[2];
+    const double t20 = -0.984080119753813*q[0] + t18 + t19;
+    const double t21 = cos(t20);
+    const double t22 = 0.015919880246186954*q[0] - t18 + t19;
+    const double t23 = cos(t22);
+    const double t24 = 0.5*q[0] - 0.25*q[1];
+    const double t25 = cos(t24);
+    const double t26 = sin(t4);
+    const double t27 = sin(t8);
+    const double t28 = sin(t14);
+    const double t29 = sin(t22);
+    const double t30 = sin(t24);
+    const double t31 = sin(t2);
+    const double t32 = sin(t10);
+    const double t33 = sin(t16);
+    const double t34 = sin(t20);
+    const double t35 = 0.04127991937515747*t30;
+    const double t36 = 0.04127991937515747*t25;
+
+    pose[0] = 0.13030534820146772*t11 + 0.15617353852000143*t15 + 0.15617353852000143*t17 + 0.040637194180787206*t21 + 0.040637194180787206*t23 + 0.1651196775006299*t25 + 0.0903240803474287*t3 + 0.0903240803474287*t5 + 0.13030534820146772*t9;
+    pose[1] = 0.0903240803474287*t26 + 0.13030534820146772*t27 + 0.15617353852000143*t28 + 0.040637194180787206*t29 + 0.1651196775006299*t30 - 0.0903240803474287*t31 - 0.13030534820146772*t32 - 0.15617353852000143*t33 - 0.040637194180787206*t34;
+    pose[2] = q[0];
+    J[0] = -0.007405169718153931*t26 - 0.025189885043292084*t27 - 0.05276686700490217*t28 - 0.0006469392648991777*t29 - 0.08255983875031495*t30 + 0.08291891062927477*t31 + 0.10511546315817565*t32 + 0.10340667151509925*t33 + 0.03999025491588803*t34;
+    J[1] = 0.0067980609787819165*t26 + 0.020320320460929662*t27 + 0.034938352136767596*t28 + 0.0006366400692754266*t29 - 0.0067980609787819165*t31 - 0.020320320460929662*t32 - 0.034938352136767596*t33 - 0.0006366400692754266*t34 + t35;
+    J[2] = -0.005683390447765039*t26 - 0.012463904074055548*t27 - 0.011328880288434675*t28 - 0.0006163696019498487*t29 - 0.005683390447765039*t31 - 0.012463904074055548*t32 - 0.011328880288434675*t33 - 0.0006163696019498487*t34;
+    J[3] = 0.10511546315817565*t11 + 0.05276686700490217*t15 + 0.10340667151509925*t17 + 0.03999025491588803*t21 + 0.0006469392648991777*t23 + 0.08255983875031495*t25 + 0.08291891062927477*t3 + 0.007405169718153931*t5 + 0.025189885043292084*t9;
+    J[4] = -0.020320320460929662*t11 - 0.034938352136767596*t15 - 0.034938352136767596*t17 - 0.0006366400692754266*t21 - 0.0006366400692754266*t23 - 0.0067980609787819165*t3 - t36 - 0.0067980609787819165*t5 - 0.020320320460929662*t9;
+    J[5] = -0.012463904074055548*t11 + 0.011328880288434675*t15 - 0.011328880288434675*t17 - 0.0006163696019498487*t21 + 0.0006163696019498487*t23 - 0.005683390447765039*t3 + 0.005683390447765039*t5 + 0.012463904074055548*t9;
+    J[6] = 1.0;
+    J[7] = 0.0;
+    J[8] = 0.0;
+    H[0] = -0.08479514269724599*t11 - 0.017828514868134575*t15 - 0.06846831937833166*t17 - 0.0393536148466126*t21 - 1.029919562375113e-05*t23 - 0.07612084965049286*t3 - t36 - 0.0006071087393720143*t5 - 0.004869564582362423*t9;
+    H[1] = 0.016392112267492605*t11 + 0.011804735924166459*t15 + 0.023133616212601134*t17 + 0.0006265048356126376*t21 + 1.0135233662788959e-05*t23 + 0.020639959687578736*t25 + 0.006240725713273478*t3 + 0.0005573352655084386*t5 + 0.003928208193437057*t9;
+    H[2] = 0.010054453386500862*t11 - 0.0038277260357889005*t15 + 0.007501154252645774*t17 + 0.0006065570716994172*t21 - 9.812530250431513e-06*t23 + 0.005217440828589835*t3 - 0.00046594961917520455*t5 - 0.0024094506875546855*t9;
+    H[3] = 0.016392112267492605*t11 + 0.011804735924166459*t15 + 0.023133616212601134*t17 + 0.0006265048356126376*t21 + 1.0135233662788959e-05*t23 + 0.020639959687578736*t25 + 0.006240725713273478*t3 + 0.0005573352655084386*t5 + 0.003928208193437057*t9;
+    H[4] = -0.0031688294404958713*t11 - 0.00781623097997768*t15 - 0.00781623097997768*t17 - 9.973881956610236e-06*t21 - 9.973881956610236e-06*t23 - 0.010319979843789368*t25 - 0.0005116424423418216*t3 - 0.0005116424423418216*t5 - 0.0031688294404958713*t9;
+    H[5] = -0.0019436694539007628*t11 + 0.002534439653372671*t15 - 0.002534439653372671*t17 - 9.656315943932556e-06*t21 + 9.656315943932556e-06*t23 - 0.00042774899762633754*t3 + 0.00042774899762633754*t5 + 0.0019436694539007628*t9;
+    H[6] = 0.010054453386500862*t11 - 0.0038277260357889005*t15 + 0.007501154252645774*t17 + 0.0006065570716994172*t21 - 9.812530250431513e-06*t23 + 0.005217440828589835*t3 - 0.00046594961917520455*t5 - 0.0024094506875546855*t9;
+    H[7] = -0.0019436694539007628*t11 + 0.002534439653372671*t15 - 0.002534439653372671*t17 - 9.656315943932556e-06*t21 + 9.656315943932556e-06*t23 - 0.00042774899762633754*t3 + 0.00042774899762633754*t5 + 0.0019436694539007628*t9;
+    H[8] = -0.001192191317635485*t11 - 0.0008218007340164515*t15 - 0.0008218007340164515*t17 - 9.348861157039052e-06*t21 - 9.348861157039052e-06*t23 - 0.00035761146814340547*t3 - 0.00035761146814340547*t5 - 0.001192191317635485*t9;
+    H[9] = -0.0006071087393720143*t26 - 0.004869564582362423*t27 - 0.017828514868134575*t28 - 1.029919562375113e-05*t29 + 0.07612084965049286*t31 + 0.08479514269724599*t32 + 0.06846831937833166*t33 + 0.0393536148466126*t34 - t35;
+    H[10] = 0.0005573352655084386*t26 + 0.003928208193437057*t27 + 0.011804735924166459*t28 + 1.0135233662788959e-05*t29 + 0.020639959687578736*t30 - 0.006240725713273478*t31 - 0.016392112267492605*t32 - 0.023133616212601134*t33 - 0.0006265048356126376*t34;
+    H[11] = -0.00046594961917520455*t26 - 0.0024094506875546855*t27 - 0.0038277260357889005*t28 - 9.812530250431513e-06*t29 - 0.005217440828589835*t31 - 0.010054453386500862*t32 - 0.007501154252645774*t33 - 0.0006065570716994172*t34;
+    H[12] = 0.0005573352655084386*t26 + 0.003928208193437057*t27 + 0.011804735924166459*t28 + 1.0135233662788959e-05*t29 + 0.020639959687578736*t30 - 0.006240725713273478*t31 - 0.016392112267492605*t32 - 0.023133616212601134*t33 - 0.0006265048356126376*t34;
+    H[13] = -0.0005116424423418216*t26 - 0.0031688294404958713*t27 - 0.00781623097997768*t28 - 9.973881956610236e-06*t29 - 0.010319979843789368*t30 + 0.0005116424423418216*t31 + 0.0031688294404958713*t32 + 0.00781623097997768*t33 + 9.973881956610236e-06*t34;
+    H[14] = 0.00042774899762633754*t26 + 0.0019436694539007628*t27 + 0.002534439653372671*t28 + 9.656315943932556e-06*t29 + 0.00042774899762633754*t31 + 0.0019436694539007628*t32 + 0.002534439653372671*t33 + 9.656315943932556e-06*t34;
+    H[15] = -0.00046594961917520455*t26 - 0.0024094506875546855*t27 - 0.0038277260357889005*t28 - 9.812530250431513e-06*t29 - 0.005217440828589835*t31 - 0.010054453386500862*t32 - 0.007501154252645774*t33 - 0.0006065570716994172*t34;
+    H[16] = 0.00042774899762633754*t26 + 0.0019436694539007628*t27 + 0.002534439653372671*t28 + 9.656315943932556e-06*t29 + 0.00042774899762633754*t31 + 0.0019436694539007628*t32 + 0.002534439653372671*t33 + 9.656315943932556e-06*t34;
+    H[17] = -0.00035761146814340547*t26 - 0.001192191317635485*t27 - 0.0008218007340164515*t28 - 9.348861157039052e-06*t29 + 0.00035761146814340547*t31 + 0.001192191317635485*t32 + 0.0008218007340164515*t33 + 9.348861157039052e-06*t34;
+    H[18] = 0.0;
+    H[19] = 0.0;
+    H[20] = 0.0;
+    H[21] = 0.0;
+    H[22] = 0.0;
+    H[23] = 0.0;
+    H[24] = 0.0;
+    H[25] = 0.0;
+    H[26] = 0.0;
+}
+
+
+static int scm3_local9_in_range(const double *q)
+{
+    /* 1 if the error bounds hold at q: the quadrature error, bounded on a Bernstein ellipse
+     * of parameter rho, is within them where sum_n nu_n(rho) |q_n| <= limit(rho) for one row
+     * (flexgen/symbolic/certificate.py); no transcendental function */
+    const double a0 = fabs(q[0]);
+    const double a1 = fabs(q[1]);
+    const double a2 = fabs(q[2]);
+    if (1.2000000000012*a0 + 1.5600000000015601*a1 + 4.056000000004056*a2 <= 2.720474336676253) return 1;   /* rho = 5 */
+    if (1.4583333333347916*a0 + 2.2482638888911373*a1 + 6.932146990747674*a2 <= 6.0474047628896805) return 1;   /* rho = 6 */
+    if (1.9687500000019689*a0 + 3.9990234375039995*a1 + 16.246032714859997*a2 <= 10.303799116308003) return 1;   /* rho = 8 */
+    if (2.4750000000024754*a0 + 6.24937500000625*a1 + 31.559343750031562*a2 <= 13.0208112427431) return 1;   /* rho = 10 */
+    if (2.979166666669646*a0 + 8.999565972231222*a1 + 54.37237774889697*a2 <= 15.233081446631747) return 1;   /* rho = 12 */
+    if (3.984375000003985*a0 + 15.999755859391001*a1 + 128.498039245734*a2 <= 18.71378386346329) return 1;   /* rho = 16 */
+    if (5.989583333339323*a0 + 35.99989149309156*a1 + 432.74869565653813*a2 <= 23.60567235261392) return 1;   /* rho = 24 */
+    if (7.992187500007993*a0 + 63.999938964907756*a1 + 1024.9990224848507*a2 <= 27.07018519496313) return 1;   /* rho = 32 */
+    return 0;
+}
+
+
+
 /* ==== the scene ============================================================================== */
 
 /* each kernel flexure's kernel at q = 0 (pose, J, H for length 1; fg_flexure.tip0): constants,
  * so the unloaded state evaluates no kernel */
-static const fg_real two_link_finger_tip0_0[39] = {1.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.4999999999446507, -0.16666666664821692, 1.2751816025355835e-43, 1.0, 0.0, 0.0, -0.33333333332803666, 0.08333333333200917, 0.016666666666401833, 0.08333333333200917, -0.033333333332803666, 5.881621874675844e-44, 0.016666666666401833, 5.881621874675844e-44, -0.004761904761829095, -0.0, 0.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-static const fg_real two_link_finger_tip0_1[39] = {1.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.4999999999446507, -0.16666666664821692, 1.2751816025355835e-43, 1.0, 0.0, 0.0, -0.33333333332803666, 0.08333333333200917, 0.016666666666401833, 0.08333333333200917, -0.033333333332803666, 5.881621874675844e-44, 0.016666666666401833, 5.881621874675844e-44, -0.004761904761829095, -0.0, 0.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+static const fg_real two_link_finger_tip0_0[39] = {1.0, 0.0, 0.0, 0.0, 0.0, -0.0, 0.49999999999999994, -0.16666666666666669, 0.0, 1.0, 0.0, 0.0, -0.3333333333333333, 0.08333333333333336, 0.01666666666666667, 0.08333333333333336, -0.03333333333333334, -2.168404344971009e-19, 0.01666666666666667, -2.168404344971009e-19, -0.0047619047619047615, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+static const fg_real two_link_finger_tip0_1[39] = {1.0, 0.0, 0.0, 0.0, 0.0, -0.0, 0.49999999999999994, -0.16666666666666669, 0.0, 1.0, 0.0, 0.0, -0.3333333333333333, 0.08333333333333336, 0.01666666666666667, 0.08333333333333336, -0.03333333333333334, -2.168404344971009e-19, 0.01666666666666667, -2.168404344971009e-19, -0.0047619047619047615, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
 
 /* the flexures in body order (every parent before its children), as flexgen/problem.py lists
  * them; q offsets in scene order */
@@ -3620,12 +3760,14 @@ static const fg_flexure two_link_finger_flexures[2] = {
      .at = {0.0, 0.0, 0.0}, .length = 0.02, .gamma = 0.0,
      .poly = scm3_evaluate, .in_range = scm3_in_range,
      .gauss = scm3_gauss25_evaluate, .gauss_in_range = scm3_gauss25_in_range,
+     .local = scm3_local9_evaluate, .local_in_range = scm3_local9_in_range,
      .tip0 = two_link_finger_tip0_0},
     /* [[flexure]] "distal": scm (modes 3), length 0.015, EI 0.00133333, parent 'middle' */
     {.kind = FG_MODEL_KERNEL, .ndof = 3, .offset = 3, .parent = 0,
      .at = {0.045, 0.0, 0.0}, .length = 0.015, .gamma = 0.0,
      .poly = scm3_evaluate, .in_range = scm3_in_range,
      .gauss = scm3_gauss25_evaluate, .gauss_in_range = scm3_gauss25_in_range,
+     .local = scm3_local9_evaluate, .local_in_range = scm3_local9_in_range,
      .tip0 = two_link_finger_tip0_1}
 };
 
@@ -3663,6 +3805,7 @@ static const fg_real two_link_finger_stiffness[6] = {
  * certified on the kernel's range (the kernels' *_ERROR_BOUND); 0: not a kernel model */
 static const fg_real two_link_finger_poly_bound[2] = {SCM3_ERROR_BOUND, SCM3_ERROR_BOUND};
 static const fg_real two_link_finger_gauss_bound[2] = {SCM3_GAUSS25_ERROR_BOUND, SCM3_GAUSS25_ERROR_BOUND};
+static const fg_real two_link_finger_local_bound[2] = {SCM3_LOCAL9_ERROR_BOUND, SCM3_LOCAL9_ERROR_BOUND};
 
 /* bend beyond which no accuracy is claimed (flexgen/validity.py), per flexure in body order */
 static const fg_real two_link_finger_claim_limit[2] = {3.141592653589793, 3.141592653589793};
@@ -3815,7 +3958,8 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
             out->flags |= TWO_LINK_FINGER_FLAG_PAST_RANGE;
         if (switched[j])
             out->notes |= TWO_LINK_FINGER_NOTE_GAUSS;
-        out->kernel_error[s] = kernel[j] == FG_KERNEL_POLY    ? two_link_finger_poly_bound[j] * two_link_finger_flexures[j].length
+        out->kernel_error[s] = kernel[j] == FG_KERNEL_LOCAL   ? two_link_finger_local_bound[j] * two_link_finger_flexures[j].length
+                               : kernel[j] == FG_KERNEL_POLY  ? two_link_finger_poly_bound[j] * two_link_finger_flexures[j].length
                                : kernel[j] == FG_KERNEL_GAUSS ? two_link_finger_gauss_bound[j] * two_link_finger_flexures[j].length
                                : kernel[j] == FG_KERNEL_NONE  ? 0
                                                               : (fg_real)INFINITY;

@@ -102,11 +102,12 @@ enum {
 /* which kernel evaluated each flexure at the answer (two_link_finger_outputs.kernel) */
 enum {
     TWO_LINK_FINGER_KERNEL_NONE = 0,        /* not a kernel model (fem, prb) */
-    TWO_LINK_FINGER_KERNEL_POLY = 1,        /* its first kernel (polynomial; with kernel = "local"
-                                        * the local Gauss kernel), within its range */
-    TWO_LINK_FINGER_KERNEL_POLY_PAST = 2,   /* a first kernel past its range (FLAG_PAST_RANGE) */
+    TWO_LINK_FINGER_KERNEL_POLY = 1,        /* the polynomial kernel, within its range */
+    TWO_LINK_FINGER_KERNEL_POLY_PAST = 2,   /* past its first kernels' range, no Gauss kernel
+                                        * (FLAG_PAST_RANGE) */
     TWO_LINK_FINGER_KERNEL_GAUSS = 3,       /* the Gauss kernel, within its certified range */
-    TWO_LINK_FINGER_KERNEL_GAUSS_PAST = 4   /* the Gauss kernel past its range (FLAG_PAST_RANGE) */
+    TWO_LINK_FINGER_KERNEL_GAUSS_PAST = 4,  /* the Gauss kernel past its range (FLAG_PAST_RANGE) */
+    TWO_LINK_FINGER_KERNEL_LOCAL = 5        /* the local Gauss kernel, certified at the answer */
 };
 
 typedef struct {
