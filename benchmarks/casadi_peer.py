@@ -322,6 +322,7 @@ def c_flexures(problem: Any, used: set[str]) -> tuple[str, str]:
             f".parent = {f.parent}, .at = {c_array(list(f.at))}, .length = {f.length!r}, "
             f".gamma = {f.gamma!r}, .poly = {fn(f.poly)}, .in_range = {fn(f.in_range)}, "
             f".gauss = {fn(f.gauss)}, .gauss_in_range = {fn(f.gauss_in_range)}, "
+            f".local = {fn(f.local)}, .local_in_range = {fn(f.local_in_range)}, "
             f".tip0 = peer_tip0_{i}}}"
         )
     return "\n".join(tables), ",\n    ".join(rows)
