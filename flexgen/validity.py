@@ -355,6 +355,9 @@ class _Screen:
     # fg_margin_above and its arguments for the solver's answer (K in its workspace): whether
     # the margin to a critical load exceeds NEAR_SINGULAR
     near: tuple[Any, tuple]
+    # the limits as the core reads them (fg_problem.bend_limit, set by calm): from then on the
+    # core screens every answer itself (fg_answer.calm)
+    limit_array: Any = None
 
 
 def _screen(solver) -> _Screen:
@@ -372,6 +375,12 @@ def _screen(solver) -> _Screen:
         if levels.get(name, 0.0) > UNITS_LOAD_LEVEL:
             limit = min(limit, UNITS_BEND)
         limits.append(limit)
+    # the kernel states kernels_ok lists are those fg_answer.calm accepts (chain_solver.c:
+    # screen_calm), and NEAR_SINGULAR its near_margin
+    limit_array = np.array(limits if limits else [0.0], dtype=float)
+    struct = solver.problem.struct
+    struct.near_margin = NEAR_SINGULAR
+    struct.bend_limit = core.ffi.cast("double *", limit_array.ctypes.data)
     return _Screen(
         empty=not scene.flexures,
         always=bool(ctx.prb) and ctx.prb_problem is not None,
@@ -381,6 +390,7 @@ def _screen(solver) -> _Screen:
             (core.lib.FG_KERNEL_LOCAL, core.lib.FG_KERNEL_POLY, core.lib.FG_KERNEL_GAUSS)
         ),
         near=(core.lib.fg_margin_above, solver.margin_above_args(NEAR_SINGULAR)),
+        limit_array=limit_array,
     )
 
 
@@ -393,12 +403,21 @@ def calm(solver, result) -> bool:
     within its limit, every smooth curvature kernel within its range, the margin to a critical
     load not small: ``Solver.margin_above``), and ``check`` decides."""
     screen = getattr(solver, "_validity_screen", None)
-    if screen is None:
+    if screen is not None and not screen.empty and not screen.always:
+        return bool(solver.workspace.answer.calm)  # the core screened it (screen_calm)
+    if screen is None:  # first answer: the screen made, and given to the core for the next
         screen = solver._validity_screen = _screen(solver)
     if screen.empty:
         return True
     if screen.always:
         return False
+    return screened(solver, result, screen)
+
+
+def screened(solver, result, screen: _Screen) -> bool:
+    """``calm``'s test in Python, on the answer in ``solver.workspace``: what the core's
+    ``fg_answer.calm`` computes (chain_solver.c: screen_calm), for the first answer and the
+    test that the two agree."""
     ws = solver.workspace
     for bend, limit in zip(ws.bend.tolist(), screen.limits):
         if not bend <= limit:  # also a nan

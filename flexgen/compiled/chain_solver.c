@@ -2417,6 +2417,28 @@ static void describe_answer(fg_ws *w, fg_answer *out)
     }
 }
 
+static int margin_above(fg_ws *w, const fg_real *K, fg_real margin);
+
+/* fg_answer.calm of an answer describe_answer has described: no validity warning can apply
+ * (fg_problem.bend_limit, near_margin); 0 when the screen or what it reads was not asked for */
+static int screen_calm(fg_ws *w, const fg_answer *out)
+{
+    const fg_problem *p = w->p;
+    int i;
+    if (p->bend_limit == NULL || out->bend == NULL || out->kernel == NULL
+        || out->stiffness == NULL)
+        return 0;
+    for (i = 0; i < p->nflex; ++i) {
+        int k = out->kernel[i];
+        if (!(out->bend[i] <= p->bend_limit[i]))   /* also a NaN */
+            return 0;
+        if (k != FG_KERNEL_NONE && k != FG_KERNEL_LOCAL && k != FG_KERNEL_POLY
+            && k != FG_KERNEL_GAUSS)
+            return 0;
+    }
+    return !out->stable || margin_above(w, out->stiffness, p->near_margin);
+}
+
 /* The eigenvalues of the symmetric A (n x n, upper triangle) in ev, ascending, without
  * eigenvectors: Householder reduction to tridiagonal form, then the implicit QL method (the
  * eigenvalues-only paths of Numerical Recipes' tred2 and tqli); scratch: n n + n. 0 if QL did
@@ -2572,10 +2594,10 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
     return min_eig(w, A);
 }
 
-FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
-                           int *iwork)
+/* fg_margin_above in a bound workspace (its la and lc are overwritten) */
+static int margin_above(fg_ws *w, const fg_real *K, fg_real margin)
 {
-    fg_ws ws, *w = &ws;
+    const fg_problem *p = w->p;
     int n = p->ndof, i;
     fg_real *A;
     for (i = 0; i < n; ++i)
@@ -2583,7 +2605,6 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
             return 0;
     if (n == 0)
         return 1.0 > margin;
-    bind(w, p, work, iwork);
     A = w->lc;
     for (i = 0; i < n; ++i) {   /* K - margin D, upper triangle: positive definite iff every
                                  * generalized eigenvalue of (K, D) exceeds margin */
@@ -2592,6 +2613,14 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
         A[(size_t)i * (size_t)n + i] -= margin * p->stiffness[i];
     }
     return cholesky(w, A, w->la);
+}
+
+FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
+                           int *iwork)
+{
+    fg_ws ws;
+    bind(&ws, p, work, iwork);
+    return margin_above(&ws, K, margin);
 }
 
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
@@ -2771,6 +2800,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
     out->failure = FG_FAIL_NONE;
     out->failure_load_factor = 0.0;
     out->warm = 0;
+    out->calm = 0;
 
     clear_switched(w);
     if (p->q0 != NULL) {
@@ -2818,6 +2848,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
 answer:
     status = finish(w, cur, spare, factor, iterations, out);
     describe_answer(w, out);
+    out->calm = status == FG_SOLVED && screen_calm(w, out);
     if (out->switched != NULL)
         for (j = 0; j < p->nflex; ++j)
             out->switched[j] = w->switched[j];

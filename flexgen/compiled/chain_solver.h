@@ -191,6 +191,11 @@ typedef struct {
     fg_settings settings;
     fg_lapack lapack;
     const fg_real *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
+    /* the validity screen of an answer (fg_answer.calm): NULL, none; else nflex bend limits
+     * (rad, fg_problem.flex order) and the margin to a critical load below which an answer is
+     * near one (flexgen/validity.py sets both) */
+    const fg_real *bend_limit;
+    fg_real near_margin;
 } fg_problem;
 
 typedef struct {
@@ -239,6 +244,12 @@ typedef struct {
                            * Newton's from q0, no load path was followed) */
     int undefined_compliance;   /* FG_SOLVED: how many output points' compliances have an entry
                                  * that is not finite (K singular) */
+    int calm;             /* FG_SOLVED with fg_problem.bend_limit and bend, kernel and stiffness
+                           * asked for: 1 if every flexure's bend is within its limit, every
+                           * kernel flexure's kernel within its certified set at the answer, and
+                           * the answer unstable or its margin to a critical load above
+                           * near_margin (fg_margin_above); else 0 (a validity warning may
+                           * apply: flexgen/validity.py's check decides) */
 } fg_answer;
 
 /* fg_answer.kernel: which kernel evaluates a FG_MODEL_KERNEL flexure at the equilibrium */

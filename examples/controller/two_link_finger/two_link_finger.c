@@ -275,6 +275,11 @@ typedef struct {
     fg_settings settings;
     fg_lapack lapack;
     const fg_real *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
+    /* the validity screen of an answer (fg_answer.calm): NULL, none; else nflex bend limits
+     * (rad, fg_problem.flex order) and the margin to a critical load below which an answer is
+     * near one (flexgen/validity.py sets both) */
+    const fg_real *bend_limit;
+    fg_real near_margin;
 } fg_problem;
 
 typedef struct {
@@ -323,6 +328,12 @@ typedef struct {
                            * Newton's from q0, no load path was followed) */
     int undefined_compliance;   /* FG_SOLVED: how many output points' compliances have an entry
                                  * that is not finite (K singular) */
+    int calm;             /* FG_SOLVED with fg_problem.bend_limit and bend, kernel and stiffness
+                           * asked for: 1 if every flexure's bend is within its limit, every
+                           * kernel flexure's kernel within its certified set at the answer, and
+                           * the answer unstable or its margin to a critical load above
+                           * near_margin (fg_margin_above); else 0 (a validity warning may
+                           * apply: flexgen/validity.py's check decides) */
 } fg_answer;
 
 /* fg_answer.kernel: which kernel evaluates a FG_MODEL_KERNEL flexure at the equilibrium */
@@ -2760,6 +2771,28 @@ static void describe_answer(fg_ws *w, fg_answer *out)
     }
 }
 
+static int margin_above(fg_ws *w, const fg_real *K, fg_real margin);
+
+/* fg_answer.calm of an answer describe_answer has described: no validity warning can apply
+ * (fg_problem.bend_limit, near_margin); 0 when the screen or what it reads was not asked for */
+static int screen_calm(fg_ws *w, const fg_answer *out)
+{
+    const fg_problem *p = w->p;
+    int i;
+    if (p->bend_limit == NULL || out->bend == NULL || out->kernel == NULL
+        || out->stiffness == NULL)
+        return 0;
+    for (i = 0; i < p->nflex; ++i) {
+        int k = out->kernel[i];
+        if (!(out->bend[i] <= p->bend_limit[i]))   /* also a NaN */
+            return 0;
+        if (k != FG_KERNEL_NONE && k != FG_KERNEL_LOCAL && k != FG_KERNEL_POLY
+            && k != FG_KERNEL_GAUSS)
+            return 0;
+    }
+    return !out->stable || margin_above(w, out->stiffness, p->near_margin);
+}
+
 /* The eigenvalues of the symmetric A (n x n, upper triangle) in ev, ascending, without
  * eigenvectors: Householder reduction to tridiagonal form, then the implicit QL method (the
  * eigenvalues-only paths of Numerical Recipes' tred2 and tqli); scratch: n n + n. 0 if QL did
@@ -2915,10 +2948,10 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
     return min_eig(w, A);
 }
 
-FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
-                           int *iwork)
+/* fg_margin_above in a bound workspace (its la and lc are overwritten) */
+static int margin_above(fg_ws *w, const fg_real *K, fg_real margin)
 {
-    fg_ws ws, *w = &ws;
+    const fg_problem *p = w->p;
     int n = p->ndof, i;
     fg_real *A;
     for (i = 0; i < n; ++i)
@@ -2926,7 +2959,6 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
             return 0;
     if (n == 0)
         return 1.0 > margin;
-    bind(w, p, work, iwork);
     A = w->lc;
     for (i = 0; i < n; ++i) {   /* K - margin D, upper triangle: positive definite iff every
                                  * generalized eigenvalue of (K, D) exceeds margin */
@@ -2935,6 +2967,14 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
         A[(size_t)i * (size_t)n + i] -= margin * p->stiffness[i];
     }
     return cholesky(w, A, w->la);
+}
+
+FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
+                           int *iwork)
+{
+    fg_ws ws;
+    bind(&ws, p, work, iwork);
+    return margin_above(&ws, K, margin);
 }
 
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
@@ -3114,6 +3154,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
     out->failure = FG_FAIL_NONE;
     out->failure_load_factor = 0.0;
     out->warm = 0;
+    out->calm = 0;
 
     clear_switched(w);
     if (p->q0 != NULL) {
@@ -3161,6 +3202,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
 answer:
     status = finish(w, cur, spare, factor, iterations, out);
     describe_answer(w, out);
+    out->calm = status == FG_SOLVED && screen_calm(w, out);
     if (out->switched != NULL)
         for (j = 0; j < p->nflex; ++j)
             out->switched[j] = w->switched[j];
