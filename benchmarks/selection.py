@@ -48,7 +48,11 @@ def main(argv=None) -> int:
 
     def progress(c):
         if args.verbose:
-            flag = "" if c.true_error <= c.estimate else "  <-- true > estimate"
+            flag = ""
+            if c.true_error > c.estimate + honesty.REFERENCE_NOISE:
+                flag = "  <-- true > estimate (beyond the reference's noise)"
+            elif c.true_error > c.estimate:
+                flag = "  (true > estimate, within the reference's noise)"
             if c.cheapest is False:
                 flag += "  (one mode fewer also meets T)"
             print(
@@ -63,7 +67,8 @@ def main(argv=None) -> int:
 
     print(f"{len(scenes)} scenes (seeds {args.seeds}), {len(cases)} cases, {elapsed:.1f} s\n")
     print(
-        "| T | cases | covered (true <= estimate) | worst true/estimate | cheapest | reached "
+        f"| T | cases | covered (true <= estimate + {honesty.REFERENCE_NOISE:g}) "
+        "| worst true/estimate | cheapest | reached "
         "| true <= T (reached) | mean total modes |"
     )
     print("|---|---|---|---|---|---|---|---|")
