@@ -1,6 +1,7 @@
 """Time per compiled solve of a chain of n scm3 flexures under a tip force, n = 1 .. 32.
 
     python benchmarks/chain_scaling.py [--sizes 1,2,4,8,16,32] [--rounds 21]
+                                       [--elimination-min-size N]
 
 The chain: n flexures of length 1/n (EI = 1) in a row, each on its parent's tip, a tip force
 (0, -2) (the cantilever of examples/cantilever_tip_load.toml cut into n pieces), scm3 with the
@@ -29,6 +30,7 @@ sys.path.insert(0, str(REPO))
 import flexgen  # noqa: E402
 from flexgen import core  # noqa: E402
 from flexgen.scene import scene_from_dict  # noqa: E402
+from flexgen.settings import DEFAULT, SolverSettings  # noqa: E402
 from flexgen_tools.timing import core_call  # noqa: E402
 
 BATCH_S = 5e-3
@@ -93,7 +95,15 @@ def main(argv=None) -> None:
         help="of the batches (min: robust to other processes on the machine)",
     )
     ap.add_argument("--out", help="also write the table as a Markdown page to this file")
+    ap.add_argument(
+        "--elimination-min-size",
+        type=int,
+        default=DEFAULT.elimination_min_size,
+        help="SolverSettings.elimination_min_size (default %(default)s; 1000000000: K always "
+        "factorized densely, to time what the elimination order saves)",
+    )
     args = ap.parse_args(argv)
+    settings = SolverSettings(elimination_min_size=args.elimination_min_size)
     global STAT
     STAT = args.stat
     sizes = [int(s) for s in args.sizes.split(",")]
@@ -104,7 +114,7 @@ def main(argv=None) -> None:
     )
     for n in sizes:
         scene = chain_scene(n)
-        solver = flexgen.Solver(scene, modes=3)
+        solver = flexgen.Solver(scene, modes=3, settings=settings)
         t = time_plan(core_call(solver), args.rounds)
         if base is None:
             base = t
