@@ -183,12 +183,17 @@ def _kernel_block(name: str, single: bool) -> str:
     from flexgen.codegen.generate import CHECKED_IN, c_context
     from flexgen.symbolic.flexure import FlexureKernel
 
-    for spec in CHECKED_IN:
-        kernel = FlexureKernel(spec)
-        if kernel.name == name:
-            break
-    else:  # pragma: no cover - every kernel of flexgen._core is in CHECKED_IN
+    # the shipped spec of that name, its node count read from the name so that the kernel is
+    # derived once (deriving every spec to compare names, each searching for its node count,
+    # took most of an emission: 16 s for the finger's three kernels)
+    m = re.fullmatch(r"scm(\d+)(?:_(gauss|local)(\d+))?", name)
+    specs = [] if m is None else [s for s in CHECKED_IN if s.modes == int(m[1])]
+    specs = [s for s in specs if m is not None and s.family == (m[2] or "poly")]
+    if m is None or not specs:  # pragma: no cover - every kernel of flexgen._core is shipped
         raise EmitError(f"kernel {name!r} is not one flexgen ships")
+    spec = specs[0] if m[2] is None else replace(specs[0], nodes=int(m[3]))
+    kernel = FlexureKernel(spec)
+    assert kernel.name == name, (kernel.name, name)
     context = c_context(kernel, linkage="static ")
     suffix = "_f" if single else ""
     context["variants"] = [v for v in context["variants"] if v["suffix"] == suffix]
