@@ -36,6 +36,15 @@ def available(folder: Path = GENERATED) -> list[str]:
     return sorted(names, key=lambda n: (int(_kernel_match(n)[1]), n))
 
 
+def name_parts(name: str) -> tuple[int, str, int | None] | None:
+    """(modes, family, nodes) of a kernel name (``scm3_local9``: 3, "local", 9; ``scm3``: 3,
+    "poly", None); None if it is not a kernel name."""
+    match = _NAME.match(name)
+    if match is None:
+        return None
+    return int(match[1]), match[2] or "poly", int(match[3]) if match[3] else None
+
+
 def _kernel_match(name: str) -> re.Match[str]:
     """The _NAME match of a name already filtered by _NAME (so it matches)."""
     match = _NAME.match(name)

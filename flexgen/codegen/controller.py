@@ -180,18 +180,14 @@ def _kernel_name(pointer: Any) -> str | None:
 @functools.cache
 def _kernel_block(name: str, single: bool) -> str:
     """The C functions of a shipped kernel, static, in double (or float) precision."""
-    from flexgen.codegen.generate import CHECKED_IN, c_context
+    from flexgen.codegen.generate import c_context, checked_in_spec
     from flexgen.symbolic.flexure import FlexureKernel
 
-    # the shipped spec of that name, its node count read from the name so that the kernel is
-    # derived once (deriving every spec to compare names, each searching for its node count,
-    # took most of an emission: 16 s for the finger's three kernels)
-    m = re.fullmatch(r"scm(\d+)(?:_(gauss|local)(\d+))?", name)
-    specs = [] if m is None else [s for s in CHECKED_IN if s.modes == int(m[1])]
-    specs = [s for s in specs if m is not None and s.family == (m[2] or "poly")]
-    if m is None or not specs:  # pragma: no cover - every kernel of flexgen._core is shipped
+    # the one spec of that name, derived once (deriving every shipped spec to compare names,
+    # each searching for its node count, took most of an emission: 16 s for the finger)
+    spec = checked_in_spec(name)
+    if spec is None:  # pragma: no cover - every kernel of flexgen._core is shipped
         raise EmitError(f"kernel {name!r} is not one flexgen ships")
-    spec = specs[0] if m[2] is None else replace(specs[0], nodes=int(m[3]))
     kernel = FlexureKernel(spec)
     assert kernel.name == name, (kernel.name, name)
     context = c_context(kernel, linkage="static ")

@@ -6,6 +6,8 @@ disk until ``render.write_files``. The checked-in set is ``CHECKED_IN``.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import mpmath
 import sympy as sp
 
@@ -13,6 +15,7 @@ from flexgen.codegen.lower import count_ops, lower
 from flexgen.codegen.printers import CPrinter, NumPyPrinter, numpy_array
 from flexgen.codegen.render import render
 from flexgen.codegen.spec import BACKENDS, KernelSpec
+from flexgen.kernels import name_parts
 from flexgen.symbolic.flexure import RANGE_SAMPLES, FlexureKernel
 
 # Polynomial kernels at 90 degrees for 1..8 modes (mode selection may need up to 8) and Gauss
@@ -26,6 +29,20 @@ CHECKED_IN = (
     + tuple(KernelSpec(n, "gauss") for n in range(1, 9))
     + tuple(KernelSpec(n, "local", tol=LOCAL_TOL) for n in range(1, 9))
 )
+
+
+def checked_in_spec(name: str) -> KernelSpec | None:
+    """The ``CHECKED_IN`` spec of a shipped kernel's name, its node count taken from the name
+    (deriving it then does not search for the count again); None if flexgen ships no such
+    kernel."""
+    parts = name_parts(name)
+    if parts is None:
+        return None
+    modes, family, nodes = parts
+    for spec in CHECKED_IN:
+        if spec.modes == modes and spec.family == family:
+            return spec if nodes is None else replace(spec, nodes=nodes)
+    return None
 
 
 def command_line(kernel: FlexureKernel) -> str:
