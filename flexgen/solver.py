@@ -381,13 +381,12 @@ class Solver:
     def margin_above(self, margin: float) -> bool:
         """Whether the last solve's answer's margin to a critical load (``margin()``) exceeds
         ``margin``: one Cholesky factorization (``fg_margin_above``), not the eigenvalue."""
-        return bool(core.lib.fg_margin_above(*self.margin_above_args(margin)))
-
-    def margin_above_args(self, margin: float) -> tuple:
-        """``fg_margin_above``'s arguments for this solver's answers (made once by a caller that
-        asks on every answer: ``validity.calm``)."""
         ws = self.workspace
-        return (self.problem.struct, ws.K_ptr, margin, ws.work_ptr, ws.iwork_ptr)
+        return bool(
+            core.lib.fg_margin_above(
+                self.problem.struct, ws.K_ptr, margin, ws.work_ptr, ws.iwork_ptr
+            )
+        )
 
     def margin(self) -> float:
         """The margin to a critical load of the last solve's answer (``fg_margin``: the

@@ -348,16 +348,9 @@ class _Screen:
     empty: bool  # no flexures: check adds nothing
     always: bool  # prb outside its fitted case: a warning on every answer
     # per flexure (core order), the bend above which some warning may apply: BEND_LIMIT, and
-    # PRB_LIMIT for prb, and UNITS_BEND at a load level above UNITS_LOAD_LEVEL
-    limits: tuple[float, ...]
-    scm: tuple[int, ...]  # core indices of the smooth curvature flexures
-    kernels_ok: frozenset[int]  # FG_KERNEL_* within range
-    # fg_margin_above and its arguments for the solver's answer (K in its workspace): whether
-    # the margin to a critical load exceeds NEAR_SINGULAR
-    near: tuple[Any, tuple]
-    # the limits as the core reads them (fg_problem.bend_limit, set by calm): from then on the
-    # core screens every answer itself (fg_answer.calm)
-    limit_array: Any = None
+    # PRB_LIMIT for prb, and UNITS_BEND at a load level above UNITS_LOAD_LEVEL; the core reads
+    # them (fg_problem.bend_limit) and screens every answer itself (fg_answer.calm)
+    limits: Any
 
 
 def _screen(solver) -> _Screen:
@@ -375,8 +368,8 @@ def _screen(solver) -> _Screen:
         if levels.get(name, 0.0) > UNITS_LOAD_LEVEL:
             limit = min(limit, UNITS_BEND)
         limits.append(limit)
-    # the kernel states kernels_ok lists are those fg_answer.calm accepts (chain_solver.c:
-    # screen_calm), and NEAR_SINGULAR its near_margin
+    # the core's screen (chain_solver.c: screen_calm) also asks every kernel flexure's kernel to
+    # be within its certified set, and the margin to a critical load above NEAR_SINGULAR
     limit_array = np.array(limits if limits else [0.0], dtype=float)
     struct = solver.problem.struct
     struct.near_margin = NEAR_SINGULAR
@@ -384,13 +377,7 @@ def _screen(solver) -> _Screen:
     return _Screen(
         empty=not scene.flexures,
         always=bool(ctx.prb) and ctx.prb_problem is not None,
-        limits=tuple(limits),
-        scm=tuple(order.index(name) for name in ctx.scm),
-        kernels_ok=frozenset(
-            (core.lib.FG_KERNEL_LOCAL, core.lib.FG_KERNEL_POLY, core.lib.FG_KERNEL_GAUSS)
-        ),
-        near=(core.lib.fg_margin_above, solver.margin_above_args(NEAR_SINGULAR)),
-        limit_array=limit_array,
+        limits=limit_array,
     )
 
 
@@ -399,35 +386,20 @@ def calm(solver, result) -> bool:
     converged ``result`` that ``solver`` (a prepared ``flexgen.Solver``) just solved, decided
     from the core's bend and kernel per flexure still in ``solver.workspace`` (call it before
     the solver solves again) without building the Result's dicts: ``flexgen.solve``'s usual
-    answer then skips ``check``. Conservative: False whenever a warning may apply (every bend
-    within its limit, every smooth curvature kernel within its range, the margin to a critical
-    load not small: ``Solver.margin_above``), and ``check`` decides."""
+    answer then skips ``check``. Conservative: False whenever a warning may apply (it needs every
+    bend within its limit, every smooth curvature kernel within its range and the margin to a
+    critical load not small: the core's screen, ``fg_answer.calm``, given the limits on the
+    first call), and ``check`` decides."""
     screen = getattr(solver, "_validity_screen", None)
     if screen is not None and not screen.empty and not screen.always:
         return bool(solver.workspace.answer.calm)  # the core screened it (screen_calm)
-    if screen is None:  # first answer: the screen made, and given to the core for the next
-        screen = solver._validity_screen = _screen(solver)
-    if screen.empty:
-        return True
-    if screen.always:
-        return False
-    return screened(solver, result, screen)
+    if screen is None:  # first answer: the screen made and given to the core, which screens
+        screen = solver._validity_screen = _screen(solver)  # every answer from now on
+        if not screen.empty and not screen.always:  # this one, solved before, by fg_calm
+            from flexgen import core
 
-
-def screened(solver, result, screen: _Screen) -> bool:
-    """``calm``'s test in Python, on the answer in ``solver.workspace``: what the core's
-    ``fg_answer.calm`` computes (chain_solver.c: screen_calm), for the first answer and the
-    test that the two agree."""
-    ws = solver.workspace
-    for bend, limit in zip(ws.bend.tolist(), screen.limits):
-        if not bend <= limit:  # also a nan
-            return False
-    if screen.scm:
-        kernels, ok = ws.kernel.tolist(), screen.kernels_ok
-        for i in screen.scm:
-            if kernels[i] not in ok:
-                return False
-    # near a critical load (a warning): one Cholesky factorization decides, the margin itself
-    # (an eigenvalue) is computed only when check needs its value
-    margin_above, args = screen.near
-    return not result.stable or bool(margin_above(*args))
+            ws = solver.workspace
+            return bool(
+                core.lib.fg_calm(solver.problem.struct, ws.answer, ws.work_ptr, ws.iwork_ptr)
+            )
+    return screen.empty  # (no flexures: nothing to warn about; prb outside its fit: always)

@@ -941,7 +941,8 @@ def render_markdown(data: BenchData) -> str:
         "",
         "`Solver.run()` is `Solver.solve()` without building the Result (the answer stays in the "
         "workspace arrays); flexgen.solve adds the error estimate (`fg_estimate`) and the "
-        "validity check (whether the margin to a critical load exceeds 5 %: `fg_margin_above`).",
+        "validity check (whether the margin to a critical load exceeds 5 %: the core's screen, "
+        "`fg_answer.calm`).",
     ]
     L += [
         "",

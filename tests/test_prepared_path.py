@@ -86,18 +86,23 @@ def test_calm_only_when_check_adds_nothing(case):
     if not result.converged:
         pytest.skip("check assesses converged answers only")
     result.stability_margin = solver.margin()
-    calm = validity.calm(solver, result)  # the first answer: screened in Python
+    calm = validity.calm(solver, result)  # the first answer: screened by fg_calm
     before = list(result.warnings)
     validity.check(scene, result, solver.models)
     added = result.warnings[len(before) :]
     assert calm == (added == []) if expected is None else (not calm and added)
-    # from the second answer on the core screens it (fg_answer.calm): the same verdict
+    # from the second answer on fg_solve screens it (fg_answer.calm): the same verdict, and the
+    # same as fg_calm's on that answer
     again = solver.solve(estimate=True)
     screen = solver._validity_screen
     assert validity.calm(solver, again) == calm
     if not screen.empty and not screen.always:  # (else calm decides without an answer)
-        assert validity.screened(solver, again, screen) == calm
-        assert bool(solver.workspace.answer.calm) == calm
+        ws = solver.workspace
+        lib = flexgen.core.lib
+        assert (
+            bool(lib.fg_calm(solver.problem.struct, ws.answer, ws.work_ptr, ws.iwork_ptr)) == calm
+        )
+        assert bool(ws.answer.calm) == calm
 
 
 def test_a_kept_answer_is_not_changed_by_the_next_solve():

@@ -2623,6 +2623,13 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
     return margin_above(&ws, K, margin);
 }
 
+FG_API int fg_calm(const fg_problem *p, const fg_answer *out, fg_real *work, int *iwork)
+{
+    fg_ws ws;
+    bind(&ws, p, work, iwork);
+    return screen_calm(&ws, out);
+}
+
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch)
 {

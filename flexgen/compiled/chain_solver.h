@@ -283,6 +283,12 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
 FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
                            int *iwork);
 
+/* fg_answer.calm of a solved answer (out, as fg_solve filled it, with bend, kernel and stiffness)
+ * under fg_problem.bend_limit and near_margin: the screen fg_solve applies to its own answers,
+ * for an answer solved before the screen was given (one Cholesky factorization, in the solver's
+ * workspace) */
+FG_API int fg_calm(const fg_problem *p, const fg_answer *out, fg_real *work, int *iwork);
+
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
  * eigenvalue (major >= minor) and the angle of the major axis from the x axis in (-pi/2, pi/2],
  * 0 when major - minor <= circle_tol max(|major|, |minor|) (a circle); NAN if C is not finite.

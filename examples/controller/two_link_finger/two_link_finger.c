@@ -367,6 +367,12 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
 FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin, fg_real *work,
                            int *iwork);
 
+/* fg_answer.calm of a solved answer (out, as fg_solve filled it, with bend, kernel and stiffness)
+ * under fg_problem.bend_limit and near_margin: the screen fg_solve applies to its own answers,
+ * for an answer solved before the screen was given (one Cholesky factorization, in the solver's
+ * workspace) */
+FG_API int fg_calm(const fg_problem *p, const fg_answer *out, fg_real *work, int *iwork);
+
 /* The compliance ellipse of a 2 x 2 compliance C (row-major, symmetrized): out = major, minor
  * eigenvalue (major >= minor) and the angle of the major axis from the x axis in (-pi/2, pi/2],
  * 0 when major - minor <= circle_tol max(|major|, |minor|) (a circle); NAN if C is not finite.
@@ -2977,6 +2983,13 @@ FG_API int fg_margin_above(const fg_problem *p, const fg_real *K, fg_real margin
     return margin_above(&ws, K, margin);
 }
 
+FG_API int fg_calm(const fg_problem *p, const fg_answer *out, fg_real *work, int *iwork)
+{
+    fg_ws ws;
+    bind(&ws, p, work, iwork);
+    return screen_calm(&ws, out);
+}
+
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch)
 {
@@ -3905,7 +3918,9 @@ static const fg_problem two_link_finger_problem = {
         .linearized_step = 30.0
     },
     .lapack = {NULL, NULL, NULL, NULL, NULL},   /* the built-in factorizations */
-    .q0 = NULL
+    .q0 = NULL,
+    .bend_limit = NULL,   /* no validity screen (fg_answer.calm): the controller's flags say it */
+    .near_margin = 0.0
 };
 
 void two_link_finger_inputs_default(two_link_finger_inputs *in)
@@ -3951,6 +3966,7 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     (void)fg_margin;
     (void)fg_margin_above;
     (void)fg_flexure_tip;
+    (void)fg_calm;        /* the validity screen is flexgen's; the controller has its flags */
     (void)fg_estimate;   /* the error estimate is flexgen's (Python), not the controller's */
     (void)fg_work_size;   /* its sizes are TWO_LINK_FINGER_NWORK, _NIWORK */
     (void)fg_iwork_size;
