@@ -2764,7 +2764,7 @@ static void describe_answer(fg_ws *w, fg_answer *out)
         if (out->kernel != NULL) {
             int state = FG_KERNEL_NONE;
             if (f->kind == FG_MODEL_KERNEL) {
-                int first = f->poly != NULL || f->local != NULL ? first_kernel(w, i, q, known) : 0;
+                int first = first_kernel(w, i, q, known);   /* 0 for a Gauss-only flexure */
                 if (first)
                     state = first;
                 else if (f->gauss != NULL)
