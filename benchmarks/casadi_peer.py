@@ -702,8 +702,9 @@ Contenders:
   (`benchmarks/casadi/controller_peer.c`).
 - **flexgen controller, kernel local**: the same, from the scene with `[model] kernel = "local"`:
   every flexure evaluated by its local Gauss kernel (`scm3_local9`: 9 nodes, its error bound
-  certified at each q), where the default `"auto"` evaluates the certified polynomial kernel
-  (`scm3`) while in its 90-degree range.
+  certified at each q), then the Gauss kernel; the default `"auto"` tries the same local kernel
+  first and the certified polynomial kernel (`scm3`) before the Gauss kernel, so on these scenes
+  the two evaluate the same kernel.
 - **flexgen core (fg_solve)**: the solver core on the `fg_problem` that `flexgen.Solver` fills for
   the scene, written out as C constants; warm through `fg_problem.q0`
   (`benchmarks/casadi/fg_core_peer.c`).
@@ -746,7 +747,8 @@ A disagreement stops the benchmark (exit 1) before anything is timed.
 The last two columns measure the same errors against the 3-mode model itself: the SX potential
 with {reference_nodes} Gauss nodes per flexure (quadrature converged to rounding), solved by Newton
 in NumPy from flexgen's q. They are each kernel's error at the answer: flexgen's certified
-polynomial kernel (scm3) against the CasADi peer's 8-node Gauss quadrature.
+kernel (the local kernel `scm3_local9` on these scenes) against the CasADi peer's 8-node Gauss
+quadrature.
 
 | scene | contender | pose vs flexgen.solve | compliance vs flexgen.solve | pose vs the model | compliance vs the model |
 |---|---|---|---|---|---|

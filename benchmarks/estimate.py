@@ -77,6 +77,7 @@ def cost(number: int, repeat: int) -> None:
 
 def honesty(seeds: list[int], verbose: bool) -> None:
     from flexgen_tools.estimate_honesty import estimate_cases, estimate_rates, estimate_scenes
+    from flexgen_tools.honesty import REFERENCE_NOISE
 
     scenes = []
     for k, seed in enumerate(seeds):
@@ -98,10 +99,14 @@ def honesty(seeds: list[int], verbose: bool) -> None:
         f"{time.perf_counter() - t0:.1f} s"
     )
     print(
-        f"covered (every point's true pose and compliance error <= its estimate): "
-        f"{r['covered']:.1%}; whole answer (true <= error_estimate): {r['covered_whole']:.1%}"
+        f"covered (every point's true pose error <= its estimate, compliance error <= its "
+        f"estimate + the reference's noise {REFERENCE_NOISE:g}): {r['covered']:.1%}; "
+        f"whole answer (true <= error_estimate + that noise): {r['covered_whole']:.1%}"
     )
-    print(f"worst true/estimate: {r['worst_ratio']:.3f} ({w.scene}, {w.model})")
+    print(
+        f"worst true/estimate: {r['worst_ratio']:.3f} ({w.scene}, {w.model}); over the errors "
+        f"the reference resolves: {r['worst_resolved_ratio']:.3f}"
+    )
     print(
         f"above 10x the estimate: {len(r['above_10x_unwarned'])} without a warning, "
         f"{len(r['above_10x_warned'])} with one"

@@ -43,7 +43,9 @@ few nodes, the error certified at each q, 0.5x to 0.2x the polynomial kernel's t
 modes; where the certificate fails, the Gauss kernel certified on 180 degrees), whatever kernel
 the answer's model uses. Every smooth curvature flexure also adds its kernel's certified bounds
 (the answer's and the richer model's: ``ERROR_BOUND L_i / L_p`` on the positions beyond it,
-``2 JACOBIAN_ERROR_BOUND`` on the compliance), a floor below which the comparison cannot see.
+``2 JACOBIAN_ERROR_BOUND`` on the compliance), a floor below which the comparison cannot see,
+and every estimate the answer's rounding (``ROUNDING_POSE``, ``ROUNDING_COMPLIANCE``): no
+answer is claimed exact.
 
 When the richer model finds no stable equilibrium (or an equilibrium with undefined
 compliance), the estimate is inf and ``Estimate.warning`` says why. With several flexures the
@@ -78,6 +80,12 @@ MAX_SCM = 8  # the richest smooth curvature kernel shipped
 # each time, 5 to 9 times the answer's own solve, with 1 max_dq); Newton from there lands on the
 # equilibrium the solve finds (the honesty suite of tests/test_estimate.py holds it to that)
 REACH = 2.0
+# What no comparison of two double-precision answers resolves, added to every estimate (pose,
+# compliance) so that none claims an exact answer: an unloaded branch's pose is exact in every
+# model, and its estimate was 0 where the answer is off by rounding (measured up to 1.3e-15 of
+# L_p, fem on a random tree: tests/test_estimate.py); a compliance J K^-1 J^T rounds to about
+# cond(K) eps, and the stiffnesses of the honesty suites stay below cond 1e4
+ROUNDING_POSE, ROUNDING_COMPLIANCE = 1e-14, 1e-12
 
 
 class Estimate(NamedTuple):
@@ -238,13 +246,15 @@ class Estimator:
         scales = length_scales(scene, refs) if scene.flexures and refs else {}
         self.scales = [float(scales[r]) for r in refs]
         self._scale = np.array(self.scales or [1.0])
-        # the kernel floors fg_estimate adds: each point's position floor (they add along the
-        # path), then the compliance floor (the largest)
-        self._floors = floors = np.zeros(len(refs) + 1)
+        # the floors fg_estimate adds: each point's position floor (rounding, and the kernel
+        # bounds, which add along the path), then the compliance floor (rounding and the
+        # largest kernel bound)
+        self._floors = floors = np.full(len(refs) + 1, ROUNDING_POSE)
+        floors[-1] = ROUNDING_COMPLIANCE
         for name, m in solver.models.items():
             a = _kernel_bounds(m)
             b = _kernel_bounds(rich[name])
-            floors[-1] = max(floors[-1], a[1] + b[1])
+            floors[-1] = max(floors[-1], ROUNDING_COMPLIANCE + a[1] + b[1])
             L = scene.flexure(name).length
             for i, ref in enumerate(refs):
                 body, _ = scene.resolve_point(ref)

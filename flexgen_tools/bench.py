@@ -344,6 +344,28 @@ def errors(scene: Scene, ans: Answer, ref: Answer) -> tuple[float, float]:
     return pe, ce
 
 
+def estimate_check(scene: Scene, ans: Answer, ref: Answer) -> tuple[bool, float] | None:
+    """Is ``ans``'s error estimate honest against ``ref`` (the exact elastica)? (covered, worst
+    true/estimate) over its output points, pose and compliance, measured as ``errors`` does:
+    covered when every pose error is within its estimate and every compliance error within its
+    estimate plus the exact reference's own noise (``honesty.REFERENCE_NOISE``, as
+    ``tests/test_estimate.py`` counts it). None: no answer or no estimate."""
+    from .honesty import REFERENCE_NOISE
+
+    r = ans.result
+    if not ans.converged or r is None or getattr(r, "error_estimate", None) is None:
+        return None
+    covered, worst = True, 0.0
+    for p in ref.poses:
+        e = r.points[p].error_estimate
+        pe = _pose_error(scene, p, ans.poses[p], ref.poses[p])
+        ce = compliance_error(ans.compliance[p], ref.compliance[p])
+        covered = covered and pe <= e["pose"] and ce <= e["compliance"] + REFERENCE_NOISE
+        for true, est in ((pe, e["pose"]), (ce, e["compliance"])):
+            worst = max(worst, true / est if est > 0 else (0.0 if true == 0 else math.inf))
+    return covered, worst
+
+
 @dataclass
 class Timed:
     """One model on one scene: its answer, seconds per solve three ways, kernel evaluations."""
@@ -368,7 +390,7 @@ def measure(scene: Scene, md: ModelDef, repeats: int = 7, budget_s: float = 2.0)
 
     sc = md.scene(scene)
     solver = Solver(sc)
-    ans = answer_of(solver.solve())
+    ans = answer_of(solver.solve(estimate=True))  # the answer flexgen.solve gives, estimated
     evals = evaluations(solver)
     t_api, t_prepared, t_core = time_interleaved(
         [lambda: flexgen.solve(sc), solver.solve, core_call(solver)],
@@ -516,6 +538,8 @@ class BenchData:
     times_core: dict = field(default_factory=dict)  # ... the bare core call
     evals: dict = field(default_factory=dict)  # (model label, scene) -> kernel evaluations
     ok: dict = field(default_factory=dict)  # (model label, scene) -> converged
+    # (model label, scene) -> (covered, worst true/estimate) of the answer's error estimate
+    estimate: dict = field(default_factory=dict)
     c_ns: dict = field(default_factory=dict)  # kernel name -> ns per C call
     summary: dict = field(default_factory=dict)  # model label -> dict (see summarize)
     targets: dict = field(default_factory=dict)
@@ -668,6 +692,8 @@ def run_bench(
                 m = measure(scene, md, repeats, budget)
                 pe, ce = errors(scene, m.answer, ref)  # exact: against its own earlier run
                 ok = m.answer.converged
+                if md.kind != "exact":
+                    data.estimate[key] = estimate_check(scene, m.answer, ref)
                 times = (m.api, m.prepared, m.core)
                 evals = m.evaluations
             except Exception as exc:  # noqa: BLE001 - a model failing is a data point
@@ -902,6 +928,8 @@ def render_markdown(data: BenchData) -> str:
         "",
         "Bold: on the Pareto front of (Solver.solve() time, median pose error).",
         "",
+        *estimate_section(data),
+        "",
         "## Per scene (pose error / Solver.solve() us / core call us)",
         "",
         "| scene | " + " | ".join(md.label for md in data.models) + " |",
@@ -991,6 +1019,44 @@ def render_markdown(data: BenchData) -> str:
         "",
     ]
     return "\n".join(L)
+
+
+def estimate_section(data: BenchData) -> list[str]:
+    """The page's account of the error estimate: per model and over the suite, the answers
+    whose every point is within its estimate (``estimate_check``) and the worst
+    true/estimate (issue 10)."""
+    from .honesty import REFERENCE_NOISE
+
+    rows, every = [], []
+    for md in data.models:
+        got = [data.estimate[md.label, s] for s in data.scenes if data.estimate.get((md.label, s))]
+        if not got:
+            continue
+        every += got
+        covered = sum(c for c, _ in got)
+        rows.append(
+            f"| {md.label} | {len(got)} | {covered / len(got):.0%} | {max(r for _, r in got):.2f} |"
+        )
+    if not every:
+        return []
+    share = sum(c for c, _ in every) / len(every)
+    worst = max(r for _, r in every)
+    return [
+        "## The error estimate against the exact elastica",
+        "",
+        "Every chain-model answer above with its `error_estimate` (`Solver.solve(estimate=True)`, "
+        "what `flexgen.solve` gives), against the exact elastica, per output point and measured "
+        "as the errors above: covered when every point's pose error is within its pose estimate "
+        "and its compliance error within its compliance estimate plus the exact reference's own "
+        f"noise ({REFERENCE_NOISE:g}, `flexgen_tools.honesty.REFERENCE_NOISE`); worst: the "
+        "largest true/estimate over the points and both errors. Over the suite: "
+        f"{len(every)} answers, {share:.1%} covered, worst true/estimate {worst:.2f} (issue 10: "
+        "at least 95 % covered and never above 10x without a warning).",
+        "",
+        "| model | answers | covered | worst true/estimate |",
+        "|---|---:|---:|---:|",
+        *rows,
+    ]
 
 
 def write_outputs(data: BenchData, out: Path) -> tuple[Path, Path]:

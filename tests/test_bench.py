@@ -5,10 +5,13 @@ assertions."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
 from flexgen_tools import bench, timing
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 @pytest.fixture(scope="module")
@@ -26,6 +29,33 @@ def test_files_written(run):
     assert "## Targets" in text and "two-flexure finger" in text
     for m in data.models:
         assert f"| {m.label} |" in text or f"| **{m.label}** |" in text
+
+
+def test_the_page_states_the_estimates_honesty(run):
+    """Issue 10: coverage and the worst true/estimate on the page, from this run's answers."""
+    data, out = run
+    text = (out / "accuracy-vs-speed.md").read_text()
+    assert "## The error estimate against the exact elastica" in text
+    checked = [v for v in data.estimate.values() if v is not None]
+    assert len(checked) >= 10
+    assert sum(c for c, _ in checked) / len(checked) >= 0.95
+    assert max(r for _, r in checked) <= 10.0
+
+
+def test_the_estimate_check_sees_an_understatement():
+    """estimate_check against the answer itself: covered, ratio 0; against a reference moved
+    by ten times the pose estimate: not covered, ratio about 10."""
+    import flexgen
+
+    scene = flexgen.load_scene(EXAMPLES / "cantilever_tip_load.toml")
+    ans = bench.answer_of(flexgen.solve(scene))
+    assert bench.estimate_check(scene, ans, ans) == (True, 0.0)
+    ref = bench.answer_of(flexgen.solve(scene))
+    for name, pose in ref.poses.items():
+        scale = bench.path_length(scene, name)
+        pose[1] += 10 * ans.result.points[name].error_estimate["pose"] * scale
+    covered, worst = bench.estimate_check(scene, ans, ref)
+    assert not covered and 9 < worst < 11
 
 
 def test_suite_has_examples_and_random(run):

@@ -143,6 +143,27 @@ def test_the_estimate_is_honest_against_the_exact_elastica():
     assert rates["above_10x_unwarned"] == [], rates["above_10x_unwarned"]
 
 
+@pytest.mark.parametrize("kw", [{"model": "fem", "elements": 4}, {"model": "cc"}, {}])
+def test_an_unloaded_branch_is_estimated_at_rounding_not_zero(kw):
+    """A tree's unloaded branch is placed exactly by every model, to rounding: its pose
+    estimate is the rounding floor (fem has no kernel bound to lift it: it was 0 while the
+    answer was 1e-15 off), and the true error against the exact elastica is within it."""
+    from flexgen.select import error_components, length_scales, outputs_of
+    from flexgen_tools.estimate_honesty import _tree
+
+    scene = _tree(np.random.default_rng(0), 0)[1]
+    r = flexgen.solve(scene, **kw)
+    exact = outputs_of(flexgen.solve(scene, model="exact"))
+    got = outputs_of(r)
+    true = error_components(got, exact, length_scales(scene, exact)).reshape(-1, 3)
+    e = r.points["lb.pad"].error_estimate
+    assert e["pose"] >= E.ROUNDING_POSE and e["compliance"] >= E.ROUNDING_COMPLIANCE
+    if kw.get("model") == "fem":
+        assert e["pose"] == E.ROUNDING_POSE  # the unloaded branch: rounding alone
+    dpos, dth, _ = true[list(r.points).index("lb.pad")]
+    assert max(dpos, dth) <= e["pose"]
+
+
 def test_the_honesty_check_can_fail(monkeypatch):
     """With the margins turned into under-statements (half the measured difference), the same
     check misses: it is not vacuous."""
