@@ -352,7 +352,7 @@ def estimate_check(scene: Scene, ans: Answer, ref: Answer) -> tuple[bool, float]
     ``tests/test_estimate.py`` counts it). None: no answer or no estimate."""
     from .honesty import REFERENCE_NOISE
 
-    r = ans.result
+    r: Any = ans.result  # a chain-model Result
     if not ans.converged or r is None or getattr(r, "error_estimate", None) is None:
         return None
     covered, worst = True, 0.0
