@@ -16,8 +16,8 @@ Error measure (``error_components``), per output point p, against a reference an
 
 the error of an answer is the largest of these over all output points.
 
-Estimator (see docs/selection.md). Let R be the *rich* model: every flexure at M modes (8 with the
-polynomial kernel when the flexure stays within its range, else 6 with the Gauss kernel). For a
+Estimator (see docs/selection.md). Let R be the *rich* model: every flexure at M modes (8, with the
+polynomial kernel when the flexure stays within its range, else with the Gauss kernel). For a
 flexure i and N < M, solve with N modes on i and every other flexure rich (warm-started from R's
 equilibrium), and let d_i(N) = |answer(N) - answer(N + 2)| componentwise (comparing N with N + 2
 skips the even/odd plateaus of the Legendre series). The truncation error of N is estimated by the

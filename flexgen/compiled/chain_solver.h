@@ -162,7 +162,7 @@ typedef struct {
     int elimination_min_size;       /* from this many coordinates on, K is factorized by first
                                      * eliminating each flexure's coordinates that couple only
                                      * within it and with the angles (chain_solver.c) */
-    int bend_samples;               /* fg_answer.bend: points along each flexure (>= 2) */
+    int bend_samples;               /* fg_answer.bend: points along each flexure (>= 1) */
     double circle_tol;              /* an ellipse whose axes differ by less than this (relative)
                                      * is a circle: its angle is 0 */
     double linearized_step;         /* Newton's last step taken unevaluated (its end linearized)

@@ -46,8 +46,8 @@
  * points: the load points, then the tendon route points, then the outputs, each point once),
  * flexgen/solver.py calls fg_solve and builds the Result from fg_answer (the buckling and
  * snap-through warnings from the critical events: BUCKLING_SIDES words the FG_BUCKLING_* kinds),
- * and flexgen/reasons.py words the FG_FAIL_* and FG_ERR_* codes. A C program fills the structs
- * itself (examples/controller/finger_controller.c). flexgen/chain.py's kinematics is a plain
+ * and flexgen/reasons.py words the FG_FAIL_* and FG_ERR_* codes. A C program gets the structs of a
+ * scene from flexgen generate --scene (examples/controller/two_link_finger/two_link_finger.c). flexgen/chain.py's kinematics is a plain
  * reference for plots and tests; this file has its own.
  *
  * Tests: tests/test_solver_core.py checks the answers against independent references (the exact
@@ -246,7 +246,7 @@ typedef struct {
     int elimination_min_size;       /* from this many coordinates on, K is factorized by first
                                      * eliminating each flexure's coordinates that couple only
                                      * within it and with the angles (chain_solver.c) */
-    int bend_samples;               /* fg_answer.bend: points along each flexure (>= 2) */
+    int bend_samples;               /* fg_answer.bend: points along each flexure (>= 1) */
     double circle_tol;              /* an ellipse whose axes differ by less than this (relative)
                                      * is a circle: its angle is 0 */
     double linearized_step;         /* Newton's last step taken unevaluated (its end linearized)

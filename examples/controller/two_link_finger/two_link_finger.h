@@ -137,7 +137,7 @@ typedef struct {
                                          * its kernel adds at the answer (scene length units;
                                          * certified; infinite past the kernel's range; 0 for
                                          * fem and prb, which have no kernel) */
-    double energy;                 /* potential energy at the equilibrium */
+    double energy;                 /* elastic energy in the flexures */
     double residual;               /* relative residual of the equilibrium equations */
     int stable;                    /* 1: a stable equilibrium */
     int iterations;                /* Newton iterations of this solve */
@@ -154,8 +154,8 @@ typedef struct {
 void two_link_finger_inputs_default(two_link_finger_inputs *in);
 
 /* The equilibrium under in (and its compliance), from state->q when it holds the answer to
- * inputs that differ from in by at most TWO_LINK_FINGER_WARM_CHANGE (relative, per kind: forces,
- * moments, tensions) and Newton converges there to a stable state close to it; else along the
+ * inputs that differ from in by at most TWO_LINK_FINGER_WARM_CHANGE (relative, per group: fx,
+ * fy, moments, tensions) and Newton converges there to a stable state close to it; else along the
  * load path from the unloaded state, as flexgen.solve does (buckling and snap-through
  * included). Updates state on TWO_LINK_FINGER_SOLVED, clears state->solved otherwise. Returns
  * TWO_LINK_FINGER_SOLVED, TWO_LINK_FINGER_NO_EQUILIBRIUM or TWO_LINK_FINGER_BAD_INPUT. Reentrant: no shared
