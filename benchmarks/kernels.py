@@ -732,9 +732,10 @@ def recommendation(c_rows: list[dict]) -> tuple[list[str], list[str], dict]:
             policy.append(
                 f"For N = {', '.join(map(str, poly_n))} the poly kernel is faster by more than "
                 f"{100 * (TIE - 1):.0f} % (the "
-                f"gauss kernel costs {span} as much per call in double): the runtime "
-                "should call the poly kernel while `in_range(q)` holds and fall back to the "
-                "gauss kernel (certified to 180 deg, valid at any angle) when it does not."
+                f"gauss kernel costs {span} as much per call in double): of the two, the runtime's "
+                '`"auto"` calls the poly kernel while `in_range(q)` holds and the gauss kernel '
+                "(certified to 180 deg, valid at any angle) when it does not; before either it "
+                "tries the local kernel where that certifies q (faster still: section 1)."
             )
         if gauss_n:
             r = ", ".join(f"{pairs[N]['ratio']:.2f}" for N in gauss_n)
@@ -884,7 +885,7 @@ def render_markdown(
             "Rows marked (not checked in) are generated for this run only, for comparison: "
             + "; ".join(f"`{k.name}`: {k.extra['peer']}" for k in peers)
             + ". Section 4 "
-            "considers the checked-in kernels only.",
+            "considers the checked-in kernels certified on a range only.",
         ]
     within = all(r["error"]["double"]["pose"] <= r["kernel"].error_bound for r in c_rows)
     L += [
@@ -977,7 +978,8 @@ def render_markdown(
             if all_ok
             else f"Not every kernel meets {TARGET_ERROR:g} (see section 1)"
         )
-        + "; the fastest per N among those that do (C, double):",
+        + "; among the kernels certified on a range (polynomial and Gauss; the local kernels, "
+        "certified at each q, are compared in section 1), the fastest per N that does (C, double):",
         "",
     ]
     L += lines + [""] + [" ".join(policy)]

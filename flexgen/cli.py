@@ -2,6 +2,8 @@
 messages and exit codes.
 
 Exit codes: 0 success, 1 the work ran but failed (stale files, no equilibrium), 2 bad input.
+With `solve --json` or `select --json`, a scene that cannot be solved at all (bad input, or a bug)
+still prints the contract's object on stdout: ``"converged": false`` and the ``"reason"``.
 Nothing below this module prints errors or exits: the commands raise, and main() reports, always
 as one line on stderr with control characters escaped; an unexpected exception is reported the
 same way ("internal error", exit 1) rather than as a traceback (FLEXGEN_TRACEBACK=1 re-raises).
@@ -20,6 +22,9 @@ from flexgen.commands.common import UsageError
 
 # subcommand modules under flexgen/commands/, in the order `flexgen --help` lists them
 COMMANDS = ("generate", "solve", "plot", "select", "sweep", "bench", "stability")
+
+# the subcommands whose --json prints a Result: on bad input too (the contract)
+JSON_COMMANDS = ("solve", "select")
 
 # exceptions whose message is a complete one-line answer to the user (exit 2)
 USER_ERRORS: tuple[type[Exception], ...] = (UsageError, SpecError, OutputError)
@@ -75,11 +80,14 @@ def main(argv=None) -> int:
 
 def _main(argv) -> int:
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = None
     try:
         args = parser.parse_args(argv)
         return args.run(args)
     except _user_errors() as exc:
         _error(f"error: {exc}")
+        _json_failure(argv, args, str(exc))
         return 2
     except KeyboardInterrupt:
         _error("interrupted")
@@ -92,8 +100,31 @@ def _main(argv) -> int:
         # a bug, not an answer: one line all the same (FLEXGEN_TRACEBACK=1 shows the traceback)
         if os.environ.get("FLEXGEN_TRACEBACK"):
             raise
-        _error(f"internal error: {type(exc).__name__}: {exc} (please report it)")
+        message = f"internal error: {type(exc).__name__}: {exc} (please report it)"
+        _error(message)
+        _json_failure(argv, args, message)
         return 1
+
+
+def _json_failure(argv: list, args, message: str) -> None:
+    """With `solve --json` (or `select --json`), the answer to a scene that could not be solved still goes to stdout
+    (the contract: ``"converged": false`` and the reason), after the one line on stderr. Before
+    the arguments parse, ``--json`` is looked for among them."""
+    if args is not None:
+        wanted = args.command in JSON_COMMANDS and getattr(args, "json", False)
+    else:
+        wanted = bool(argv) and argv[0] in JSON_COMMANDS and "--json" in argv
+    if not wanted:
+        return
+    from flexgen.commands.common import printable
+    from flexgen.result import Result
+
+    if args is not None:
+        scene = str(getattr(args, "scene", "") or "")
+    else:  # the scene file as given: the first argument after the command that is no option
+        scene = next((str(a) for a in argv[1:] if not str(a).startswith("-")), "")
+    reason = printable(" ".join(str(message).split()))
+    print(Result.unsolvable(printable(scene), reason).to_json(indent=2))
 
 
 def _error(message: str) -> None:

@@ -175,6 +175,14 @@ class Result:
             out["reason"] = self.reason or "not converged"
         return out
 
+    @classmethod
+    def unsolvable(cls, scene: str, reason: str) -> Result:
+        """The answer to a scene that could not be solved at all (an invalid scene, a bad
+        option): not converged, nothing solved, ``reason`` saying why. What ``flexgen solve
+        --json`` prints for bad input, as the contract asks of every scene that cannot be
+        solved."""
+        return cls(scene, False, False, 0, {}, {}, {}, reason=reason, error_estimate=math.inf)
+
     def to_json(self, indent: int | None = None) -> str:
         """The contract object as JSON (non-finite numbers become null)."""
         return json.dumps(_finite(self.contract()), indent=indent, allow_nan=False)

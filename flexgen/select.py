@@ -56,7 +56,8 @@ SAFETY = 1.05  # margin on every measured difference (see docs/selection.md)
 
 
 class SelectionError(SceneError):
-    """Bad input to the selection (tolerance <= 0, a flexure that is not "scm"): one line."""
+    """Bad input to the selection (a tolerance not in (0, 1), a flexure that is not "scm"): one
+    line."""
 
 
 def max_gauss_modes() -> int:
@@ -566,7 +567,7 @@ def select_models(scene, tolerance: float, /, **solve_kwargs) -> Selection:
 
     ``scene``: a Scene (or a path/dict, as ``flexgen.solve`` takes); ``solve_kwargs`` go to
     every chain solve (``tol`` there is the residual tolerance of the equilibrium, not this one).
-    Raises SelectionError for tolerance <= 0 or a flexure that is not "scm"."""
+    Raises SelectionError for a tolerance not in (0, 1) or a flexure that is not "scm"."""
     from .scene import as_scene
 
     tol = check_tolerance(tolerance)

@@ -93,8 +93,11 @@ def finger(alpha: float, direction_deg: float) -> Scene:
         _FINGER_CACHE["raw"] = tomllib.loads(path.read_text())
         _FINGER_CACHE["scene"] = load_scene(path)
     raw, base = _FINGER_CACHE["raw"], _FINGER_CACHE["scene"]
-    prox = base.flexures[0]
-    r = 0.045 + 0.015 + 0.015  # root -> distal joint -> pad along the straight finger
+    prox, dist = base.flexures[0], base.flexures[1]
+    # the pad's lever arm about the proximal root on the straight finger: the proximal flexure,
+    # the link to the distal joint, the distal flexure, the pad's offset on the fingertip
+    pad_x = base.link("fingertip").points["pad"][0]
+    r = prox.length + dist.at[0] + dist.length + pad_x
     P = alpha * prox.EI / (prox.length * r)
     d = math.radians(direction_deg)
     d2 = dict(raw)
@@ -519,8 +522,8 @@ def render_markdown(data: StabilityData) -> str:
         "",
         f"Two scenes: a cantilever (EI = L = 1) with a dead tip force alpha EI/L^2, and the "
         "two-link finger (`examples/two_link_finger.toml`, tendon at 10 N) with its pad force "
-        "replaced by alpha EI_p/(L_p r) (proximal flexure; r = 75 mm, the straight finger's "
-        "lever arm: alpha is the nondimensional root moment). alpha in "
+        "replaced by alpha EI_p/(L_p r) (proximal flexure; r = 95 mm, the pad's lever arm "
+        "about the proximal root on the straight finger: alpha is the nondimensional root moment). alpha in "
         f"{', '.join(f'{x:g}' for x in a)}; direction (world frame, 0 = along the undeformed "
         f"axis, i.e. tension; 180 = axial compression) in {', '.join(f'{x:g}' for x in d)} deg. "
         "Every point is solved by every model (load continuation from the unloaded state) and "

@@ -223,9 +223,30 @@ def _bad_scene(tmp_path, name) -> Path:
     return path
 
 
-def _one_line_error(code, out, err, key):
+def _one_line_error(code, out, err, key, json_out=False):
+    """Exit 2, one line on stderr naming ``key``; stdout empty, or with --json the contract's
+    object for a scene that cannot be solved (not converged, nothing solved, the reason)."""
     assert code == 2
-    assert out == ""
+    if json_out:
+        d = json.loads(out)
+        assert d["converged"] is False and key in d["reason"] and d["points"] == {}
+        assert set(d) == {
+            "scene",
+            "converged",
+            "stable",
+            "iterations",
+            "model",
+            "q",
+            "points",
+            "flexures",
+            "stiffness",
+            "error_estimate",
+            "warnings",
+            "notes",
+            "reason",
+        }
+    else:
+        assert out == ""
     lines = err.splitlines()
     assert len(lines) == 1, err
     assert key in lines[0]
@@ -237,7 +258,7 @@ def test_bad_scene_exits_2_with_one_line_naming_the_key(tmp_path, capsys, name):
     path = _bad_scene(tmp_path, name)
     for flag in ((), ("--json",)):
         code, out, err = run(capsys, "solve", path, *flag)
-        _one_line_error(code, out, err, BAD[name][2])
+        _one_line_error(code, out, err, BAD[name][2], json_out=bool(flag))
 
 
 @pytest.mark.parametrize(
@@ -252,7 +273,7 @@ def test_empty_and_broken_toml(tmp_path, capsys, text, key):
     path = tmp_path / "s.toml"
     path.write_text(text)
     code, out, err = run(capsys, "solve", path, "--json")
-    _one_line_error(code, out, err, key)
+    _one_line_error(code, out, err, key, json_out=True)
 
 
 @pytest.mark.parametrize(
@@ -267,7 +288,7 @@ def test_empty_and_broken_toml(tmp_path, capsys, text, key):
 )
 def test_bad_command_line_overrides(capsys, argv, key):
     code, out, err = run(capsys, "solve", EX / "arc_moment.toml", "--json", *argv)
-    _one_line_error(code, out, err, key)
+    _one_line_error(code, out, err, key, json_out=True)
 
 
 def test_missing_scene_file_and_bad_plot_suffix(tmp_path, capsys):
@@ -280,7 +301,7 @@ def test_missing_scene_file_and_bad_plot_suffix(tmp_path, capsys):
 
 def test_bad_input_in_a_subprocess_has_no_traceback(tmp_path):
     code, out, err = cli("solve", _bad_scene(tmp_path, "negative length"), "--json")
-    _one_line_error(code, out, err, "flexure[0].length")
+    _one_line_error(code, out, err, "flexure[0].length", json_out=True)
     code, out, err = cli("plot", EX / "arc_moment.toml", "-o", tmp_path / "x.gif")
     _one_line_error(code, out, err, "-o")
 
@@ -354,7 +375,8 @@ def test_backend_option_is_gone(capsys, value):
     """One solver: --backend is an unknown option (exit 2, one line naming it), not silently
     ignored."""
     code, out, err = run(capsys, "solve", EX / "two_link_finger.toml", "--json", "--backend", value)
-    _one_line_error(code, out, err, "--backend")
+    _one_line_error(code, out, err, "--backend", json_out=True)
+    assert json.loads(out)["scene"] == str(EX / "two_link_finger.toml")
 
 
 def test_help_names_no_backend_and_no_cache(capsys):
@@ -383,3 +405,14 @@ def test_a_path_that_ends_at_a_limit_point_says_so(tmp_path):
     line = p.stderr.strip()
     assert "\n" not in line and "Traceback" not in line
     assert "limit point" in line and "no stable state to snap to" in line
+
+
+def test_select_json_on_bad_input_prints_the_unsolvable_object(tmp_path, capsys):
+    """`flexgen select --json` on an invalid scene: exit 2, one line on stderr, and on stdout the
+    contract's object of a scene that cannot be solved (as `solve --json`)."""
+    code, out, err = run(
+        capsys, "select", _bad_scene(tmp_path, "negative length"), "--tol", "1e-3", "--json"
+    )
+    _one_line_error(code, out, err, "flexure[0].length", json_out=True)
+    code, out, err = run(capsys, "select", _bad_scene(tmp_path, "negative length"), "--tol", "1e-3")
+    _one_line_error(code, out, err, "flexure[0].length")

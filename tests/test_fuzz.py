@@ -399,8 +399,12 @@ def check_run(argv, code, out, err, caught, json_out: bool, exit1_converged: boo
         assert lines[0].startswith("flexgen: "), f"{where}: {err!r}"
         assert "internal error" not in lines[0], f"{where}: {err!r}"
         assert printable_text(lines[0]), f"{where}: {err!r}"
-    if code == 2:
+    if code == 2 and not json_out:
         assert out == "", f"{where}: {out[:300]!r}"
+    elif code == 2:  # bad input with --json: the contract's object, not converged, the reason
+        obj = json.loads(out)
+        assert obj["converged"] is False and obj["points"] == {}, where
+        assert obj["reason"] and "\n" not in obj["reason"], where
     elif json_out:
         obj = json.loads(out)
         assert isinstance(obj, dict), where

@@ -33,7 +33,7 @@ def register(sub) -> None:
         type=tolerance,
         required=True,
         metavar="T",
-        help="tolerance on the relative error of poses and compliances (> 0)",
+        help="tolerance on the relative error of poses and compliances (a number in (0, 1))",
     )
     p.add_argument(
         "--json",

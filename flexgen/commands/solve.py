@@ -2,7 +2,8 @@
 
 Exit codes: 0 an equilibrium was found; 1 none was found (one line on stderr with the reason;
 with --json the object with "converged": false and "reason" still goes to stdout); 2 bad input
-(raised as SceneError or UsageError, reported by flexgen/cli.py).
+(raised as SceneError or UsageError, reported by flexgen/cli.py, which with --json also prints
+the object of a scene that could not be solved).
 
 ``add_model_options`` and ``solve_args`` are shared with `flexgen plot`.
 """
@@ -85,7 +86,9 @@ def register(sub) -> None:
             "from the "
             "unloaded state, and report each output point's pose, 2x2 compliance and compliance "
             "ellipse. Without --json: a table. Exit codes: 0 equilibrium found, 1 no equilibrium "
-            "(reason on stderr), 2 bad input (one line on stderr naming the key)."
+            "(reason on stderr), 2 bad input (one line on stderr naming the key). With --json, stdout "
+            'holds the JSON object in every case: "converged": false and "reason" when there is '
+            "no answer."
         ),
     )
     add_model_options(p)
