@@ -36,9 +36,11 @@ import flexgen
 from flexgen import cli
 from flexgen.scene import MAX_BODIES, Flexure, ModelSpec, Scene, SceneError, scene_from_dict
 
-SEED = 20260610
-N_CLI = 1700  # in-process command-line runs of generated scenes
-N_API = 900  # API runs (scene_from_dict, and flexgen.solve on what parses)
+# FLEXGEN_FUZZ_SEED and FLEXGEN_FUZZ_SCALE run other or more scenes (e.g. SCALE=3: 7,800 runs)
+SEED = int(os.environ.get("FLEXGEN_FUZZ_SEED", "20260610"))
+SCALE = float(os.environ.get("FLEXGEN_FUZZ_SCALE", "1"))
+N_CLI = int(1700 * SCALE)  # in-process command-line runs of generated scenes
+N_API = int(900 * SCALE)  # API runs (scene_from_dict, and flexgen.solve on what parses)
 N_SUBPROCESS = 24
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,6 +10,7 @@ elastica loaded slowly (a continuation step of 0.02 of the load) under the mirro
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -18,7 +19,8 @@ import flexgen
 from flexgen.models.exact import solve_exact
 from flexgen.scene import scene_from_dict
 
-CASES = 24
+# FLEXGEN_NEAR_BIFURCATION_CASES=1000 for a longer run
+CASES = int(os.environ.get("FLEXGEN_NEAR_BIFURCATION_CASES", "24"))
 
 
 def column(seed: int) -> dict:
