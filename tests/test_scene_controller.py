@@ -88,10 +88,17 @@ def random_scene(seed: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+# the warm sequence of every mechanism: inputs at these fractions of the scene's, in order
+WARM_FACTORS = [0.1 + 0.05 * k for k in range(31)]
+
+
 def _driver(prefixes: list[str]) -> str:
     """A C++ program that includes every emitted header and prints, per mechanism, one JSON
-    line with its answer at the scene's loads."""
-    head = ["#include <cstdio>", "#include <cstring>"]
+    line with its answer at the scene's loads, and one with its warm sequence: every load and
+    tension scaled by each of WARM_FACTORS in turn, solved warm (the state kept) and cold (a
+    zeroed state), [status warm, status cold, warm start used, max |q_warm - q_cold|] per
+    step."""
+    head = ["#include <cstdio>", "#include <cstring>", "#include <cmath>"]
     head += [f'#include "{p}.h"' for p in prefixes]
     body = [
         'static void vec(const double *x, int n) { std::printf("[");',
@@ -116,6 +123,24 @@ def _driver(prefixes: list[str]) -> str:
             '    std::printf(", \\"compliance\\": ");',
             f"    vec(&out.compliance[0][0][0], 9 * {P}_NOUTPUTS);",
             '    std::printf("}\\n");',
+            "  }",
+            "  {",
+            f"    {p}_inputs base, in; {p}_state ws, cs; {p}_outputs wo, co;",
+            f"    std::memset(&ws, 0, sizeof ws); {p}_inputs_default(&base);",
+            f'    std::printf("{{\\"name\\": \\"warm {p}\\", \\"rows\\": [");',
+            f"    const double f[] = {{{', '.join(repr(f) for f in WARM_FACTORS)}}};",
+            f"    for (int k = 0; k < {len(WARM_FACTORS)}; ++k) {{",
+            "      in = base;",
+            f"      for (int i = 0; i < {P}_NLOADS; ++i)",
+            "        for (int j = 0; j < 3; ++j) in.load[i][j] *= f[k];",
+            f"      for (int i = 0; i < {P}_NTENDONS; ++i) in.tension[i] *= f[k];",
+            "      std::memset(&cs, 0, sizeof cs);",
+            f"      int sw = {p}_solve(&in, &ws, &wo), sc = {p}_solve(&in, &cs, &co);",
+            "      double dq = 0.0;",
+            f"      for (int i = 0; i < {P}_NDOF; ++i) dq = std::fmax(dq, std::fabs(wo.q[i] - co.q[i]));",
+            '      std::printf("%s[%d, %d, %d, %.3e]", k ? ", " : "", sw, sc, wo.warm, dq);',
+            "    }",
+            '    std::printf("]}\\n");',
             "  }",
         ]
     return "\n".join(head + body + ["  return 0;", "}"]) + "\n"
@@ -151,7 +176,9 @@ def built(tmp_path_factory):
     subprocess.run([*cmd, *map(str, objects), "-lm", "-o", str(exe)], check=True)
     out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
     lines = {d["name"]: d for d in map(json.loads, out.splitlines())}
-    return {prefix: (path, lines[prefix]) for prefix, path in scenes.items()}
+    answers: dict = {prefix: (path, lines[prefix]) for prefix, path in scenes.items()}
+    answers.update({f"warm {prefix}": lines[f"warm {prefix}"] for prefix in scenes})
+    return answers
 
 
 SCENE_IDS = [f"ex_{p.stem}" for p in EXAMPLES] + [f"r{s}" for s in range(RANDOM)]
@@ -205,6 +232,22 @@ def test_random_scenes_cover_what_the_issue_names():
         "fem",
         "prb",
     }
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize("prefix", SCENE_IDS)
+def test_warm_solves_give_the_cold_answers(built, prefix):
+    """Every mechanism, inputs raised step by step from 0.1 to 1.6 times the scene's: each warm
+    solve (the state of the step before kept) gives the cold solve's status and equilibrium, and
+    the warm start is used where the answer continues the one before."""
+    rows = built[f"warm {prefix}"]["rows"]
+    assert len(rows) == len(WARM_FACTORS)
+    for f, (status_warm, status_cold, _used, dq) in zip(WARM_FACTORS, rows):
+        assert status_warm == status_cold, (f, rows)
+        if status_cold == 0:
+            assert dq <= 1e-9, (f, dq)
+    if all(r[1] == 0 for r in rows):
+        assert sum(r[2] for r in rows) >= len(rows) // 2, rows
 
 
 @NEEDS_GCC
