@@ -107,9 +107,9 @@ def _main(argv) -> int:
 
 
 def _json_failure(argv: list, args, message: str) -> None:
-    """With `solve --json` (or `select --json`), the answer to a scene that could not be solved still goes to stdout
-    (the contract: ``"converged": false`` and the reason), after the one line on stderr. Before
-    the arguments parse, ``--json`` is looked for among them."""
+    """With `solve --json` (or `select --json`), the answer to a scene that could not be solved
+    still goes to stdout (the contract: ``"converged": false`` and the reason), after the one
+    line on stderr. Before the arguments parse, ``--json`` is looked for among them."""
     if args is not None:
         wanted = args.command in JSON_COMMANDS and getattr(args, "json", False)
     else:
