@@ -629,6 +629,44 @@ class _SceneProblem:
         raise RuntimeError("shooting Newton did not converge")
 
 
+def _tangent(prob, z, lam, R, J):
+    """The equilibrium path's tangent dz/dlam = -J^-1 dR/dlam at (z, lam) (residual R, shooting
+    Jacobian J there; R is linear in lam: dR/dlam = R(z, lam + 1) - R(z, lam)); None where it is
+    undefined. Near the critical load of an imperfect structure it points along the branch the
+    imperfection chose."""
+    try:
+        dR = prob.evaluate(z, lam + 1.0)[0][0] - R
+        return np.linalg.solve(J, -dR)
+    except (RuntimeError, np.linalg.LinAlgError):
+        return None
+
+
+def _imperfection_side(prob, z, lam, R, J):
+    """The soft mode's part of the path's tangent at the stable state (z, lam), as a vector: the
+    side the load pushes the structure to as it nears a critical load. The tangent is
+    -J^-1 dR/dlam; along J's softest singular pair (u, s, v) its part is -(u . dR/dlam) / s v.
+    None when the load does no work along the soft mode (u . dR/dlam within 1e-9 of |dR/dlam|: a
+    symmetric structure, or an imperfection too small to choose a side)."""
+    try:
+        dR = prob.evaluate(z, lam + 1.0)[0][0] - R
+        U, S, Vt = np.linalg.svd(J)
+    except (RuntimeError, np.linalg.LinAlgError):
+        return None
+    work = float(np.dot(U[:, -1], dR))
+    if not abs(work) > 1e-9 * float(np.linalg.norm(dR)) or not S[-1] > 0.0:
+        return None
+    return -work / S[-1] * Vt[-1]
+
+
+def _along_tangent(prob, z, lam, R, J, dz) -> bool:
+    """Whether a step dz from the stable state (z, lam) goes along the path, not against its
+    tangent: near the critical load of an imperfect structure a load step can land Newton on the
+    mirror branch, and a step against the tangent is such a jump, retried shorter (as the chain
+    solver does: docs/solver-core.md, load continuation). True where the tangent is undefined."""
+    t = _tangent(prob, z, lam, R, J)
+    return t is None or bool(np.dot(dz, t) >= 0.0)
+
+
 def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     """See ``_solve_exact``. Floating-point overflow on the way (a hostile scene's huge or tiny
     numbers) is expected and shows in the answer (not converged, or non-finite compliance, which
@@ -650,8 +688,11 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     state. The shooting Jacobian is singular exactly where the second variation is, so an odd
     number of eigenvalue crossings along the path is detected; an even number is not. If the sign
     flips (a bifurcation, e.g. a straight column past its Euler load) the solver tries to switch
-    to the branch along the null vector oriented so that the first flexure bends
-    counter-clockwise at its root (+y for a flexure along +x), and keeps it if it is stable.
+    to the branch along the null vector, oriented along the path's tangent at the last stable
+    state where it has a component there (an imperfect structure: the side its imperfection
+    chose), else so that the first flexure bends counter-clockwise at its root (+y for a flexure
+    along +x), and keeps it if it is stable. A step from a stable state against the path's
+    tangent is a jump to the mirror branch and is retried shorter.
 
     ``compliance``: d(position of p)/d(force at p), by the implicit function theorem on the
     converged shooting system (exact dR/dF, central-difference d(pos)/dz), all other loads held.
@@ -662,6 +703,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     z = np.zeros(m)
     R, J0, _, _, _ = prob.jacobian(z, 0.0)
     ref_sign = np.sign(np.linalg.det(J0))
+    R_cur, J_cur = R, J0  # the residual and Jacobian at the last accepted state (z, lam)
     lam, dlam = 0.0, min(0.1, max_step)
     hist = [(0.0, z.copy())]
     iters = 0
@@ -688,10 +730,12 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
             iters += it
             # step control: the corrector must stay close to the predictor (no branch jumping)
             ok = np.max(np.abs(z_new - guess)) < 0.1 * (1.0 + np.max(np.abs(z_new)))
+            if ok and sign == ref_sign:
+                ok = _along_tangent(prob, z, lam, R_cur, J_cur, z_new - z)
         except RuntimeError as exc:
             ok, why = False, str(exc)
         if ok:
-            _, J, _, _, _ = prob.jacobian(z_new, lam_new)
+            R_new, J, _, _, _ = prob.jacobian(z_new, lam_new)
             s_new = np.sign(np.linalg.det(J))
             if s_new != sign and dlam > 1e-3:
                 ok = False  # confirm a sign change of det J with small steps (no jump)
@@ -732,6 +776,11 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                 k = np.flatnonzero(np.abs(mus) > 1e-3 * np.max(np.abs(v)))
                 if k.size and mus[k[0]] < 0:
                     v = -v
+                # an imperfect structure: the side its imperfection chose (a symmetric one
+                # has none: the convention above stands)
+                side = _imperfection_side(prob, z, lam, R_cur, J_cur)
+                if side is not None and float(np.dot(v, side)) < 0.0:
+                    v = -v
                 for eps in (0.05, 0.2, 0.5, 1.0, 2.0):
                     try:
                         zb, itb = prob.newton(z_new + eps * v, lam_new)
@@ -739,11 +788,19 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                         continue
                     iters += itb
                     Jb = prob.jacobian(zb, lam_new)[1]
-                    if np.sign(np.linalg.det(Jb)) == ref_sign and np.max(np.abs(zb - z_new)) > 1e-6:
+                    # stable, and on v's side: past the critical load of an imperfect structure
+                    # z_new may lie between the two stable branches, and a short push along v
+                    # can still fall back to the far one
+                    if (
+                        np.sign(np.linalg.det(Jb)) == ref_sign
+                        and np.max(np.abs(zb - z_new)) > 1e-6
+                        and float(np.dot(zb - z_new, v)) > 0.0
+                    ):
                         # secant from the last point before the bifurcation: predicts on the
                         # chosen side of the pitchfork (no jump to the mirror branch)
                         hist = [(lam, z.copy())]
                         z_new, s_new, switched = zb, ref_sign, True
+                        R_new, J = prob.jacobian(zb, lam_new)[:2]
                         warnings.append(
                             f"bifurcation at load factor {lam_c:.9g}: followed the stable branch"
                         )
@@ -753,6 +810,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
             sign = s_new
         hist.append((lam_new, z_new.copy()))
         lam, z = lam_new, z_new
+        R_cur, J_cur = R_new, J
         dlam = min(max_step, dlam * (1.5 if it <= 4 else 1.0))
     converged = lam >= 1.0
     lam = max(lam, 0.0)
