@@ -688,11 +688,12 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     state. The shooting Jacobian is singular exactly where the second variation is, so an odd
     number of eigenvalue crossings along the path is detected; an even number is not. If the sign
     flips (a bifurcation, e.g. a straight column past its Euler load) the solver tries to switch
-    to the branch along the null vector, oriented along the path's tangent at the last stable
-    state where it has a component there (an imperfect structure: the side its imperfection
-    chose), else so that the first flexure bends counter-clockwise at its root (+y for a flexure
-    along +x), and keeps it if it is stable. A step from a stable state against the path's
-    tangent is a jump to the mirror branch and is retried shorter.
+    to the branch along the null vector, oriented to the side the load pushed the last stable
+    state along its softest mode (an imperfect structure: the side its imperfection chose;
+    ``_imperfection_side``), else (a symmetric structure) so that the first flexure bends
+    counter-clockwise at its root (+y for a flexure along +x), and keeps it if it is stable and
+    on that side. A step from a stable state against the path's tangent is a jump to the mirror
+    branch and is retried shorter.
 
     ``compliance``: d(position of p)/d(force at p), by the implicit function theorem on the
     converged shooting system (exact dR/dF, central-difference d(pos)/dz), all other loads held.
@@ -787,7 +788,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                     except RuntimeError:
                         continue
                     iters += itb
-                    Jb = prob.jacobian(zb, lam_new)[1]
+                    Rb, Jb = prob.jacobian(zb, lam_new)[:2]
                     # stable, and on v's side: past the critical load of an imperfect structure
                     # z_new may lie between the two stable branches, and a short push along v
                     # can still fall back to the far one
@@ -800,7 +801,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                         # chosen side of the pitchfork (no jump to the mirror branch)
                         hist = [(lam, z.copy())]
                         z_new, s_new, switched = zb, ref_sign, True
-                        R_new, J = prob.jacobian(zb, lam_new)[:2]
+                        R_new, J = Rb, Jb
                         warnings.append(
                             f"bifurcation at load factor {lam_c:.9g}: followed the stable branch"
                         )
