@@ -230,21 +230,7 @@ def _one_line_error(code, out, err, key, json_out=False):
     if json_out:
         d = json.loads(out)
         assert d["converged"] is False and key in d["reason"] and d["points"] == {}
-        assert set(d) == {
-            "scene",
-            "converged",
-            "stable",
-            "iterations",
-            "model",
-            "q",
-            "points",
-            "flexures",
-            "stiffness",
-            "error_estimate",
-            "warnings",
-            "notes",
-            "reason",
-        }
+        assert set(d) == CHAIN_CONTRACT | {"reason"}
     else:
         assert out == ""
     lines = err.splitlines()
