@@ -629,42 +629,48 @@ class _SceneProblem:
         raise RuntimeError("shooting Newton did not converge")
 
 
-def _tangent(prob, z, lam, R, J):
-    """The equilibrium path's tangent dz/dlam = -J^-1 dR/dlam at (z, lam) (residual R, shooting
-    Jacobian J there; R is linear in lam: dR/dlam = R(z, lam + 1) - R(z, lam)); None where it is
-    undefined. Near the critical load of an imperfect structure it points along the branch the
-    imperfection chose."""
+def _load_derivative(prob, z, lam, R):
+    """dR/dlam at (z, lam) (R: the residual there), exact since R is linear in lam:
+    R(z, lam + 1) - R(z, lam); None where the shooting refuses."""
     try:
-        dR = prob.evaluate(z, lam + 1.0)[0][0] - R
-        return np.linalg.solve(J, -dR)
-    except (RuntimeError, np.linalg.LinAlgError):
+        return prob.evaluate(z, lam + 1.0)[0][0] - R
+    except RuntimeError:
         return None
 
 
-def _imperfection_side(prob, z, lam, R, J):
-    """The soft mode's part of the path's tangent at the stable state (z, lam), as a vector: the
-    side the load pushes the structure to as it nears a critical load. The tangent is
-    -J^-1 dR/dlam; along J's softest singular pair (u, s, v) its part is -(u . dR/dlam) / s v.
-    None when the load does no work along the soft mode (u . dR/dlam within 1e-9 of |dR/dlam|: a
-    symmetric structure, or an imperfection too small to choose a side)."""
+def _along_tangent(J, dR, dz) -> bool:
+    """Whether a step dz from a stable state (shooting Jacobian J, dR/dlam there) goes along the
+    equilibrium path, not against its tangent dz/dlam = -J^-1 dR/dlam: near the critical load of
+    an imperfect structure the tangent points along the branch the imperfection chose, and a
+    load step can land Newton on the mirror branch; a step against the tangent is such a jump,
+    retried shorter (as the chain solver does: docs/solver-core.md, load continuation). True
+    where the tangent is undefined."""
+    if dR is None:
+        return True
     try:
-        dR = prob.evaluate(z, lam + 1.0)[0][0] - R
+        tangent = np.linalg.solve(J, -dR)
+    except np.linalg.LinAlgError:
+        return True
+    return bool(np.dot(dz, tangent) >= 0.0)
+
+
+def _imperfection_side(J, dR):
+    """The soft mode's part of the path's tangent at a stable state (shooting Jacobian J,
+    dR/dlam there), as a vector: the side the load pushes the structure to as it nears a
+    critical load. The tangent is -J^-1 dR/dlam; along J's softest singular pair (u, s, v) its
+    part is -(u . dR/dlam) / s v. None when the load does no work along the soft mode
+    (u . dR/dlam within 1e-9 of |dR/dlam|: a symmetric structure, or an imperfection too small
+    to choose a side)."""
+    if dR is None:
+        return None
+    try:
         U, S, Vt = np.linalg.svd(J)
-    except (RuntimeError, np.linalg.LinAlgError):
+    except np.linalg.LinAlgError:
         return None
     work = float(np.dot(U[:, -1], dR))
     if not abs(work) > 1e-9 * float(np.linalg.norm(dR)) or not S[-1] > 0.0:
         return None
     return -work / S[-1] * Vt[-1]
-
-
-def _along_tangent(prob, z, lam, R, J, dz) -> bool:
-    """Whether a step dz from the stable state (z, lam) goes along the path, not against its
-    tangent: near the critical load of an imperfect structure a load step can land Newton on the
-    mirror branch, and a step against the tangent is such a jump, retried shorter (as the chain
-    solver does: docs/solver-core.md, load continuation). True where the tangent is undefined."""
-    t = _tangent(prob, z, lam, R, J)
-    return t is None or bool(np.dot(dz, t) >= 0.0)
 
 
 def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
@@ -704,7 +710,9 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     z = np.zeros(m)
     R, J0, _, _, _ = prob.jacobian(z, 0.0)
     ref_sign = np.sign(np.linalg.det(J0))
-    R_cur, J_cur = R, J0  # the residual and Jacobian at the last accepted state (z, lam)
+    # at the last accepted state (z, lam): the shooting Jacobian and, while it is stable,
+    # dR/dlam (the path's tangent is -J^-1 dR/dlam), found once per state for every step tried
+    J_cur, dR_cur = J0, _load_derivative(prob, z, 0.0, R)
     lam, dlam = 0.0, min(0.1, max_step)
     hist = [(0.0, z.copy())]
     iters = 0
@@ -732,7 +740,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
             # step control: the corrector must stay close to the predictor (no branch jumping)
             ok = np.max(np.abs(z_new - guess)) < 0.1 * (1.0 + np.max(np.abs(z_new)))
             if ok and sign == ref_sign:
-                ok = _along_tangent(prob, z, lam, R_cur, J_cur, z_new - z)
+                ok = _along_tangent(J_cur, dR_cur, z_new - z)
         except RuntimeError as exc:
             ok, why = False, str(exc)
         if ok:
@@ -779,7 +787,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                     v = -v
                 # an imperfect structure: the side its imperfection chose (a symmetric one
                 # has none: the convention above stands)
-                side = _imperfection_side(prob, z, lam, R_cur, J_cur)
+                side = _imperfection_side(J_cur, dR_cur)
                 if side is not None and float(np.dot(v, side)) < 0.0:
                     v = -v
                 for eps in (0.05, 0.2, 0.5, 1.0, 2.0):
@@ -811,7 +819,8 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
             sign = s_new
         hist.append((lam_new, z_new.copy()))
         lam, z = lam_new, z_new
-        R_cur, J_cur = R_new, J
+        J_cur = J
+        dR_cur = _load_derivative(prob, z, lam, R_new) if sign == ref_sign and lam < 1.0 else None
         dlam = min(max_step, dlam * (1.5 if it <= 4 else 1.0))
     converged = lam >= 1.0
     lam = max(lam, 0.0)
