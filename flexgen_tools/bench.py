@@ -350,7 +350,7 @@ def estimate_check(scene: Scene, ans: Answer, ref: Answer) -> tuple[bool, float]
     covered when every pose error is within its estimate and every compliance error within its
     estimate plus the exact reference's own noise (``honesty.REFERENCE_NOISE``, as
     ``tests/test_estimate.py`` counts it). None: no answer or no estimate."""
-    from .honesty import REFERENCE_NOISE
+    from .honesty import point_within, true_over_estimate
 
     r: Any = ans.result  # a chain-model Result
     if not ans.converged or r is None or getattr(r, "error_estimate", None) is None:
@@ -360,9 +360,10 @@ def estimate_check(scene: Scene, ans: Answer, ref: Answer) -> tuple[bool, float]
         e = r.points[p].error_estimate
         pe = _pose_error(scene, p, ans.poses[p], ref.poses[p])
         ce = compliance_error(ans.compliance[p], ref.compliance[p])
-        covered = covered and pe <= e["pose"] and ce <= e["compliance"] + REFERENCE_NOISE
-        for true, est in ((pe, e["pose"]), (ce, e["compliance"])):
-            worst = max(worst, true / est if est > 0 else (0.0 if true == 0 else math.inf))
+        covered = covered and point_within(pe, ce, e)
+        worst = max(
+            worst, true_over_estimate(pe, e["pose"]), true_over_estimate(ce, e["compliance"])
+        )
     return covered, worst
 
 

@@ -26,7 +26,14 @@ import numpy as np
 
 from flexgen.scene import Scene, load_scene, scene_from_dict
 
-from .honesty import REFERENCE_NOISE, _alpha_for_bend, cantilever, honesty_suite
+from .honesty import (
+    REFERENCE_NOISE,
+    _alpha_for_bend,
+    cantilever,
+    honesty_suite,
+    point_within,
+    true_over_estimate,
+)
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
@@ -199,13 +206,13 @@ def estimate_cases(
             for (dpos, dth, dC), p in zip(comps, res.points.values()):
                 e = p.error_estimate
                 assert e is not None
+                covered = covered and point_within(max(dpos, dth), dC, e)
                 for true, est, noise in (
                     (max(dpos, dth), e["pose"], 0.0),
                     (dC, e["compliance"], REFERENCE_NOISE),
                 ):
-                    r = true / est if est > 0 else (0.0 if true == 0 else math.inf)
+                    r = true_over_estimate(true, est)
                     ratio = max(ratio, r)
-                    covered = covered and true <= est + noise
                     if true > noise:  # the reference resolves it
                         resolved = max(resolved, r)
             true = float(comps.max()) if comps.size else 0.0

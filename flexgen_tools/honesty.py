@@ -193,18 +193,32 @@ def honesty_cases(
 REFERENCE_NOISE = 3e-9
 
 
+def true_over_estimate(true: float, estimate: float) -> float:
+    """A measured error against its estimate: true / estimate, 0 for 0 / 0, inf for an error
+    against an estimate of 0."""
+    if estimate > 0:
+        return true / estimate
+    return 0.0 if true == 0 else math.inf
+
+
+def point_within(pose_error: float, compliance_error: float, estimate: dict) -> bool:
+    """Whether one output point's measured errors are within its ``error_estimate``
+    ({"pose", "compliance"}): the pose error within the pose estimate, the compliance error
+    within the compliance estimate plus the reference's own noise (``REFERENCE_NOISE``, which
+    the compliance of the exact reference carries)."""
+    return (
+        pose_error <= estimate["pose"]
+        and compliance_error <= estimate["compliance"] + REFERENCE_NOISE
+    )
+
+
 def honesty_rates(cases: Sequence[HonestyCase]) -> dict[float, dict[str, float]]:
     """Per tolerance: cases, covered (true <= estimate + the reference's own noise
     ``REFERENCE_NOISE``), worst true/estimate, reached, cheapest."""
     out = {}
     for tol in sorted({c.tol for c in cases}, reverse=True):
         cs = [c for c in cases if c.tol == tol]
-        ratios = [
-            c.true_error / c.estimate
-            if c.estimate > 0
-            else (0.0 if c.true_error == 0 else math.inf)
-            for c in cs
-        ]
+        ratios = [true_over_estimate(c.true_error, c.estimate) for c in cs]
         checked = [c for c in cs if c.cheapest is not None]
         met = [c for c in cs if c.reached]
         out[tol] = {
