@@ -352,6 +352,12 @@ class _Screen:
     # them (fg_problem.bend_limit) and screens every answer itself (fg_answer.calm)
     limits: Any
 
+    @property
+    def by_core(self) -> bool:
+        """The core's screen decides (else the answer is calm exactly when the scene has no
+        flexures)."""
+        return not self.empty and not self.always
+
 
 def _screen(solver) -> _Screen:
     from flexgen import core
@@ -391,11 +397,11 @@ def calm(solver, result) -> bool:
     critical load not small: the core's screen, ``fg_answer.calm``, given the limits on the
     first call), and ``check`` decides."""
     screen = getattr(solver, "_validity_screen", None)
-    if screen is not None and not screen.empty and not screen.always:
+    if screen is not None and screen.by_core:
         return bool(solver.workspace.answer.calm)  # the core screened it (screen_calm)
     if screen is None:  # first answer: the screen made and given to the core, which screens
         screen = solver._validity_screen = _screen(solver)  # every answer from now on
-        if not screen.empty and not screen.always:  # this one, solved before, by fg_calm
+        if screen.by_core:  # this one, solved before, by fg_calm
             from flexgen import core
 
             ws = solver.workspace
