@@ -287,6 +287,12 @@ def _is_angle(unit: pint.Unit) -> bool:
     )
 
 
+def _dimensionless_factor(unit: pint.Unit) -> str | None:
+    """The first factor of ``unit`` that has no dimension ("degree" in mm*deg), else None."""
+    ureg = registry()
+    return next((name for name in unit._units if ureg.Unit(name).dimensionless), None)
+
+
 def _dimension_name(unit: pint.Unit) -> str:
     """The name of a unit's dimension as this module names them, else pint's ("[mass] / ...")."""
     if unit.dimensionless:
@@ -309,7 +315,9 @@ class System:
         if dimension == "angle":
             return registry().radian
         p, q = DIMENSIONS[dimension]
-        return self.length**p * self.force**q
+        if q == 0:  # not length**p * force**0: pint would keep the zero power ("m^0*N")
+            return self.length**p
+        return self.force**q if p == 0 else self.length**p * self.force**q
 
     @property
     def units(self) -> Units:
@@ -340,6 +348,8 @@ def _system(choice: Any) -> System:
             unit = _parse_unit(text)
         except UnitsError as e:
             raise UnitsError(f"{key}: {_show(text)}: {e}") from None
+        if (ratio := _dimensionless_factor(unit)) is not None:
+            raise UnitsError(f"{key}: {_show(text)}: a {k} unit cannot have the factor {ratio!r}")
         if unit.dimensionality != System(ureg.meter, ureg.newton).unit(k).dimensionality:
             raise UnitsError(
                 f"{key}: {_show(text)} has dimension {_dimension_name(unit)}, expected {k}"
@@ -385,6 +395,9 @@ def quantity(text: str, dimension: str, system: System, key: str) -> float:
         raise UnitsError(
             f"{key}: {_show(text)} has dimension {_dimension_name(unit)}, expected {dimension}"
         )
+    if dimension != "angle" and (ratio := _dimensionless_factor(unit)) is not None:
+        # pint counts angles and ratios as no dimension: "20 mm*deg" would pass as a length
+        raise fail(f"a {dimension} cannot have the factor {ratio!r} (an angle or a ratio)")
     try:
         value = float(registry().Quantity(number, unit).to(target).magnitude)
     except (OverflowError, ZeroDivisionError):
