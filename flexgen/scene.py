@@ -25,7 +25,7 @@ from types import MappingProxyType
 from typing import Any
 
 from .models.registry import MODEL_KINDS
-from .tomlorder import array_table_headers
+from .tomlorder import array_order
 from .units import Units, UnitsError, normalise
 
 KERNELS = ("auto", "poly", "gauss", "local")
@@ -334,10 +334,16 @@ class Scene:
 
 
 def _declaration_order(text: str, d: Mapping[str, Any]) -> tuple[str, ...] | None:
-    """The file order of the [[flexure]] and [[link]] tables (their headers, read by a scanner of
-    the TOML grammar: flexgen/tomlorder.py), or None if it does not match what tomllib read (an
-    inline array of tables, say): then only default parents that need no order are inferred."""
-    kinds = [key[0] for key in array_table_headers(text) if key in (("flexure",), ("link",))]
+    """The file order of the flexure and link tables: their [[flexure]]/[[link]] headers, and
+    the items of an inline array (``flexure = [{...}, ...]``) at the place of its key (read by a
+    scanner of the TOML grammar: flexgen/tomlorder.py); None if that does not match what tomllib
+    read: then only default parents that need no order are inferred."""
+    kinds: list[str] = []
+    for key, inline in array_order(text):
+        if key not in (("flexure",), ("link",)):
+            continue
+        items = d.get(key[0])
+        kinds += [key[0]] * (len(items) if inline and isinstance(items, list) else 1)
     for kind in ("flexure", "link"):
         items = d.get(kind, [])
         if not isinstance(items, list) or kinds.count(kind) != len(items):

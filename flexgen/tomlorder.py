@@ -1,4 +1,4 @@
-"""The document order of a TOML file's array-of-tables headers (``[[flexure]]``, ``[[link]]``).
+"""The document order of a TOML file's arrays of tables (``[[flexure]]``, ``[[link]]``, or inline).
 
 ``tomllib`` keeps each array of tables in its own list, so the order in which two arrays
 interleave in the file is lost. This module reads it back with a small scanner of the TOML
@@ -93,14 +93,18 @@ def _escaped(text: str, k: int) -> bool:
     return count % 2 == 1
 
 
-def array_table_headers(text: str) -> list[tuple[str, ...]]:
-    """The keys of every ``[[...]]`` header of a valid TOML document, in document order."""
+def array_order(text: str) -> list[tuple[tuple[str, ...], bool]]:
+    """Where a valid TOML document adds to its arrays of tables, in document order: (the key,
+    False) for every ``[[key]]`` header, and (the key, True) for every key assigned in the root
+    table before the first header (``flexure = [{...}, {...}]``: an inline array, whose items
+    all sit at that place; the caller keeps the keys it knows to be arrays)."""
     s = _Scan(text)
     t, n = text, s.n
-    headers: list[tuple[str, ...]] = []
+    headers: list[tuple[tuple[str, ...], bool]] = []
     i = 0
     depth = 0  # open [ and { inside a value
     line_start = True  # at the start of a top-level statement
+    in_root = True  # before the first table header: a statement there is a root key
     while i < n:
         c = t[i]
         if c in _SPACE:
@@ -111,6 +115,11 @@ def array_table_headers(text: str) -> list[tuple[str, ...]]:
             i += 1
         elif c == "#":
             i = s.line_end(i)
+        elif line_start and depth == 0 and in_root and c != "[":
+            key, i = s.key(i)  # a root key (bare or quoted): its value is scanned as any other
+            if key is not None:
+                headers.append((key, True))
+            line_start = False
         elif c in "\"'":
             line_start = False
             i = s.string_end(i)
@@ -118,9 +127,10 @@ def array_table_headers(text: str) -> list[tuple[str, ...]]:
             is_array = t.startswith("[[", i)
             key, i = s.key(i + (2 if is_array else 1))
             if is_array and key is not None:
-                headers.append(key)
+                headers.append((key, False))
             i = s.line_end(i)  # the rest of a header line: "]]" and an optional comment
             line_start = True
+            in_root = False
         else:
             line_start = False
             if c in "[{":

@@ -606,6 +606,56 @@ EI = 1.0
     assert scene.declaration_order == ("a", "L", "b", "M", c)
 
 
+def test_default_parents_of_inline_arrays_of_tables(tmp_path):
+    """An inline array of flexures (or links) is as ordered as headers: its items sit at the
+    place of its key, before every table header (TOML allows root keys only there). The same
+    scene written with inline arrays and with [[...]] headers has the same parents."""
+    inline = """"flexure" = [ { name = "a", length = 1.0, EI = 1.0 },
+  { name = "b", length = 1.0, EI = 1.0, at = [0.5, 0.0, 0.0] } ]  # [[link]]
+link = [ { name = "L", points = { p = [0.5, 0.0] } },
+         { name = "M", points = { q = [0.0, 0.0] } } ]
+[[load]]
+point = "b.tip"
+force = [0.0, -0.01]
+"""
+    headers = """[[flexure]]
+name = "a"
+length = 1.0
+EI = 1.0
+[[flexure]]
+name = "b"
+length = 1.0
+EI = 1.0
+at = [0.5, 0.0, 0.0]
+[[link]]
+name = "L"
+points = { p = [0.5, 0.0] }
+[[link]]
+name = "M"
+points = { q = [0.0, 0.0] }
+[[load]]
+point = "b.tip"
+force = [0.0, -0.01]
+"""
+    mixed = (  # inline flexures, then [[link]] headers
+        'flexure = [{ name = "a", length = 1.0, EI = 1.0 }]\n'
+        '[[link]]\nname = "L"\npoints = { p = [0.5, 0.0] }\n'
+        '[[link]]\nname = "K"\npoints = { q = [0.0, 0.0] }\n'
+    )
+    found = {}
+    for name, text in (("inline", inline), ("headers", headers), ("mixed", mixed)):
+        path = tmp_path / f"{name}.toml"
+        path.write_text(text)
+        scene = flexgen.load_scene(path)
+        found[name] = (
+            {f.name: f.parent for f in scene.flexures} | {lk.name: lk.parent for lk in scene.links},
+            scene.declaration_order,
+        )
+    assert found["inline"] == found["headers"]
+    assert found["inline"][0] == {"a": "base", "b": "a", "L": "b", "M": "b"}
+    assert found["mixed"] == ({"a": "base", "L": "a", "K": "a"}, ("a", "L", "K"))
+
+
 def test_trees_deeper_than_the_recursion_limit(monkeypatch):
     """Every traversal is iterative: a chain deeper than Python's recursion limit (built as a
     Scene directly, past the parser's size limit), declared child-first."""
