@@ -23,7 +23,7 @@ import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from functools import cache
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 if TYPE_CHECKING:  # pint is imported only when a scene uses units
     import pint
@@ -315,9 +315,15 @@ class System:
         if dimension == "angle":
             return registry().radian
         p, q = DIMENSIONS[dimension]
-        if q == 0:  # not length**p * force**0: pint would keep the zero power ("m^0*N")
-            return self.length**p
-        return self.force**q if p == 0 else self.length**p * self.force**q
+        # no zero power: pint would keep it in the unit's name ("m^0*N")
+        unit = (
+            self.force**q
+            if p == 0
+            else self.length**p
+            if q == 0
+            else self.length**p * self.force**q
+        )
+        return cast("pint.Unit", unit)
 
     @property
     def units(self) -> Units:
