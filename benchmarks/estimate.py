@@ -111,6 +111,12 @@ def honesty(seeds: list[int], verbose: bool) -> None:
         f"above 10x the estimate: {len(r['above_10x_unwarned'])} without a warning, "
         f"{len(r['above_10x_warned'])} with one"
     )
+    wk = r["worst_curvature"]
+    print(
+        f"stress (every flexure's max |curvature|, so strain and stress, within its "
+        f"error_estimate + that noise): {r['curvature_covered']:.1%}; worst true/estimate "
+        f"{r['worst_curvature_ratio']:.3f} ({wk.scene}, {wk.model})"
+    )
 
 
 def main() -> None:

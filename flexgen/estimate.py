@@ -87,6 +87,9 @@ REACH = 2.0
 # cond(K) eps, and cond(K) is at most 1.5e2 over the honesty suite's answers (seeds 0-2, every
 # model), so 1e-12 leaves a wide margin
 ROUNDING_POSE, ROUNDING_COMPLIANCE = 1e-14, 1e-12
+# the curvature's (relative to the flexure's largest |kappa|): kappa is a sum over q solved to
+# the solver's tol
+ROUNDING_CURVATURE = 1e-12
 
 
 class Estimate(NamedTuple):
@@ -98,6 +101,9 @@ class Estimate(NamedTuple):
     compliance: list[float]
     warning: str | None = None
     total: float = 0.0
+    # the richer model's equilibrium (its packed coordinates), for the curvature's estimate
+    # (Estimator.curvature_estimates); None where there is none
+    rich_q: list[float] | None = None
 
 
 def estimate_of(pose: list[float], compliance: list[float], warning: str | None = None) -> Estimate:
@@ -220,6 +226,7 @@ class Estimator:
             rich[name], self.maps[name], labels[name] = r, f, lab
             factors.append(fac)
         self.labels = labels
+        self.rich_models = rich
         # the poorest pair decides the margin (flexures of a chain interact)
         self.factor = max(factors, default=1.0)
         base = solver.problem
@@ -263,7 +270,8 @@ class Estimator:
                     floors[i] += (a[0] + b[0]) * L / self.scales[i]
         self.rich_label = ", ".join(sorted(set(labels.values())))
         # fg_estimate's output (2 per point, then the total) and every pointer it takes, made once
-        self.out = np.zeros(2 * self.n + 1)
+        self.out = np.zeros(2 * self.n + 1 + nr)  # then the richer equilibrium's q
+        self.rich_slices = dict(dst)
         ffi = core.ffi
         dbl = lambda x: ffi.cast("double *", x.ctypes.data)  # noqa: E731
         self._args = (
@@ -305,7 +313,9 @@ class Estimator:
         if status == _ESTIMATED:  # the estimates (pose, compliance) per point, then the total
             d = self.out.tolist()
             # tuple.__new__ with every field given: 60 % of Estimate(...)'s cost
-            return _new_tuple(Estimate, (d[0 : 2 * n : 2], d[1 : 2 * n : 2], None, d[2 * n]))
+            return _new_tuple(
+                Estimate, (d[0 : 2 * n : 2], d[1 : 2 * n : 2], None, d[2 * n], d[2 * n + 1 :])
+            )
         why = _WHY.get(status, "found no equilibrium")
         return estimate_of(
             [math.inf] * n,
@@ -313,6 +323,38 @@ class Estimator:
             f"error estimate: the richer model ({self.rich_label}) {why} near this answer, "
             f"so its error is unknown",
         )
+
+    def curvature_estimates(
+        self, est: Estimate, models: dict[str, Any], qs: dict[str, Any], samples: int
+    ) -> dict[str, float]:
+        """Per flexure, the estimated error of its curvature profile, relative to its largest
+        |kappa| (and so of its largest strain and stress, which are kappa times constants):
+        factor x max_s |kappa(s) - kappa_rich(s)| / max_s |kappa|, kappa_rich the richer
+        model's at its equilibrium (``est.rich_q``), on ``samples`` points and both models'
+        ``curvature_extremes``, plus ``ROUNDING_CURVATURE``; inf where the richer model has
+        no equilibrium."""
+        out: dict[str, float] = {}
+        for name, model in models.items():
+            rich: Any = self.rich_models.get(name)
+            if not hasattr(model, "curvature") or not hasattr(rich, "curvature"):
+                continue
+            if est.rich_q is None:
+                out[name] = math.inf
+                continue
+            q = np.asarray(qs[name], dtype=float)
+            rq = np.asarray(est.rich_q[self.rich_slices[name]], dtype=float)
+            length = self.scene.flexure(name).length
+            s = np.linspace(0.0, length, samples)
+            for m, mq in ((model, q), (rich, rq)):
+                extremes = getattr(m, "curvature_extremes", None)
+                if extremes is not None:
+                    s = np.union1d(s, np.clip(np.asarray(extremes(mq), dtype=float), 0.0, length))
+            kappa = np.asarray(model.curvature(q, s), dtype=float)
+            kappa_rich = np.asarray(rich.curvature(rq, s), dtype=float)
+            peak = max(float(np.max(np.abs(kappa))), float(np.max(np.abs(kappa_rich))))
+            d = float(np.max(np.abs(kappa - kappa_rich)))
+            out[name] = self.factor * (d / peak if peak > 0.0 else 0.0) + ROUNDING_CURVATURE
+        return out
 
     def _solve_richer(self, solver: Any) -> int:
         """The richer model solved (warm-started from the answer: Newton, else its own load

@@ -283,7 +283,8 @@ LAZY_FIELDS = frozenset(
 
 
 def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
-    """The table's flexure section: maxima, where, safety factor ("—" where unknown)."""
+    """The table's flexure section: maxima, their relative error estimate, where, safety
+    factor ("—" where unknown)."""
     if not flexures:
         return []
 
@@ -293,16 +294,19 @@ def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
     w = max(max(len(n) for n in flexures), len("flexure"))
     lines = [
         f"  {'flexure':<{w}}  {'max kappa':>11} {'max strain':>11} {'max stress':>11} "
-        f"{'at s/L':>7} {'safety':>8}"
+        f"{'est.':>8} {'at s/L':>7} {'safety':>8}"
     ]
     for name, st in flexures.items():
         sf = st.safety_factor
         safety = "inf" if sf is not None and math.isinf(sf) else num(sf, ".3g")
         if st.limited_by is not None:
             safety += f" ({st.limited_by})"
+        # the relative error estimate of the three maxima ("—": none, as the exact model's)
+        e = st.error_estimate
+        estimate = "—" if e is None else "inf" if math.isinf(e) else format(e, ".2g")
         lines.append(
             f"  {name:<{w}}  {num(st.max_curvature, '.5g'):>11} {num(st.max_strain, '.5g'):>11} "
-            f"{num(st.max_stress, '.5g'):>11} {st.at:>7.3f} {safety:>8}"
+            f"{num(st.max_stress, '.5g'):>11} {estimate:>8} {st.at:>7.3f} {safety:>8}"
         )
     return lines
 

@@ -16,10 +16,15 @@ scene gave (``Flexure.E``, ``thickness``):
 The maximum is taken on a grid of ``num`` samples plus each model's ``curvature_extremes`` (the
 arc lengths where |kappa| may peak: for smooth curvature the roots of kappa', found on the
 polynomial; for the chain its joints), so it is the model's own maximum, not the grid's.
+
+The error estimate of the profile (relative to its largest |kappa|, so of every maximum) comes
+from ``flexgen.estimate`` (the richer model's profile) and is passed in; a safety factor above 1
+by less than it is a warning too (``safety_warnings``).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -45,10 +50,15 @@ class FlexureStress:
     at: float  # s / L of the largest |kappa|
     safety_factor: float | None  # smallest given strength / max_stress
     limited_by: str | None  # "yield" or "fatigue": the strength that gives safety_factor
+    # the estimated error of the curvature profile relative to its largest |kappa|, and so of
+    # max_curvature, max_strain and max_stress (flexgen.estimate: the richer model's profile);
+    # None without an estimate (the exact model, or a solve asked for none)
+    error_estimate: float | None = None
 
     def contract(self) -> dict[str, Any]:
-        """The JSON fields (None where unknown; inf is written as null by Result.to_json)."""
-        return {
+        """The JSON fields (None where unknown; inf is written as null by Result.to_json);
+        ``error_estimate`` only where there is one, as an output point's."""
+        out = {
             "max_curvature": self.max_curvature,
             "max_strain": self.max_strain,
             "max_stress": self.max_stress,
@@ -56,6 +66,9 @@ class FlexureStress:
             "safety_factor": self.safety_factor,
             "limited_by": self.limited_by,
         }
+        if self.error_estimate is not None:
+            out["error_estimate"] = self.error_estimate
+        return out
 
 
 def flexure_stresses(
@@ -63,9 +76,11 @@ def flexure_stresses(
     models: Mapping[str, Any],
     q: Mapping[str, Any],
     num: int = DEFAULT_SAMPLES,
+    estimates: Mapping[str, float] | None = None,
 ) -> dict[str, FlexureStress]:
     """The profiles of every flexure whose model gives a curvature (``curvature(q, s)``;
-    a model without one is left out), at the coordinates ``q`` ({flexure: coordinates})."""
+    a model without one is left out), at the coordinates ``q`` ({flexure: coordinates}), each
+    with its curvature's error estimate from ``estimates`` (None where it has none)."""
     out: dict[str, FlexureStress] = {}
     for f in scene.flexures:
         model = models.get(f.name)
@@ -77,11 +92,14 @@ def flexure_stresses(
         if extremes is not None:
             s = np.union1d(s, np.clip(np.asarray(extremes(qf), dtype=float), 0.0, f.length))
         kappa = np.asarray(model.curvature(qf, s), dtype=float)
-        out[f.name] = section_stress(f, s, kappa)
+        est = None if estimates is None else estimates.get(f.name)
+        out[f.name] = section_stress(f, s, kappa, est)
     return out
 
 
-def section_stress(flexure: Flexure, s: np.ndarray, kappa: np.ndarray) -> FlexureStress:
+def section_stress(
+    flexure: Flexure, s: np.ndarray, kappa: np.ndarray, error_estimate: float | None = None
+) -> FlexureStress:
     """Strain, stress and safety factor of one flexure from its curvature profile."""
     i = int(np.argmax(np.abs(kappa)))
     c = None if flexure.thickness is None else 0.5 * flexure.thickness
@@ -100,6 +118,7 @@ def section_stress(flexure: Flexure, s: np.ndarray, kappa: np.ndarray) -> Flexur
         at=float(s[i] / flexure.length),
         safety_factor=safety,
         limited_by=limited_by,
+        error_estimate=error_estimate,
     )
 
 
@@ -143,11 +162,23 @@ def safety_factor(flexure: Flexure, max_stress: float | None) -> tuple[float | N
 
 def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list[str]:
     """One warning per flexure whose safety factor is below 1, naming every strength its
-    largest stress exceeds."""
+    largest stress exceeds, or may be below 1: its stress raised by its error estimate would
+    exceed the smaller strength (a coarse model's stress is far from the true one)."""
     out = []
     for f in scene.flexures:
         st = stresses.get(f.name)
-        if st is None or st.safety_factor is None or st.safety_factor >= 1.0:
+        if st is None or st.safety_factor is None:
+            continue
+        est = st.error_estimate or 0.0
+        if st.safety_factor >= 1.0 and st.safety_factor >= 1.0 + est:
+            continue
+        if st.safety_factor >= 1.0:
+            off = f"{est:.0%}" if math.isfinite(est) else "an unknown amount"
+            out.append(
+                f"flexure {f.name!r}: safety factor {st.safety_factor:.3g} ({st.limited_by}) "
+                f"may be below 1: its max stress {st.max_stress:.4g} may be off by {off} (its "
+                f"error estimate; more modes or elements resolve it)"
+            )
             continue
         assert st.max_stress is not None
         exceeded = " and ".join(

@@ -178,6 +178,10 @@ class EstimateCase:
     covered: bool
     # ratio over the components whose true error the reference resolves (above its noise)
     resolved_ratio: float
+    # the flexures' largest |curvature| (so strain and stress) against their error estimates:
+    # every one within its estimate plus the reference's noise, and the largest true/estimate
+    curvature_covered: bool = True
+    curvature_ratio: float = 0.0
 
 
 def estimate_cases(
@@ -216,6 +220,7 @@ def estimate_cases(
                     if true > noise:  # the reference resolves it
                         resolved = max(resolved, r)
             true = float(comps.max()) if comps.size else 0.0
+            kappa_covered, kappa_ratio = curvature_honesty(res, exact)
             case = EstimateCase(
                 label,
                 mlabel,
@@ -225,11 +230,29 @@ def estimate_cases(
                 bool(res.warnings),
                 covered,
                 resolved,
+                kappa_covered,
+                kappa_ratio,
             )
             cases.append(case)
             if progress:
                 progress(case)
     return cases
+
+
+def curvature_honesty(res: Any, exact: Any) -> tuple[bool, float]:
+    """(every flexure's max |curvature| within its error estimate plus the reference's noise,
+    the largest true/estimate) of an answer against the exact elastica's. The true error is
+    relative to the larger of the two maxima (an unloaded flexure: both 0, no error)."""
+    covered, worst = True, 0.0
+    for name, st in res.flexures.items():
+        ref = exact.flexures.get(name)
+        if ref is None or st.error_estimate is None:
+            continue
+        peak = max(st.max_curvature, ref.max_curvature)
+        true = abs(st.max_curvature - ref.max_curvature) / peak if peak > 0.0 else 0.0
+        covered = covered and true <= st.error_estimate + REFERENCE_NOISE
+        worst = max(worst, true_over_estimate(true, st.error_estimate))
+    return covered, worst
 
 
 def estimate_rates(cases: Sequence[EstimateCase]) -> dict[str, Any]:
@@ -249,4 +272,7 @@ def estimate_rates(cases: Sequence[EstimateCase]) -> dict[str, Any]:
         "worst_resolved_ratio": max((c.resolved_ratio for c in cases), default=0.0),
         "above_10x_unwarned": [c for c in cases if c.resolved_ratio > 10 and not c.warned],
         "above_10x_warned": [c for c in cases if c.resolved_ratio > 10 and c.warned],
+        "curvature_covered": sum(c.curvature_covered for c in cases) / n if n else 1.0,
+        "worst_curvature_ratio": max((c.curvature_ratio for c in cases), default=0.0),
+        "worst_curvature": max(cases, key=lambda c: c.curvature_ratio) if cases else None,
     }

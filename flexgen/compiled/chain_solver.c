@@ -2780,6 +2780,8 @@ FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, cons
     if (!estimate_differences(w, st, d, pose, compliance, scale, out))
         return FG_ESTIMATE_UNDEFINED;
     estimate_margins(rich->noutputs, floors, factor, out);
+    for (i = 0; i < n; ++i)       /* the richer equilibrium: the last step taken, linearized */
+        out[2 * rich->noutputs + 1 + i] = st->q[i] - d[i];
     return FG_ESTIMATED;
 }
 

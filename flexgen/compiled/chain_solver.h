@@ -328,7 +328,8 @@ enum {
  * compliances, spectral norm) become the estimates out[2 j] = factor dp_j + floors[j] and
  * out[2 j + 1] = factor dc_j + floors[noutputs] (factor: the margin of the model pair, floors:
  * the kernels' bounds, noutputs + 1 entries), and out[2 noutputs] = the largest of them (the whole
- * answer's); FG_ESTIMATE_UNDEFINED leaves out unspecified. FG_ESTIMATE_FAR: no convergence
+ * answer's), then out[2 noutputs + 1 ...] = the richer equilibrium's coordinates q_k - d_k
+ * (rich->ndof entries: the curvature it gives is the stress's comparison); FG_ESTIMATE_UNDEFINED leaves out unspecified. FG_ESTIMATE_FAR: no convergence
  * within settings.max_iterations steps and within reach (largest change of a coordinate from
  * T q) of T q. Workspace: the richer problem's (fg_work_size, fg_iwork_size); nothing is kept
  * between calls. */
