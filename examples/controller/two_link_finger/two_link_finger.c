@@ -412,7 +412,8 @@ enum {
  * compliances, spectral norm) become the estimates out[2 j] = factor dp_j + floors[j] and
  * out[2 j + 1] = factor dc_j + floors[noutputs] (factor: the margin of the model pair, floors:
  * the kernels' bounds, noutputs + 1 entries), and out[2 noutputs] = the largest of them (the whole
- * answer's); FG_ESTIMATE_UNDEFINED leaves out unspecified. FG_ESTIMATE_FAR: no convergence
+ * answer's), then out[2 noutputs + 1 ...] = the richer equilibrium's coordinates q_k - d_k
+ * (rich->ndof entries: the curvature it gives is the stress's comparison); FG_ESTIMATE_UNDEFINED leaves out unspecified. FG_ESTIMATE_FAR: no convergence
  * within settings.max_iterations steps and within reach (largest change of a coordinate from
  * T q) of T q. Workspace: the richer problem's (fg_work_size, fg_iwork_size); nothing is kept
  * between calls. */
@@ -3140,6 +3141,8 @@ FG_API int fg_estimate(const fg_problem *rich, const fg_real *T, int nbase, cons
     if (!estimate_differences(w, st, d, pose, compliance, scale, out))
         return FG_ESTIMATE_UNDEFINED;
     estimate_margins(rich->noutputs, floors, factor, out);
+    for (i = 0; i < n; ++i)       /* the richer equilibrium: the last step taken, linearized */
+        out[2 * rich->noutputs + 1 + i] = st->q[i] - d[i];
     return FG_ESTIMATED;
 }
 
