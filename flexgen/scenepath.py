@@ -93,10 +93,20 @@ def walk(
     ``tables`` gives the keys each kind of table may have ("" the top level, "model",
     "flexure", "flexure.model", ...). Missing tables on the way are created (an absent [model]
     for ``model.modes``)."""
+    container, key, _ = _walk(root, path, tables)
+    return container, key
+
+
+def _walk(
+    root: dict[str, Any], path: str, tables: Mapping[str, Sequence[str]]
+) -> tuple[dict[str, Any] | list[Any], str | int, list[str]]:
+    """``walk``, and the path's segments as ``canonical`` gives them (an index for every name
+    or index of a table, a list index in its plain decimal form)."""
     segs = _segments(path)
     node: Any = root
     key: Any
     kind: str | None = ""  # the kind of table `node` is ("" top level; None: points, vectors)
+    canon: list[str] = []
     i = 0
     while True:
         seg, where = segs[i], ".".join(segs[:i]) or "the scene"
@@ -114,12 +124,15 @@ def walk(
             key = seg
         else:
             raise PathError(f"{path}: {where} is a value ({_short(node)}), not a table or a list")
+        canon.append(str(key))
         if i == len(segs) - 1:
-            return node, key
+            return node, key, canon
         if kind == "" and seg in ARRAYS:  # [[flexure]] etc.: the next segment picks one table
             items = node.get(seg)
             items = items if isinstance(items, list) else []
-            node = items[_index(segs[i + 1], items, path, seg)]
+            picked = _index(segs[i + 1], items, path, seg)
+            node = items[picked]
+            canon.append(str(picked))
             kind, i = seg, i + 2
             if i == len(segs):
                 raise PathError(f"{path}: names a whole [[{seg}]] table; give one of its keys")
@@ -136,6 +149,28 @@ def walk(
         node, i = child, i + 1
 
 
+def resolve(
+    root: dict[str, Any], path: str, tables: Mapping[str, Sequence[str]]
+) -> tuple[dict[str, Any] | list[Any], str | int, str]:
+    """(container, key or index, canonical path) of the value ``path`` names, where
+    ``set_value`` writes it: a model key of a flexure given in its own ``model = {...}``
+    sub-table is found there. Paths that name the same value have the same canonical path
+    (``flexure.0.thickness`` for ``flexure.proximal.thickness``, ``load.0.force.1`` for
+    ``load.0.force.01``)."""
+    container, key, canon = _walk(root, path, tables)
+    if isinstance(container, dict) and key in tables.get(MODEL_KEY_TABLE, ()):
+        sub = container.get("model")
+        if key not in container and isinstance(sub, dict) and key in sub:
+            container = sub
+            canon.insert(-1, "model")
+    return container, key, ".".join(canon)
+
+
+def canonical(root: dict[str, Any], path: str, tables: Mapping[str, Sequence[str]]) -> str:
+    """The one spelling of the value ``path`` names (see ``resolve``); PathError as ``walk``."""
+    return resolve(root, path, tables)[2]
+
+
 def plain(value: Any, key: Any) -> Any:
     """A NumPy scalar as the Python number TOML would give; an integral float as an int for the
     integer keys (a linspace of modes gives 3.0)."""
@@ -150,10 +185,5 @@ def set_value(
     root: dict[str, Any], path: str, value: Any, tables: Mapping[str, Sequence[str]]
 ) -> None:
     """Replace (or add) the value at ``path`` in the mutable source ``root``."""
-    container, key = walk(root, path, tables)
-    # a model key of a flexure given in its own `model = {...}` sub-table is changed there
-    if isinstance(container, dict) and key in tables.get(MODEL_KEY_TABLE, ()):
-        sub = container.get("model")
-        if key not in container and isinstance(sub, dict) and key in sub:
-            container = sub
+    container, key, _ = resolve(root, path, tables)
     container[key] = plain(value, key)  # type: ignore[index]

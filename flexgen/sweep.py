@@ -71,9 +71,10 @@ def sweep(
       study that a probe finds shorter than twice the workers' start-up (``START_UP``) runs in
       this process anyway.
     - ``client``: a ``dask.distributed.Client``: the chunks run as its tasks instead.
-    - ``progress``: True a bar on a terminal, else a plain line every few seconds on stderr;
-      False nothing; None (default) the bar only when stderr is a terminal and the study goes
-      to worker processes or a cluster (long enough to wait for).
+    - ``progress``: True a bar on a terminal, else a plain line on stderr at most every
+      ``PLAIN_EVERY`` seconds (as cases finish in this process, as chunks finish on worker
+      processes or a cluster); False nothing; None (default) the bar only when stderr is a
+      terminal and the study goes to worker processes or a cluster (long enough to wait for).
     - ``estimate``: each point's ``error_estimate`` (Newton on the richer model, ``fg_estimate``;
       False: NaN, and a load study is about twice as fast).
     - ``stress``: each flexure's ``max_stress`` and ``safety_factor`` (``stress.peak_stress``:
@@ -158,11 +159,9 @@ def _local(chunks: list[Chunk], workers: int, progress: bool | None, bar: Any) -
     the workers import flexgen once)."""
     start_up = START_UP_AGAIN if _pool_workers == min(workers, len(chunks)) else START_UP
     if workers == 1 or len(chunks) == 1 or _serial_time(chunks) < 2 * start_up:
-        results = []
-        for chunk in chunks:
-            results.append(run_chunk(chunk))
-            bar.update(len(chunk.values))
-        return results
+        # in this process the progress is reported per case: a chunk of slow cases would
+        # otherwise be minutes of silence
+        return [run_chunk(chunk, bar.update) for chunk in chunks]
     if progress is None:  # long enough to show, when stderr is a terminal
         bar.enable()
     done: dict[int, Result] = {}

@@ -11,15 +11,19 @@ does not land on a stable equilibrium close by):
 - a row's first case: the previous row's first case (one step along the next-slower key),
   else the case before it.
 
-Only a converged, stable neighbour is used; otherwise the case solves cold. The answer is read
-from the Solver's workspace, exactly the numbers ``Solver.solve`` puts in a Result (the same
-arrays; no Result is built).
+A neighbour is used only when flexgen/warm.py allows it: its answer is a stable equilibrium
+whose load path crossed no critical load, and the loads and tensions changed little from it
+(``WARM_CHANGE`` per group), and so did each varied design value. Where no neighbour qualifies,
+the case solves cold, as ``flexgen.solve`` does. The answer is read from the Solver's
+workspace, exactly the numbers ``Solver.solve`` puts in a Result (the same arrays; no Result is
+built).
 """
 
 from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,6 +36,7 @@ from .scene import Scene, SceneError, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver
 from .stress import peak_stress
+from .warm import inputs_close, values_close
 
 POINT_FIELDS = ("x", "y", "angle", "major", "minor", "ellipse_angle", "error_estimate")
 FLEXURE_FIELDS = ("max_stress", "safety_factor")
@@ -66,9 +71,12 @@ def columns(points: list[str], flexures: list[str]) -> int:
     return len(CASE_FIELDS) + len(POINT_FIELDS) * len(points) + len(FLEXURE_FIELDS) * len(flexures)
 
 
-def run_chunk(chunk: Chunk) -> tuple[np.ndarray, list[str]]:
+def run_chunk(
+    chunk: Chunk, report: Callable[[int], Any] | None = None
+) -> tuple[np.ndarray, list[str]]:
     """(cases x columns floats, reasons) for the chunk's cases, in its order. Columns: converged,
-    stable, iterations, then POINT_FIELDS per output point, FLEXURE_FIELDS per flexure."""
+    stable, iterations, then POINT_FIELDS per output point, FLEXURE_FIELDS per flexure.
+    ``report(1)`` after each case, when given (progress of a chunk solved in this process)."""
     base = _scenes.get(chunk.study)
     if base is None:
         base = scene_from_dict(chunk.source, order=chunk.order, default_name=chunk.name)
@@ -85,7 +93,7 @@ def run_chunk(chunk: Chunk) -> tuple[np.ndarray, list[str]]:
     solver: Solver | str | None = None
     design: tuple[float, ...] | None = None
     loads = tensions = None
-    answers: list[dict[str, np.ndarray] | None] = [None] * len(rows)  # q of each stable answer
+    answers: list[_Answer | None] = [None] * len(rows)  # the answers a warm start may use
     for c, row in enumerate(rows):
         here = tuple(row[k] for k in design_cols)
         if here != design:
@@ -98,20 +106,57 @@ def run_chunk(chunk: Chunk) -> tuple[np.ndarray, list[str]]:
         if not isinstance(solver, Solver):  # this combination of values is not a valid scene
             out.append(failed_design)
             reasons[c] = str(solver)
-            continue
-        assert loads is not None and tensions is not None
-        for k, (what, i, j) in load_cols:
-            if what == "load":
-                loads[i, j] = row[k]
-            else:
-                tensions[i] = row[k]
-        status = solver.run(loads, tensions, _neighbour(chunk, c, answers))
-        out.append(_record(solver, status, chunk, width, reasons, c))
-        ws = solver.workspace
-        if status == core.SOLVED and ws.answer.stable:
-            q = ws.q.copy()
-            answers[c] = {name: q[sl] for name, sl in slices}
+        else:
+            assert loads is not None and tensions is not None
+            _set_loads(row, load_cols, loads, tensions)
+            inputs = _Inputs(loads.ravel().tolist(), tensions.tolist(), here)
+            status = solver.run(loads, tensions, _warm_start(chunk, c, answers, inputs))
+            out.append(_record(solver, status, chunk, width, reasons, c))
+            if _reusable(status, solver.workspace.answer):
+                q = solver.workspace.q.copy()
+                answers[c] = _Answer({name: q[sl] for name, sl in slices}, inputs)
+        if report is not None:
+            report(1)
     return np.array(out, dtype=float).reshape(len(rows), width), reasons
+
+
+@dataclass(frozen=True)
+class _Inputs:
+    """What a case solves for: its loads, tensions and varied design values."""
+
+    loads: list[float]  # (fx, fy, moment) per load, flat
+    tensions: list[float]
+    design: tuple[float, ...]  # the values of the chunk's design keys
+
+    def close_to(self, other: _Inputs) -> bool:
+        """Whether an answer to ``other`` may start a solve of these (flexgen/warm.py)."""
+        return inputs_close(other.loads, other.tensions, self.loads, self.tensions) and (
+            values_close(other.design, self.design)
+        )
+
+
+@dataclass(frozen=True)
+class _Answer:
+    """A solved case a later case may start from: its q and the inputs it answers."""
+
+    q: dict[str, np.ndarray]
+    inputs: _Inputs
+
+
+def _set_loads(row: list[float], load_cols: list, loads: np.ndarray, tensions: np.ndarray) -> None:
+    """The case's values of the load keys into the Solver's loads and tensions."""
+    for k, (what, i, j) in load_cols:
+        if what == "load":
+            loads[i, j] = row[k]
+        else:
+            tensions[i] = row[k]
+
+
+def _reusable(status: int, answer: Any) -> bool:
+    """Whether a later case may start from this answer: a stable equilibrium whose load path
+    crossed no critical load (flexgen/warm.py). A warm answer only ever starts from such an
+    answer and follows no load path, so it is one too."""
+    return status == core.SOLVED and bool(answer.stable) and (answer.warm or not answer.ncritical)
 
 
 def prepared(chunk: Chunk, base: Scene, design: dict[str, Any]) -> Solver | str:
@@ -135,15 +180,22 @@ def _keep(cache: OrderedDict, key: Any, value: Any) -> None:
         cache.popitem(last=False)
 
 
-def _neighbour(chunk: Chunk, c: int, answers: list) -> dict[str, np.ndarray] | None:
-    """The warm start of case ``c`` of the chunk (see the module docstring)."""
+def _warm_start(
+    chunk: Chunk, c: int, answers: list[_Answer | None], inputs: _Inputs
+) -> dict[str, np.ndarray] | None:
+    """The warm start of case ``c`` of the chunk: the first of its neighbours (see the module
+    docstring) with a reusable answer to inputs close to its own (flexgen/warm.py); else None,
+    a cold solve."""
     if c == 0:
         return None
+    candidates = [c - 1]
     if (chunk.first + c) % chunk.row_length == 0 and c >= chunk.row_length:
-        above = answers[c - chunk.row_length]
-        if above is not None:
-            return above
-    return answers[c - 1]
+        candidates.insert(0, c - chunk.row_length)
+    for n in candidates:
+        answer = answers[n]
+        if answer is not None and inputs.close_to(answer.inputs):
+            return answer.q
+    return None
 
 
 def _record(solver: Solver, status: int, chunk: Chunk, width: int, reasons, c) -> list[float]:

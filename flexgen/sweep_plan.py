@@ -1,8 +1,8 @@
 """A study's cases: the varied keys, their values, the order they are solved in and the chunks.
 
-``plan(scene, vary, samples, seed)`` checks every key (a path as ``Scene.with_value`` reads it)
-and value
-before anything is solved, and returns a ``Plan``:
+``plan(scene, vary, samples, seed)`` checks every key (a path as ``Scene.with_value`` reads it;
+two keys naming the same value and a tolerance are refused) and value before anything is
+solved, and returns a ``Plan``:
 
 - grid (``samples`` None): ``{key: (start, stop, count)}`` (``numpy.linspace``) or ``{key:
   [values]}``; the full factorial, rows in C order of the keys as given (the first key varies
@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from .scene import TABLE_KEYS, Scene, SceneError, _fmt
-from .scenepath import INTEGER_KEYS, PathError, walk
+from .scenepath import INTEGER_KEYS, PathError, canonical
 
 DISTRIBUTIONS = ("normal", "uniform")
 CHUNK_SIZE = 500  # cases per chunk (a task): see docs/sweep.md, "Chunks"
@@ -62,7 +62,8 @@ class Plan:
 
 def load_target(path: str) -> tuple[str, int, int] | None:
     """("load", i, j) for a load's force component j (j = 2: its moment), ("tension", i, 0) for a
-    tendon's tension; None for any other path (a design key)."""
+    tendon's tension; None for any other path (a design key). ``path`` canonical
+    (``scenepath.canonical``: ``load.0.force.01`` is read as ``load.0.force.1``)."""
     segs = path.split(".")
     if len(segs) == 4 and segs[0] == "load" and segs[1].isdigit() and segs[2] == "force":
         if segs[3] in ("0", "1"):
@@ -137,6 +138,32 @@ def _check_values(scene: Scene, key: str, values: np.ndarray) -> None:
         scene.with_value(key, float(v))
 
 
+def _paths(scene: Scene, keys: tuple[Any, ...]) -> list[str]:
+    """The canonical path of each key (``scenepath.canonical``); SceneError for a key that is
+    not a path of the scene, for two keys naming the same value (the table would show values
+    one of them overrides) and for a tolerance (it chooses the modes per solve)."""
+    root = scene.editable_source()
+    seen: dict[str, str] = {}
+    for key in keys:
+        if not isinstance(key, str):
+            raise SceneError(
+                f"vary: a key must be a path such as 'tendon.0.tension', got {_fmt(key)}"
+            )
+        try:
+            path = canonical(root, key, TABLE_KEYS)
+        except PathError as exc:
+            raise SceneError(str(exc)) from None
+        if path in seen:
+            raise SceneError(f"vary: {seen[path]} and {key} name the same value ({path})")
+        if path.rsplit(".", 1)[-1] == "tolerance":
+            raise SceneError(
+                f"{key}: a study does not vary a tolerance, which chooses the modes per solve; "
+                "give modes instead (flexgen select SCENE --tol T says which)"
+            )
+        seen[path] = key
+    return list(seen)
+
+
 def plan(
     scene: Scene,
     vary: Mapping[str, Any],
@@ -147,16 +174,7 @@ def plan(
     if not isinstance(vary, Mapping) or not vary:
         raise SceneError(f"vary: expected {{key: values}} with at least one key, got {_fmt(vary)}")
     keys = tuple(vary)
-    for key in keys:
-        if not isinstance(key, str):
-            raise SceneError(
-                f"vary: a key must be a path such as 'tendon.0.tension', got {_fmt(key)}"
-            )
-        try:
-            walk(scene.editable_source(), key, TABLE_KEYS)
-        except PathError as exc:
-            raise SceneError(str(exc)) from None
-    targets = tuple(load_target(k) for k in keys)
+    targets = tuple(load_target(p) for p in _paths(scene, keys))
     if samples is None:
         if seed is not None:
             raise SceneError("seed: only with samples=N (a grid draws nothing)")
@@ -181,8 +199,10 @@ def plan(
         raise SceneError(f"samples: must be an integer >= 1, got {_fmt(samples)}")
     if not 1 <= samples <= MAX_CASES:
         raise SceneError(f"samples: must be in [1, {MAX_CASES}], got {samples}")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))):
-        raise SceneError(f"seed: must be an integer, got {_fmt(seed)}")
+    if seed is not None and (
+        isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0
+    ):
+        raise SceneError(f"seed: must be an integer >= 0, got {_fmt(seed)}")
     rng = np.random.default_rng(seed)
     columns = [draw(k, vary[k], int(samples), rng) for k in keys]
     for k, c in zip(keys, columns):

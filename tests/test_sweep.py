@@ -5,6 +5,8 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import os
+import stat
 import sys
 from pathlib import Path
 
@@ -29,6 +31,12 @@ RTOL = 100 * flexgen.SolverSettings().tol
 # state: Newton's last step is taken unevaluated (docs/solver-core.md), from a residual of up to
 # 30 tol, so they differ between paths by up to ~3e-10 relative (measured 2.6e-10 on the finger)
 CRTOL = 1000 * flexgen.SolverSettings().tol
+# The error estimate is a difference of two answers (dimensionless), so it carries their own
+# difference between paths, mostly the compliances' (CRTOL) times its margin: docs/sweep.md
+# claims 1e-6 relative or 1e-9 absolute, whichever is larger (measured worst 2.3e-10 absolute;
+# 5.7e-5 relative at an estimate of 2.9e-8)
+EST_RTOL, EST_ATOL = 1e-6, 1e-9
+ELASTICA = ROOT / "examples" / "rectangular_elastica.toml"
 sweep_module = sys.modules["flexgen.sweep"]
 
 
@@ -57,9 +65,8 @@ def assert_row_is_solve(row, result):
             got, [ell["major"], ell["minor"]], rtol=0, atol=CRTOL * ell["major"]
         )
         assert row[f"{ref}.ellipse_angle"] == pytest.approx(ell["angle"], abs=1e-8)
-        # the estimate is a difference of two answers: the iterates' difference shows there
         est = max(pr.error_estimate.values())
-        assert row[f"{ref}.error_estimate"] == pytest.approx(est, rel=1e-6, abs=1e-12)
+        assert row[f"{ref}.error_estimate"] == pytest.approx(est, rel=EST_RTOL, abs=EST_ATOL)
     for name, st in result.flexures.items():
         for column in ("max_stress", "safety_factor"):
             want = getattr(st, column)
@@ -296,12 +303,67 @@ def test_stress_columns_are_the_results_flexures(finger):
         ),
         ({"load.0.point": (0.0, 1.0, 2)}, {}, "load.0.point: load[0].point: must be a string"),
         ({}, {}, "vary: expected"),
+        (
+            {"flexure.proximal.thickness": [2e-4], "flexure.0.thickness": [3e-4]},
+            {},
+            "vary: flexure.proximal.thickness and flexure.0.thickness name the same value",
+        ),
+        (
+            {"load.0.force.1": [0.0], "load.0.force.01": [-1.0]},
+            {},
+            "vary: load.0.force.1 and load.0.force.01 name the same value",
+        ),
+        ({"model.tolerance": [1e-4, 1e-3]}, {}, "model.tolerance: a study does not vary a tol"),
+        (
+            {"flexure.proximal.tolerance": [1e-4]},
+            {},
+            "flexure.proximal.tolerance: a study does not vary a tolerance",
+        ),
+        (
+            {"flexure.proximal.thickness": ("normal", 0.25e-3, 0.01e-3)},
+            {"samples": 3, "seed": -1},
+            "seed: must be an integer >= 0, got -1",
+        ),
     ],
 )
 def test_bad_studies_are_one_line_errors_before_solving(finger, vary, kwargs, message):
     with pytest.raises(SceneError) as err:
         flexgen.sweep(finger, vary, workers=1, **kwargs)
-    assert message in str(err.value)
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "path, canonical",
+    [
+        ("flexure.proximal.thickness", "flexure.0.thickness"),
+        ("flexure.0.thickness", "flexure.0.thickness"),
+        ("flexure.distal.at.00", "flexure.1.at.0"),
+        ("load.0.force.01", "load.0.force.1"),
+        ("link.fingertip.points.pad.1", "link.1.points.pad.1"),
+        ("model.modes", "model.modes"),
+    ],
+)
+def test_paths_naming_one_value_have_one_spelling(finger, path, canonical):
+    from flexgen.scene import TABLE_KEYS
+    from flexgen.scenepath import resolve
+
+    root = finger.editable_source()
+    container, key, got = resolve(root, path, TABLE_KEYS)
+    assert got == canonical
+    # the same value: changing it by either spelling gives the same scene
+    same = resolve(root, canonical, TABLE_KEYS)
+    assert same[0] is container and same[1] == key
+
+
+def test_a_flexure_model_key_is_one_value_by_both_paths():
+    scene = flexgen.scene_from_dict(
+        {
+            "flexure": [{"name": "beam", "length": 0.02, "EI": 1e-4, "model": {"modes": 3}}],
+            "load": [{"point": "beam.tip", "force": [0.0, -1.0]}],
+        }
+    )
+    with pytest.raises(SceneError, match="flexure.beam.modes and flexure.0.model.modes name"):
+        flexgen.sweep(scene, {"flexure.beam.modes": [2], "flexure.0.model.modes": [4]})
 
 
 @pytest.mark.parametrize(
@@ -313,11 +375,111 @@ def test_scenes_a_study_does_not_solve_are_refused(finger, path, value, message)
         flexgen.sweep(finger.with_value(path, value), {"tendon.0.tension": [1.0]}, workers=1)
 
 
-def test_progress_lines_when_stderr_is_not_a_terminal(finger, capsys):
+def test_progress_lines_when_stderr_is_not_a_terminal(finger, capsys, monkeypatch):
     flexgen.sweep(finger, {"tendon.0.tension": [1.0, 2.0]}, workers=1, progress=True)
     assert "sweep: 2/2 cases" in capsys.readouterr().err
+    # in this process a line may come after any case, not only when a chunk is done
+    monkeypatch.setattr(sweep_module, "PLAIN_EVERY", 0.0)
+    flexgen.sweep(finger, {"tendon.0.tension": [1.0, 2.0, 3.0]}, workers=1, progress=True)
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(" cases")[0] for line in lines] == [f"sweep: {i}/3" for i in (1, 2, 3)]
+    monkeypatch.undo()
     flexgen.sweep(finger, {"tendon.0.tension": [1.0, 2.0]}, workers=1)
     assert capsys.readouterr().err == ""  # the API's default off a terminal: silent
+
+
+# -- warm starts: a row is the single solve, whatever its neighbours -------------------------
+
+
+@pytest.fixture(scope="module")
+def elastica():
+    return flexgen.load_scene(ELASTICA)
+
+
+def single(scene, row, keys):
+    return flexgen.solve(scene.with_values({k: row[k] for k in keys}))
+
+
+def test_warm_rows_are_the_single_solves_to_the_documented_bounds(finger):
+    # a row of small steps (from -0.29 on each case starts from the one before): warm and
+    # cold answers differ within the tolerance, so tiny estimates differ by up to 6e-5
+    # relative (2.9e-8 against 2.9e-8 + 1.7e-12), within EST_ATOL
+    vary = {"tendon.0.tension": [0.0], "load.0.force.1": (0.0, -1.0, 15)}
+    df = flexgen.sweep(finger, vary, workers=1)
+    results = [single(finger, row, vary) for _, row in df.iterrows()]
+    for (_, row), result in zip(df.iterrows(), results):
+        assert_row_is_solve(row, result)
+    assert (df["iterations"] < [r.iterations for r in results]).sum() >= 8  # warm starts taken
+
+
+def test_a_row_does_not_take_its_neighbours_branch(elastica):
+    # past the Euler load the elastica bends to the side of its lateral force; Newton from the
+    # +0.01 answer at -0.01 converges to the +y branch, the load path to the -y one
+    vary = {"load.0.force.1": (0.01, -0.01, 2), "load.0.force.0": (-3.0, -3.0, 1)}
+    df = flexgen.sweep(elastica, vary, workers=1)
+    for _, row in df.iterrows():
+        result = single(elastica, row, vary)
+        assert_row_is_solve(row, result)
+        assert np.sign(row["beam.tip.y"]) == np.sign(row["load.0.force.1"])
+    assert df["beam.tip.y"].iloc[1] == pytest.approx(-0.66575, abs=1e-5)
+
+
+def test_a_grid_across_the_buckling_load_is_its_single_solves(elastica):
+    vary = {"load.0.force.0": (-1.0, -6.0, 11), "load.0.force.1": [0.0, 0.01, -0.01]}
+    df = flexgen.sweep(elastica, vary, workers=1)
+    assert len(df) == 33 and df["converged"].all()
+    for _, row in df.iterrows():
+        pose = single(elastica, row, vary).points["beam.tip"].pose
+        got = [row["beam.tip.x"], row["beam.tip.y"], row["beam.tip.angle"]]
+        np.testing.assert_allclose(got, pose, rtol=0, atol=1e-9)
+        assert np.sign(got[1]) == np.sign(pose[1])
+    lateral = df[df["load.0.force.1"] != 0]
+    assert (np.sign(lateral["beam.tip.y"]) == np.sign(lateral["load.0.force.1"])).all()
+
+
+def test_no_warm_start_from_an_answer_past_a_critical_load(elastica):
+    # fx -3.0 to -3.1 is a 3 % change: close; but the -3.0 answer crossed the bifurcation, so
+    # the -3.1 case solves along its own load path, as flexgen.solve does
+    vary = {"load.0.force.0": [-3.0, -3.1], "load.0.force.1": [0.0]}
+    df = flexgen.sweep(elastica, vary, workers=1)
+    first, second = (single(elastica, row, vary) for _, row in df.iterrows())
+    assert first.critical_load_factors
+    assert df["iterations"].iloc[1] == second.iterations
+    # what a warm start from the first answer would have been: a few Newton steps
+    solver = flexgen.Solver(elastica.with_values({"load.0.force.0": -3.0, "load.0.force.1": 0.0}))
+    warm = solver.solve(loads=[[-3.1, 0.0, 0.0]], q0=first.q)
+    assert warm.iterations < second.iterations
+
+
+def test_design_changes_warm_start_only_when_small(elastica):
+    # length 1.0 to 1.1 (10 %): warm, fewer iterations than the single solve; 1.1 to 2.0: cold
+    vary = {"flexure.beam.length": [1.0, 1.1, 2.0], "load.0.force.1": [0.01]}
+    df = flexgen.sweep(elastica, vary, workers=1)
+    results = [single(elastica, row, vary) for _, row in df.iterrows()]
+    for (_, row), result in zip(df.iterrows(), results):
+        assert_row_is_solve(row, result)
+    assert df["iterations"].iloc[1] < results[1].iterations
+    assert df["iterations"].iloc[2] == results[2].iterations
+
+
+@pytest.mark.parametrize(
+    "a, b, close",
+    [
+        ([0.0, 0.01, 0.0], [0.0, -0.01, 0.0], False),  # fy +0.01 to -0.01: 200 %
+        ([-3.0, 0.0, 0.0], [-3.5, 0.0, 0.0], True),  # 0.5 <= 0.25 * 3.5; zeros stay close
+        ([-1.0, 0.0, 0.0], [-1.5, 0.0, 0.0], False),  # 0.5 > 0.25 * 1.5
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 1e-9], False),  # a moment from nothing
+        # per group against its largest magnitude: load 1's fy of -4 makes load 0's turn small
+        ([0.0, 0.01, 0.0, 0.0, -4.0, 0.0], [0.0, -0.01, 0.0, 0.0, -4.0, 0.0], True),
+    ],
+)
+def test_warm_rule_is_the_controllers(a, b, close):
+    from flexgen.warm import WARM_CHANGE, inputs_close
+
+    assert WARM_CHANGE == 0.25  # NAME_WARM_CHANGE of docs/controller.md
+    assert inputs_close(a, [10.0], b, [10.0]) is close
+    assert inputs_close([0.0] * 3, [4.0], [0.0] * 3, [5.0]) is True  # 1 <= 0.25 * 5
+    assert inputs_close([0.0] * 3, [4.0], [0.0] * 3, [6.0]) is False
 
 
 # -- the same numbers wherever the chunks run ------------------------------------------------------
@@ -493,6 +655,12 @@ def test_plot_labels_carry_the_scenes_units():
             ["--vary", "tendon.0.tension=0:1:2", "--plot", "study.gif"],
             "--plot: the file must end in .png, .svg or .pdf",
         ),
+        (
+            ["--vary", "load.0.force.1=0:-0.5:2", "--vary", "load.0.force.01=-1:-1:1"],
+            "load.0.force.1 and load.0.force.01 name the same value",
+        ),
+        (["--vary", "model.tolerance=1e-4:1e-3:2"], "give modes instead"),
+        (["--vary", "flexure.distal.tolerance=1e-4:1e-3:2"], "give modes instead"),
     ],
 )
 def test_cli_bad_input_is_exit_2_and_writes_nothing(tmp_path, monkeypatch, capsys, args, message):
@@ -536,3 +704,73 @@ def test_cli_help_shows_an_example(capsys):
         main(["sweep", "--help"])
     text = capsys.readouterr().out
     assert "--vary tendon.0.tension=0:10:11" in text and "normal:0.25e-3:0.01e-3" in text
+
+
+@pytest.mark.parametrize("address", ["notanaddress", "tcp://host:notaport", "tcp://host"])
+def test_cli_malformed_scheduler_address_is_exit_2(tmp_path, capsys, address):
+    pytest.importorskip("distributed")
+    out = tmp_path / "s.csv"
+    args = ["sweep", str(FINGER), "--vary", "tendon.0.tension=0:1:2", "--out", str(out)]
+    assert main([*args, "--scheduler", address]) == 2
+    err = capsys.readouterr().err
+    assert f"--scheduler: not a scheduler address {address!r}" in err and err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+# -- writing the outputs -----------------------------------------------------------------------
+
+
+def _limited_run(tmp_path, limit, *outputs):
+    """`flexgen sweep` in a process whose files may not grow past ``limit`` bytes (as on a full
+    disk: the write fails with EFBIG); (exit code, stderr)."""
+    import subprocess
+
+    resource = pytest.importorskip("resource")
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    args = [sys.executable, "-m", "flexgen", "sweep", str(FINGER), *_args(), "--workers", "1"]
+    run = subprocess.run(
+        [*args, *outputs], cwd=tmp_path, preexec_fn=limited, capture_output=True, text=True
+    )
+    return run.returncode, run.stderr
+
+
+def _left(tmp_path):
+    return sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
+
+
+@pytest.mark.parametrize(
+    "outputs, failed",
+    [
+        # the plot alone (the table goes to stdout)
+        (["--plot", "only.png"], "only.png"),
+        # the table (2.4 kB) fits, the plot (~150 kB) does not: the plot named, the table gone
+        (["--out", "a/b/t.csv", "--plot", "a/b/t.png"], "a/b/t.png"),
+        # the folders made for the table are removed; the one that was there stays
+        (["--out", "keep/new/sub/t.csv"], "keep/new/sub/t.csv"),
+    ],
+)
+def test_cli_failed_write_names_the_file_and_leaves_nothing(tmp_path, outputs, failed):
+    (tmp_path / "keep").mkdir()
+    limit = 20_000 if "a/b/t.png" in outputs else 1_000
+    code, err = _limited_run(tmp_path, limit, *outputs)
+    assert code == 1
+    lines = [line for line in err.splitlines() if not line.startswith("sweep:")]
+    assert lines == [f"flexgen: cannot write {failed}: File too large"]
+    assert _left(tmp_path) == ["keep"]
+
+
+def test_cli_table_gets_a_new_files_mode(tmp_path):
+    out = tmp_path / "t.csv"
+    old = os.umask(0o027)
+    try:
+        assert (
+            main(["sweep", str(FINGER), "--vary", "tendon.0.tension=1:2:2", "--out", str(out)]) == 0
+        )
+        reference = tmp_path / "reference"
+        reference.write_text("")  # what open() makes under the same umask
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(out.stat().st_mode) == stat.S_IMODE(reference.stat().st_mode) == 0o640

@@ -1,9 +1,11 @@
 """`flexgen sweep SCENE --vary KEY=START:STOP:COUNT ...`: a design study (flexgen/sweep.py).
 
 Exit codes: 0 the study ran (cases without an equilibrium are rows with their reason); 1 the
-work failed (a scheduler that cannot be reached, a full disk: nothing is left behind); 2 bad
-input: an unknown key, COUNT < 1, a value the scene refuses, an output that cannot be written,
-Parquet without pyarrow, --scheduler without dask (all checked before anything is solved).
+work failed (a scheduler that cannot be reached, a full disk: the message names the file, and
+nothing the run created is left behind); 2 bad input: an unknown key, two keys naming one value,
+COUNT < 1, a value the scene refuses, an output that cannot be written, Parquet without pyarrow,
+--scheduler without dask or with an address that cannot be one (all checked before anything is
+solved).
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ import os
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -197,16 +201,16 @@ def run(args) -> int:
         f"{time.perf_counter() - start:.1f} s",
         file=sys.stderr,
     )
-    try:
-        if out is not None:
-            _write_table(df, out)
-        if plot is not None:
-            from flexgen.sweep_plot import draw_study
 
-            draw_study(df, list(vary), args.samples is not None, plot, scene.units)
-    except OSError as exc:  # e.g. a full disk: the temporary file is gone, the target untouched
-        where = printable(str(exc.filename or out))
-        print(f"flexgen: cannot write {where}: {exc.strerror or exc}", file=sys.stderr)
+    def draw(path: Path) -> None:
+        from flexgen.sweep_plot import draw_study
+
+        draw_study(df, list(vary), args.samples is not None, path, scene.units)
+
+    try:
+        write_outputs(df, out, plot, draw)
+    except WriteFailed as exc:  # e.g. a full disk: nothing this run made is left behind
+        print(f"flexgen: cannot write {printable(str(exc.path))}: {exc.why}", file=sys.stderr)
         return 1
     if out is None:
         df.to_csv(sys.stdout, index=False)
@@ -220,33 +224,146 @@ def _has(module: str) -> bool:
 
 
 def _client(address: str) -> Any:
-    """A dask.distributed Client of the scheduler at ``address``."""
+    """A dask.distributed Client of the scheduler at ``address``: UsageError (exit 2) for an
+    address that cannot be one, SchedulerError (exit 1) for one that cannot be reached."""
     if not _has("distributed"):
         raise UsageError("--scheduler needs dask.distributed: pip install 'flexgen[cluster]'")
     from distributed import Client
 
+    _check_address(address)
     try:
         return Client(address, timeout="10s")
+    except ValueError as exc:  # what the check above leaves to the scheme's own backend
+        raise UsageError(f"--scheduler: not a scheduler address {address!r}: {exc}") from None
     except (OSError, TimeoutError) as exc:
         raise SchedulerError(f"--scheduler: cannot reach {address!r}: {exc}") from None
+
+
+def _check_address(address: str) -> None:
+    """UsageError for an address Dask cannot read: an unknown scheme, or a host-and-port scheme
+    (tcp, tls, ws, wss) without a port number in 1-65535. Dask itself reports these as a
+    ValueError (or an AssertionError for 'tcp://host') from deep inside the Client."""
+    from distributed.comm import get_address_host_port, parse_address
+    from distributed.comm.registry import backends
+
+    try:
+        scheme, _ = parse_address(address)
+        if scheme not in backends:
+            raise ValueError(f"unknown scheme {scheme!r} (known: {', '.join(sorted(backends))})")
+        if scheme in HOST_PORT_SCHEMES:
+            _, port = get_address_host_port(address)
+            if not 0 < port < 65536:
+                raise ValueError(f"port {port} is not in 1-65535")
+    except ValueError as exc:
+        raise UsageError(
+            f"--scheduler: not a scheduler address {address!r} ({exc}); give tcp://HOST:PORT"
+        ) from None
+
+
+HOST_PORT_SCHEMES = ("tcp", "tls", "ws", "wss")
 
 
 class SchedulerError(Exception):
     """The scheduler given could not be reached (exit 1: the input may be right)."""
 
 
-def _write_table(df: Any, path: Path) -> None:
-    """``df`` into ``path`` by its suffix: a temporary file in the same folder, then a rename
-    (removed again if anything fails)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
+# -- the output files -------------------------------------------------------------------------
+
+
+class WriteFailed(Exception):
+    """An output file could not be written (exit 1); ``path`` the file meant, ``why`` the
+    system's reason."""
+
+    def __init__(self, path: Path, error: OSError):
+        super().__init__(f"{path}: {error}")
+        self.path, self.why = path, error.strerror or str(error)
+
+
+def write_outputs(df: Any, out: Path | None, plot: Path | None, draw: Any) -> None:
+    """The table into ``out`` and the plot (``draw(path)``) into ``plot``, either None: all or
+    nothing. Each is written to a temporary file in its folder, then both are renamed; when
+    anything fails, the temporaries, the files renamed into place that did not exist before and
+    the folders this run created are removed, and WriteFailed names the file that failed."""
+    made: list[Path] = []
+    temps: dict[Path, Path] = {}  # target -> its temporary file
+    renamed: list[Path] = []
+    new = {p for p in (out, plot) if p is not None and not p.exists()}
     try:
-        if path.suffix.lower() == ".parquet":
+        for target, write in ((out, _table_writer(df)), (plot, draw)):
+            if target is None:
+                continue
+            with _naming(target):
+                made += _make_folders(target.parent)
+                temps[target] = _reserve(target)
+                write(temps[target])
+        for target, tmp in temps.items():
+            with _naming(target):
+                os.replace(tmp, target)
+            renamed.append(target)
+    except BaseException:
+        for tmp in temps.values():
+            tmp.unlink(missing_ok=True)
+        for target in renamed:
+            if target in new:
+                target.unlink(missing_ok=True)
+        _remove_folders(made)
+        raise
+
+
+@contextmanager
+def _naming(target: Path) -> Iterator[None]:
+    """An OSError inside it as WriteFailed naming ``target``: a write's error names no file,
+    or the temporary one."""
+    try:
+        yield
+    except OSError as exc:
+        raise WriteFailed(target, exc) from None
+
+
+def _make_folders(folder: Path) -> list[Path]:
+    """Create ``folder`` and its missing parents; the folders created, outermost first."""
+    missing = []
+    while not folder.exists() and folder != folder.parent:
+        missing.append(folder)
+        folder = folder.parent
+    made = []
+    for f in reversed(missing):
+        f.mkdir()
+        made.append(f)
+    return made
+
+
+def _remove_folders(made: list[Path]) -> None:
+    """Remove the folders a failed run created, innermost first (each only if empty)."""
+    for folder in reversed(made):
+        try:
+            folder.rmdir()
+        except OSError:
+            pass
+
+
+def _reserve(target: Path) -> Path:
+    """A new temporary file beside ``target`` (hidden, with its suffix: the writers pick the
+    format by it)."""
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=target.suffix)
+    os.close(fd)
+    return Path(tmp)
+
+
+def _table_writer(df: Any) -> Any:
+    def write(tmp: Path) -> None:
+        if tmp.suffix.lower() == ".parquet":
             df.to_parquet(tmp, index=False)
         else:
             df.to_csv(tmp, index=False)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        # mkstemp makes it 0600; the table gets what a file created with open() gets
+        os.chmod(tmp, 0o666 & ~_umask())
+
+    return write
+
+
+def _umask() -> int:
+    """The process's umask (read by setting it, the only portable way, and setting it back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
