@@ -133,14 +133,21 @@ def prb_load_case(scene: Scene) -> bool:
 
 
 def _prb_case_problem(scene: Scene) -> str | None:
+    for ld in scene.loads:
+        if ld.moment != 0.0:
+            return f"a moment at {ld.point!r}"
+    return prb_structure_problem(scene)
+
+
+def prb_structure_problem(scene: Scene) -> str | None:
+    """What in the scene's structure leaves the PRB fitted case (the moments aside, which are
+    load values: the emitted controller checks them at run time), or None."""
     if len(scene.flexures) != 1:
         return f"{len(scene.flexures)} flexures"
     if scene.tendons:
         return "a tendon"
     tip = f"{scene.flexures[0].name}.tip"
     for ld in scene.loads:
-        if ld.moment != 0.0:
-            return f"a moment at {ld.point!r}"
         if ld.point != tip:
             return f"a load at {ld.point!r}, not at the tip"
     return None

@@ -210,6 +210,7 @@ def test_emitted_solver_answers_as_the_library(built, prefix):
     past = "wrong by any amount" in warned or "error bound does not hold" in warned
     assert bool(got["flags"] & 1) == past, warned
     assert bool(got["flags"] & 2) == (not r.stable)
+    assert bool(got["flags"] & 16) == ("near a critical load" in warned), warned
     assert bool(got["notes"] & 1) == ("buckling" in noted or "snap" in noted), noted
     assert bool(got["notes"] & 2) == ("switched to the Gauss kernel" in noted), noted
 
@@ -383,8 +384,9 @@ int main(void) {
         sw = col_solve(&in, &warm, &w);
         memset(&cold, 0, sizeof cold);
         sc = col_solve(&in, &cold, &c);
-        printf("%.17g %d %d %d %d %.17g %.17g %.17g %.17g %d %d\n", f, sw, sc, w.warm, c.warm,
-               w.pose[0][0], w.pose[0][1], c.pose[0][0], c.pose[0][1], w.flags, c.flags);
+        printf("%.17g %d %d %d %d %.17g %.17g %.17g %.17g %d %d %d %d %.17g %.17g\n", f, sw, sc,
+               w.warm, c.warm, w.pose[0][0], w.pose[0][1], c.pose[0][0], c.pose[0][1], w.flags,
+               c.flags, w.notes, c.notes, w.critical_load_factor, c.critical_load_factor);
     }
     return 0;
 }
@@ -392,16 +394,19 @@ int main(void) {
 
 
 @NEEDS_GCC
-def test_warm_starts_follow_the_cold_answers_across_buckling(tmp_path):
+@pytest.mark.parametrize("push", [1e-4, 0.0], ids=["imperfect", "perfect"])
+def test_warm_starts_follow_the_cold_answers_across_buckling(tmp_path, push):
     """An imperfect column (1.5x the Euler load at the scene's load, with a tiny push toward
-    +y), loaded from 0.75x to 2.4x the Euler load: warm and cold answers agree at every step,
-    before the buckling load (straight) and after it (bent toward +y), and the warm solves are
-    accepted warm starts on most steps."""
+    +y) and a perfect one, loaded from 0.75x to 2.4x the Euler load: warm and cold answers agree
+    at every step, before the buckling load (straight) and after it (bent toward +y, or the side
+    the library's rule takes), and the warm solves are accepted warm starts on most steps. Past the buckling load the cold answer notes the
+    critical event at the Euler load, as a fraction of its inputs; a warm answer continuing it
+    keeps the note but gives no factor (NaN: that fraction was of other inputs)."""
     euler = math.pi**2 / 4
     scene = tmp_path / "col.toml"
     scene.write_text(
         'name = "column"\n[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'
-        f'[[load]]\npoint = "beam.tip"\nforce = [{-1.5 * euler!r}, 1e-4]\n'
+        f'[[load]]\npoint = "beam.tip"\nforce = [{-1.5 * euler!r}, {push!r}]\n'
         '[output]\npoints = ["beam.tip"]\n'
     )
     write_files(controller_files(scene, "col"), tmp_path)
@@ -410,7 +415,7 @@ def test_warm_starts_follow_the_cold_answers_across_buckling(tmp_path):
     sources = [str(tmp_path / "col.c"), str(tmp_path / "warm.c")]
     subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
     rows = [line.split() for line in subprocess.check_output([str(exe)], text=True).splitlines()]
-    warm_used = 0
+    warm_used = noted = last_cold_note = 0
     for row in rows:
         f = float(row[0])
         assert row[1] == row[2] == "0", row
@@ -418,11 +423,25 @@ def test_warm_starts_follow_the_cold_answers_across_buckling(tmp_path):
         assert row[4] == "0"
         wx, wy, cx, cy = map(float, row[5:9])
         assert abs(wx - cx) < 1e-9 and abs(wy - cy) < 1e-9, row
+        w_notes, c_notes = int(row[11]), int(row[12])
+        w_factor, c_factor = float(row[13]), float(row[14])
+        noted += c_notes & 1
+        if c_notes & 1:  # the Euler load, as a fraction of these inputs
+            assert c_factor * f * 1.5 == pytest.approx(1.0, abs=0.05), row
+        if row[3] == "1":  # warm: the note of the answer it continues, no factor
+            assert math.isnan(w_factor) and bool(w_notes & 1) == bool(last_cold_note), row
+        else:
+            assert w_notes == c_notes and w_factor == c_factor, row
+            last_cold_note = w_notes & 1
         if f * 1.5 > 1.05:  # past the buckling load: bent toward the push
-            assert cy > 0.05, row
+            assert cy > 0.05 if push else abs(cy) > 0.05, row
         if f * 1.5 < 0.95:
             assert abs(cy) < 0.05, row
+            assert c_notes == 0 and c_factor == 0.0, row
     assert warm_used > len(rows) // 2
+    # the perfect column's cold answers past the Euler load note the bifurcation (the push
+    # smooths it away)
+    assert noted > 0 if push == 0 else noted == 0
 
 
 # -- bad input ----------------------------------------------------------------------------------
@@ -482,6 +501,135 @@ def test_bad_prefix_and_unwritable_folder(tmp_path):
     finally:
         locked.chmod(0o700)
     assert not (tmp_path / "out").exists()
+
+
+def test_prefixes_clashing_with_the_core_are_refused(tmp_path):
+    """The emitted names share one translation unit with the core and kernels: --prefix direct
+    would define a second direct_solve, scm3 the kernel's SCM3_* macros; an empty prefix is no
+    C identifier. One line, exit 2, nothing written."""
+    scene = str(ROOT / "examples" / "cantilever_tip_load.toml")
+    for prefix, named in (
+        ("direct", "direct_solve"),
+        ("lu", "lu_solve"),
+        ("scm3", "SCM3_"),
+        ("", "''"),
+    ):
+        r = _emit(["--scene", scene, "--prefix", prefix, "--out", "out"], tmp_path)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, (prefix, r.stderr)
+        assert "--prefix" in r.stderr and named in r.stderr, r.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_failed_write_is_the_only_line(tmp_path):
+    """A file name taken by a folder: the write fails after emission; stderr has that one line
+    (no progress line claiming the files were made), exit 2, nothing written."""
+    (tmp_path / "out" / "CMakeLists.txt").mkdir(parents=True)
+    r = _emit(
+        ["--scene", str(ROOT / "examples" / "cantilever_tip_load.toml"), "--out", "out"], tmp_path
+    )
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--out" in r.stderr and r.stdout == ""
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["CMakeLists.txt"]
+
+
+HOSTILE_NAME = 'cantilever at 50% "mk2" */ v2 ??/ \\ /* end'
+
+
+@NEEDS_GCC
+def test_names_are_escaped_in_comments_strings_and_json(tmp_path):
+    """A scene name and point names with a printf conversion, quotes, a comment end and start,
+    a trigraph and a backslash: the C compiles strictly and the example prints them as the
+    JSON of flexgen solve does."""
+    scene = tmp_path / "hostile.toml"
+    scene.write_text(
+        f"name = {json.dumps(HOSTILE_NAME)}\n"
+        '[[flexure]]\nname = "b*/x"\nlength = 1.0\nEI = 1.0\n'
+        '[[link]]\nname = "pad"\npoints = { "p\\"1" = [0.1, 0.0], "q%s" = [0.0, 0.1] }\n'
+        '[[load]]\npoint = "pad.p\\"1"\nforce = [0.0, -1.0]\n'
+        '[output]\npoints = ["pad.p\\"1", "pad.q%s"]\n'
+    )
+    out = tmp_path / "gen"
+    write_files(controller_files(scene, "hostile"), out)
+    exe = tmp_path / "hostile"
+    sources = [str(out / "hostile.c"), str(out / "hostile_example.c")]
+    subprocess.run(["gcc", *STRICT, "-Wformat=2", *sources, "-lm", "-o", str(exe)], check=True)
+    got = json.loads(subprocess.check_output([str(exe), "--no-timing"], text=True))
+    ref = json.loads(
+        subprocess.check_output(
+            [sys.executable, "-m", "flexgen", "solve", str(scene), "--json"], text=True
+        )
+    )
+    assert got["scene"] == ref["scene"] == HOSTILE_NAME
+    assert list(got["points"]) == list(ref["points"]) == ['pad.p"1', "pad.q%s"]
+    assert list(got["q"]) == ["b*/x"]
+
+
+MAKEFILE = """include gen/finger.mk
+my_controller: my_controller.o $(FINGER_OBJECTS)
+\t$(CC) -o $@ $^ -lm
+my_controller.o: CFLAGS += $(FINGER_INCLUDE)
+"""
+
+
+@NEEDS_GCC
+def test_the_makefile_fragment_keeps_the_including_default_goal(tmp_path):
+    """As NAME.mk's comment says to use it: plain `make` builds the controller, not the
+    fragment's first rule."""
+    write_files(
+        controller_files(ROOT / "examples" / "two_link_finger.toml", "finger"), tmp_path / "gen"
+    )
+    (tmp_path / "Makefile").write_text(MAKEFILE)
+    (tmp_path / "my_controller.c").write_text(
+        '#include "finger.h"\nint main(void) { finger_inputs in; static finger_state st; '
+        "finger_outputs out; finger_inputs_default(&in); return finger_solve(&in, &st, &out); }\n"
+    )
+    r = subprocess.run(["make"], cwd=tmp_path, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert subprocess.run([str(tmp_path / "my_controller")]).returncode == 0
+
+
+PRB = r"""
+#include <stdio.h>
+#include "prb.h"
+int main(void) {
+    prb_inputs in; static prb_state st; prb_outputs out; int s;
+    prb_inputs_default(&in);
+    in.load[0][2] = MOMENT;
+    s = prb_solve(&in, &st, &out);
+    printf("%d %d\n", s, out.flags);
+    in.load[0][0] = 1e308;  /* finite loads whose sum overflows: not bad input */
+    in.load[0][1] = 1e308;
+    printf("%d\n", prb_solve(&in, &st, &out));
+    return 0;
+}
+"""
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize("scene_moment, moment", [(0.0, 0.1), (0.1, 0.0), (0.0, 0.0)])
+def test_prb_claims_follow_the_run_time_moment(tmp_path, scene_moment, moment):
+    """The pseudo-rigid-body constants are fitted for a tip force: a moment among the inputs
+    sets FLAG_NO_CLAIM (8) at run time, as the library warns for those loads, whatever moment
+    the scene file had."""
+    scene = tmp_path / "prb.toml"
+    scene.write_text(
+        '[model]\nkind = "prb"\n[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'
+        f'[[load]]\npoint = "beam.tip"\nforce = [0.0, -0.5]\nmoment = {scene_moment!r}\n'
+    )
+    write_files(controller_files(scene, "prb"), tmp_path)
+    (tmp_path / "main.c").write_text(PRB.replace("MOMENT", repr(moment)))
+    exe = tmp_path / "prb"
+    sources = [str(tmp_path / "prb.c"), str(tmp_path / "main.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    status, flags, overflow = map(int, subprocess.check_output([str(exe)], text=True).split())
+    same = tmp_path / "same.toml"  # the scene with the run-time moment, for the library
+    same.write_text(scene.read_text().replace(f"moment = {scene_moment!r}", f"moment = {moment!r}"))
+    library = flexgen.solve(same)
+    assert status == 0
+    assert (
+        bool(flags & 8) == any("pseudo-rigid-body" in w for w in library.warnings) == (moment != 0)
+    )
+    assert overflow != 2  # FAIL or solved, never BAD_INPUT (that is NaN or inf)
 
 
 def test_kernel_prefix_links_beside_the_shipped_kernel(tmp_path):

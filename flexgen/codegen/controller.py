@@ -13,6 +13,7 @@ then the scene's tables and ``NAME_solve``), ``NAME_example.c``, ``CMakeLists.tx
 from __future__ import annotations
 
 import functools
+import json
 import math
 import re
 from dataclasses import dataclass, fields, replace
@@ -21,6 +22,7 @@ from typing import Any
 
 from flexgen.scene import Scene, SceneError, load_scene
 from flexgen.settings import DEFAULT, SolverSettings
+from flexgen.validity import NEAR_SINGULAR
 
 from .render import render
 
@@ -84,6 +86,18 @@ def check_prefix(prefix: str) -> str:
     return prefix
 
 
+def _check_no_clash(prefix: str, pasted: str) -> None:
+    """The emitted names are ``prefix_*`` and ``PREFIX_*``, in one translation unit with the
+    pasted core and kernels: none of theirs may start so (``--prefix direct`` would give a
+    second ``direct_solve``)."""
+    found = re.search(rf"\b(?:{re.escape(prefix)}|{re.escape(prefix.upper())})_\w*", pasted)
+    if found:
+        raise EmitError(
+            f"--prefix: {prefix!r} clashes with the solver core's own name {found[0]!r} (the "
+            "prefix names every emitted function and constant); give another --prefix"
+        )
+
+
 def identifier(name: str) -> str:
     """A point or flexure name as the tail of a C enum name: ``fingertip.pad`` -> ``FINGERTIP_PAD``."""
     return re.sub(r"[^A-Za-z0-9]", "_", name).upper()
@@ -106,6 +120,26 @@ def _enum(kind: str, names: list[str]) -> list[tuple[str, str]]:
         seen[ident] = name
         out.append((ident, name))
     return out
+
+
+def c_comment(text: str) -> str:
+    """Scene text (a name, a file name) safe inside a C /* comment */: control characters as
+    spaces, and no comment end or start, and no trigraph (C99 still reads "??/" as a
+    backslash) left in it."""
+    out = "".join(" " if ord(c) < 32 or ord(c) == 127 else c for c in text)
+    while True:
+        safer = out.replace("*/", "* /").replace("/*", "/ *").replace("??", "? ?")
+        if safer == out:
+            return out
+        out = safer
+
+
+def c_json_string(text: str) -> str:
+    """The body of a C string literal that prints ``text`` as the body of a JSON string, as
+    ``flexgen solve --json`` writes it (ASCII, escaped by the json module); in C, backslash,
+    quote and "?" (trigraphs) escaped. Passed to printf as an argument, never as the format."""
+    body = json.dumps(text)[1:-1]
+    return body.replace("\\", "\\\\").replace('"', '\\"').replace("?", "\\?")
 
 
 def c_double(x: float) -> str:
@@ -226,9 +260,11 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
                 "name": name,
                 "index": i,
                 "scene_index": [g.name for g in scene.flexures].index(name),
-                "comment": f'[[flexure]] "{name}": {info["kind"]}'
-                + (f" ({model})" if model else "")
-                + f", length {fl.length:g}, EI {fl.EI:g}, parent {fl.parent!r}",
+                "comment": c_comment(
+                    f'[[flexure]] "{name}": {info["kind"]}'
+                    + (f" ({model})" if model else "")
+                    + f", length {fl.length:g}, EI {fl.EI:g}, parent {fl.parent!r}"
+                ),
                 "kind": kinds[f.kind],
                 "ndof": f.ndof,
                 "offset": f.offset,
@@ -254,14 +290,25 @@ def _tip0(values: Any, number) -> list[str] | None:
     return None if values is None else [number(float(v)) for v in values]
 
 
+def _prb_moment_check(scene: Scene, models: dict) -> bool:
+    """Whether a prb flexure's claim depends on the loads' moments at run time: its scene has
+    the fitted structure (validity.prb_structure_problem), which a moment leaves."""
+    from flexgen.models.registry import model_info
+    from flexgen.validity import prb_structure_problem
+
+    has_prb = any(model_info(m)["kind"] == "prb" for m in models.values())
+    return has_prb and prb_structure_problem(scene) is None
+
+
 def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
     """The bend of each flexure (body order) past which flexgen/validity.py claims no accuracy:
-    BEND_LIMIT; for prb, its pin-rotation validity, or -1 (never claimed) in a
-    scene its constants are not fitted for."""
+    BEND_LIMIT; for prb, its pin-rotation validity, or -1 (never claimed) in a scene whose
+    structure its constants are not fitted for (a moment, a load value, is checked at run
+    time: _prb_moment_check)."""
     from flexgen.models.registry import model_info
-    from flexgen.validity import BEND_LIMIT, PRB_LIMIT, _context
+    from flexgen.validity import BEND_LIMIT, PRB_LIMIT, prb_structure_problem
 
-    prb_problem = _context(scene, models, None).prb_problem
+    prb_problem = prb_structure_problem(scene)
     limits = []
     for name in order:
         limit = BEND_LIMIT
@@ -306,10 +353,14 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
     return {
         "name": options.prefix,
         "NAME": options.prefix.upper(),
-        "scene_file": options.scene_file,
-        "scene_name": scene.name,
-        "command": f"flexgen generate --scene {options.scene_file} --prefix {options.prefix}"
-        + (" --float" if options.single else ""),
+        # scene text in comments and strings, escaped (c_comment, c_json_string)
+        "scene_file": c_comment(options.scene_file),
+        "scene_name": c_comment(scene.name),
+        "scene_name_json": c_json_string(scene.name),
+        "command": c_comment(
+            f"flexgen generate --scene {options.scene_file} --prefix {options.prefix}"
+            + (" --float" if options.single else "")
+        ),
         "real": "float" if options.single else "double",
         "kernel_suffix": "_f" if options.single else "",
         "tol": f"{settings.tol:g}",
@@ -325,17 +376,21 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "nwork": max(int(lib.fg_work_size(p)), 1),
         "niwork": max(int(lib.fg_iwork_size(p)), 1),
         "loads": [
-            {"ident": ident, "point": point, "value": [*ld.force, ld.moment]}
+            {"ident": ident, "point": c_comment(point), "value": [*ld.force, ld.moment]}
             for (ident, point), ld in zip(loads, scene.loads)
         ],
         "tensions": [t.tension for t in scene.tendons],
-        "tendon_routes": [" -> ".join(t.route) for t in scene.tendons],
-        "outputs": outputs,
-        "flexure_enum": flex_names,
-        "flexure_slices": [(name, slices[name].start, slices[name].stop) for name in slices],
+        "tendon_routes": [c_comment(" -> ".join(t.route)) for t in scene.tendons],
+        "outputs": [(ident, c_comment(point)) for ident, point in outputs],
+        "output_json": [c_json_string(point) for _, point in outputs],
+        "flexure_enum": [(ident, c_comment(flexure)) for ident, flexure in flex_names],
+        "flexure_slices": [
+            (c_comment(name), c_json_string(name), slices[name].start, slices[name].stop)
+            for name in slices
+        ],
         "flexures": rows,
         "points": points,
-        "point_names": list(problem.points),
+        "point_names": [c_comment(n) for n in problem.points],
         "load_point": ints(p.load_point, int(p.nloads)),
         "route_start": ints(p.route_start, int(p.ntendons)),
         "route_len": ints(p.route_len, int(p.ntendons)),
@@ -343,6 +398,8 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "output_index": ints(p.outputs, int(p.noutputs)),
         "stiffness": [number(float(v)) for v in problem.stiffness],
         "claim_limits": [number(v) for v in _claim_limits(scene, models, problem.flexure_order)],
+        "prb_moment_check": _prb_moment_check(scene, models),
+        "near_critical": f"{NEAR_SINGULAR!r}",
         "settings": _settings_rows(settings, c_double),
         "kernels": kernel_names,
         "kernel_blocks": [_kernel_block(k, options.single) for k in kernel_names],
@@ -362,9 +419,12 @@ TEMPLATES = {
 def controller_files(path: Path, prefix: str | None = None, single: bool = False) -> dict[str, str]:
     """{file name: text} of the controller of the scene file ``path`` (see the module doc)."""
     options = Options(
-        Path(path).name, check_prefix(prefix or default_prefix(Path(path))), bool(single)
+        Path(path).name,
+        check_prefix(prefix if prefix is not None else default_prefix(Path(path))),
+        bool(single),
     )
     context = controller_context(Path(path), options)
+    _check_no_clash(options.prefix, context["core"] + "".join(context["kernel_blocks"]))
     return {
         out.format(name=options.prefix): render(template, context)
         for out, template in TEMPLATES.items()

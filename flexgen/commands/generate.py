@@ -127,22 +127,24 @@ def _run_scene(args) -> int:
         given.append("--range")
     if given:
         raise UsageError(f"{', '.join(given)}: not used with --scene (the scene chooses models)")
-    prefix = args.prefix or default_prefix(args.scene)
+    prefix = args.prefix if args.prefix is not None else default_prefix(args.scene)
     out = args.out if args.out is not None else Path(prefix)
     if not args.check:
         check_writable(out)
     start = time.perf_counter()
     files = controller_files(args.scene, prefix, args.single)
-    print(
-        f"{args.scene}: {len(files)} files ({time.perf_counter() - start:.1f} s)", file=sys.stderr
-    )
     if args.check:
         stale = stale_files(files, out)
         if stale:
             print(f"flexgen: stale in {out}: {' '.join(stale)}", file=sys.stderr)
             return 1
+        print(f"{len(files)} files in {out} are up to date", file=sys.stderr)
         return 0
-    for path in write_files(files, out):
+    written = write_files(files, out)  # said once written: a failed write is the only line
+    print(
+        f"{args.scene}: {len(files)} files ({time.perf_counter() - start:.1f} s)", file=sys.stderr
+    )
+    for path in written:
         print(path)
     return 0
 

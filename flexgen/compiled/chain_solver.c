@@ -2205,9 +2205,9 @@ static int problem_well_formed(const fg_problem *p)
         if (p->points[i].frame < -1 || p->points[i].frame >= p->nflex)
             return 0;
     for (i = 0; i < p->nloads; ++i)
-        if (p->load_point[i] < 0 || p->load_point[i] >= p->npoints
-            || !isfinite(p->load[3 * i] + p->load[3 * i + 1] + p->load[3 * i + 2]))
-            return 0;
+        if (p->load_point[i] < 0 || p->load_point[i] >= p->npoints || !isfinite(p->load[3 * i])
+            || !isfinite(p->load[3 * i + 1]) || !isfinite(p->load[3 * i + 2]))
+            return 0;     /* each value: a sum of finite loads may overflow */
     for (i = 0; i < p->noutputs; ++i)
         if (p->outputs[i] < 0 || p->outputs[i] >= p->npoints)
             return 0;
@@ -2830,6 +2830,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
             goto answer;
         }
         clear_model_error(w);
+        clear_switched(w);        /* the rejected attempt's kernel switches are not the path's */
         cur = &w->st[1];
         spare = &w->st[2];
     }

@@ -2566,9 +2566,9 @@ static int problem_well_formed(const fg_problem *p)
         if (p->points[i].frame < -1 || p->points[i].frame >= p->nflex)
             return 0;
     for (i = 0; i < p->nloads; ++i)
-        if (p->load_point[i] < 0 || p->load_point[i] >= p->npoints
-            || !isfinite(p->load[3 * i] + p->load[3 * i + 1] + p->load[3 * i + 2]))
-            return 0;
+        if (p->load_point[i] < 0 || p->load_point[i] >= p->npoints || !isfinite(p->load[3 * i])
+            || !isfinite(p->load[3 * i + 1]) || !isfinite(p->load[3 * i + 2]))
+            return 0;     /* each value: a sum of finite loads may overflow */
     for (i = 0; i < p->noutputs; ++i)
         if (p->outputs[i] < 0 || p->outputs[i] >= p->npoints)
             return 0;
@@ -3191,6 +3191,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
             goto answer;
         }
         clear_model_error(w);
+        clear_switched(w);        /* the rejected attempt's kernel switches are not the path's */
         cur = &w->st[1];
         spare = &w->st[2];
     }
@@ -3967,7 +3968,6 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
 
     /* the core's entry points this controller does not call */
     (void)fg_margin;
-    (void)fg_margin_above;
     (void)fg_flexure_tip;
     (void)fg_calm;        /* the validity screen is flexgen's; the controller has its flags */
     (void)fg_estimate;   /* the error estimate is flexgen's (Python), not the controller's */
@@ -3987,6 +3987,7 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     a.critical = critical;
     a.critical_kind = critical_kind;
     a.max_critical = 1;
+    a.stiffness = state->stiffness;
     status = fg_solve(&p, state->work, state->iwork, &a);
     out->iterations = a.iterations;
     out->evaluations = a.evaluations;
@@ -3996,21 +3997,17 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
         state->solved = 0;
         return status == FG_MODEL_ERROR ? TWO_LINK_FINGER_BAD_INPUT : TWO_LINK_FINGER_NO_EQUILIBRIUM;
     }
-    /* a warm answer continues the branch of the answer it started from, and so keeps that
-     * answer's critical events; a cold one has its own */
+    /* a cold answer's critical events are its own; a warm answer continues the branch of the
+     * answer it started from and keeps its note, but no load factor: that was a fraction of
+     * the inputs of the cold solve whose path met it, not of these */
     out->warm = a.warm;
     out->flags = 0;
     out->notes = 0;
-    if (!a.warm) {
+    if (!a.warm)
         state->critical = a.ncritical > 0;
-        state->critical_load_factor = a.ncritical > 0 ? critical[0] : 0.0;
-    }
-    if (state->critical) {
+    out->critical_load_factor = a.warm ? (fg_real)NAN : a.ncritical > 0 ? critical[0] : 0.0;
+    if (state->critical)
         out->notes |= TWO_LINK_FINGER_NOTE_CRITICAL;
-        out->critical_load_factor = state->critical_load_factor;
-    } else {
-        out->critical_load_factor = 0.0;
-    }
     for (j = 0; j < TWO_LINK_FINGER_NFLEXURES; ++j) {
         int s = two_link_finger_scene_flexure[j];
         out->bend[s] = bend[j];
@@ -4030,6 +4027,9 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     out->stable = a.stable;
     if (!a.stable)
         out->flags |= TWO_LINK_FINGER_FLAG_UNSTABLE;
+    /* the library's "near a critical load": one Cholesky factorization of K - margin D */
+    else if (!fg_margin_above(&p, state->stiffness, TWO_LINK_FINGER_NEAR_CRITICAL, state->work, state->iwork))
+        out->flags |= TWO_LINK_FINGER_FLAG_NEAR_CRITICAL;
     for (k = 0; k < 9 * TWO_LINK_FINGER_NOUTPUTS; ++k)
         if (!isfinite((&out->compliance[0][0][0])[k]))
             out->flags |= TWO_LINK_FINGER_FLAG_NO_COMPLIANCE;

@@ -35,6 +35,7 @@ extern "C" {
 #define TWO_LINK_FINGER_NWORK 1715       /* the solver's scratch memory, in two_link_finger_state */
 #define TWO_LINK_FINGER_NIWORK 29
 #define TWO_LINK_FINGER_WARM_CHANGE 0.25      /* largest relative change of the inputs for a warm start */
+#define TWO_LINK_FINGER_NEAR_CRITICAL 0.05    /* margin to a critical load below which FLAG_NEAR_CRITICAL */
 
 /* index of each load in two_link_finger_inputs.load, named after its point */
 enum {
@@ -82,9 +83,13 @@ enum {
                                           * the answer may be wrong by any amount */
     TWO_LINK_FINGER_FLAG_UNSTABLE = 2,        /* the equilibrium is not stable */
     TWO_LINK_FINGER_FLAG_NO_COMPLIANCE = 4,   /* the stiffness is singular: a compliance is not finite */
-    TWO_LINK_FINGER_FLAG_NO_CLAIM = 8         /* a flexure is bent further than the model's accuracy
+    TWO_LINK_FINGER_FLAG_NO_CLAIM = 8,        /* a flexure is bent further than the model's accuracy
                                           * is known (flexgen/validity.py), or a prb pin past
                                           * its validity: no accuracy is claimed */
+    TWO_LINK_FINGER_FLAG_NEAR_CRITICAL = 16   /* a stable equilibrium within TWO_LINK_FINGER_NEAR_CRITICAL of a
+                                          * critical load (the stiffness nearly singular): the
+                                          * compliance amplifies any model error by about
+                                          * 1 / margin */
 };
 
 /* what the library notes (facts that do not make the answer wrong), as bits of
@@ -118,9 +123,10 @@ typedef struct {
 typedef struct {
     double q[TWO_LINK_FINGER_NDOF];   /* the last answer's coordinates (when solved = 1) */
     int solved;              /* 1: q is the equilibrium under last; 0 (all zero): unloaded */
-    int critical;            /* 1: that equilibrium's load path met a critical event */
-    double critical_load_factor;
+    int critical;            /* 1: that equilibrium's branch was reached past a critical
+                              * event on the load path of the last cold solve */
     two_link_finger_inputs last;      /* the inputs q answers */
+    double stiffness[TWO_LINK_FINGER_NDOF * TWO_LINK_FINGER_NDOF];   /* that equilibrium's stiffness K */
     double work[TWO_LINK_FINGER_NWORK];   /* the solver's scratch memory */
     int iwork[TWO_LINK_FINGER_NIWORK];
 } two_link_finger_state;
@@ -145,7 +151,8 @@ typedef struct {
     int warm;                      /* 1: the warm start from state->q was accepted */
     int flags;                     /* TWO_LINK_FINGER_FLAG_* bits; 0: nothing to warn about */
     int notes;                     /* TWO_LINK_FINGER_NOTE_* bits */
-    double critical_load_factor;   /* TWO_LINK_FINGER_NOTE_CRITICAL: the first critical load factor */
+    double critical_load_factor;   /* a cold answer: its first critical load factor (fraction
+                                     * of these inputs), 0 if none; a warm answer: NaN */
     int failure;                   /* TWO_LINK_FINGER_NO_EQUILIBRIUM: TWO_LINK_FINGER_FAIL_* */
     double failure_load_factor;    /* TWO_LINK_FINGER_NO_EQUILIBRIUM: where (fraction of the load) */
 } two_link_finger_outputs;

@@ -7,6 +7,8 @@
 #
 # `make -f two_link_finger.mk two_link_finger_example` in this folder builds the example.
 TWO_LINK_FINGER_DIR := $(dir $(lastword $(MAKEFILE_LIST)))
+# the including Makefile keeps its default goal (restored below): these rules are not it
+TWO_LINK_FINGER_SAVED_GOAL := $(.DEFAULT_GOAL)
 TWO_LINK_FINGER_INCLUDE := -I$(TWO_LINK_FINGER_DIR)
 TWO_LINK_FINGER_OBJECTS := $(TWO_LINK_FINGER_DIR)two_link_finger.o
 # -std=c99 without -ffast-math: the answers match flexgen.solve; -ffp-contract=fast lets the
@@ -19,3 +21,4 @@ $(TWO_LINK_FINGER_DIR)two_link_finger.o: $(TWO_LINK_FINGER_DIR)two_link_finger.c
 $(TWO_LINK_FINGER_DIR)two_link_finger_example: $(TWO_LINK_FINGER_DIR)two_link_finger_example.c $(TWO_LINK_FINGER_OBJECTS)
 	$(CC) $(TWO_LINK_FINGER_CFLAGS) $(TWO_LINK_FINGER_INCLUDE) -o $@ $^ -lm
 
+.DEFAULT_GOAL := $(TWO_LINK_FINGER_SAVED_GOAL)

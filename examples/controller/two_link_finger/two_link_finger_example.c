@@ -37,7 +37,8 @@ static const char *const flag_text[] = {
     "a flexure is bent past its kernel's certified range",
     "the equilibrium is not stable",
     "a compliance is undefined: the stiffness is singular",
-    "a flexure is bent further than the model's accuracy is known"
+    "a flexure is bent further than the model's accuracy is known",
+    "near a critical load: the compliance amplifies any model error"
 };
 
 static const char *const note_text[] = {
@@ -61,16 +62,16 @@ static void print_json(int status, const two_link_finger_outputs *out)
 {
     static const char *const outputs[] = {"middle.pad", "fingertip.pad"};
     int i;
-    printf("{\n  \"scene\": \"two-link finger\",\n  \"converged\": %s,\n", status == TWO_LINK_FINGER_SOLVED ? "true" : "false");
+    printf("{\n  \"scene\": \"%s\",\n  \"converged\": %s,\n", "two-link finger", status == TWO_LINK_FINGER_SOLVED ? "true" : "false");
     printf("  \"stable\": %s,\n  \"iterations\": %d,\n", out->stable ? "true" : "false", out->iterations);
     if (status != TWO_LINK_FINGER_SOLVED) {
         printf("  \"reason\": \"%s\"\n}\n", status == TWO_LINK_FINGER_BAD_INPUT ? "bad input" : "no equilibrium");
         return;
     }
     printf("  \"q\": {");
-    printf("\"proximal\": ");
+    printf("\"%s\": ", "proximal");
     print_vector(out->q + 0, 3);
-    printf(", \"distal\": ");
+    printf(", \"%s\": ", "distal");
     print_vector(out->q + 3, 3);
     printf("},\n  \"points\": {");
     for (i = 0; i < TWO_LINK_FINGER_NOUTPUTS; ++i) {
@@ -89,7 +90,7 @@ static void print_json(int status, const two_link_finger_outputs *out)
         printf("}}");
     }
     printf("\n  },\n  \"warnings\": ");
-    print_bits(flag_text, 4, out->flags);
+    print_bits(flag_text, 5, out->flags);
     printf(",\n  \"notes\": ");
     print_bits(note_text, 2, out->notes);
     printf("\n}\n");
