@@ -205,6 +205,27 @@ def _kernel_bounds(model: Any) -> tuple[float, float]:
     return pos, 2.0 * jac
 
 
+def curvature_difference(
+    model: Any, q: Any, other: Any, other_q: Any, length: float, samples: int
+) -> float:
+    """max_s |kappa(s) - kappa_other(s)| over the larger peak |kappa| of the two profiles (0
+    when both are 0), on ``samples`` points along the flexure and both models'
+    ``curvature_extremes``: the relative difference of two models' curvature, so of their
+    strains and stresses."""
+    q = np.asarray(q, dtype=float)
+    other_q = np.asarray(other_q, dtype=float)
+    s = np.linspace(0.0, length, samples)
+    for m, mq in ((model, q), (other, other_q)):
+        extremes = getattr(m, "curvature_extremes", None)
+        if extremes is not None:
+            s = np.union1d(s, np.clip(np.asarray(extremes(mq), dtype=float), 0.0, length))
+    kappa = np.asarray(model.curvature(q, s), dtype=float)
+    kappa_other = np.asarray(other.curvature(other_q, s), dtype=float)
+    peak = max(float(np.max(np.abs(kappa))), float(np.max(np.abs(kappa_other))))
+    d = float(np.max(np.abs(kappa - kappa_other)))
+    return d / peak if peak > 0.0 else 0.0
+
+
 class Estimator:
     """The richer model of a prepared ``Solver``'s scene and models, prepared once: its
     ``Problem`` (sharing the answer's load and tension arrays), a ``Workspace``, the q map and
@@ -341,19 +362,10 @@ class Estimator:
             if est.rich_q is None:
                 out[name] = math.inf
                 continue
-            q = np.asarray(qs[name], dtype=float)
-            rq = np.asarray(est.rich_q[self.rich_slices[name]], dtype=float)
+            rq = est.rich_q[self.rich_slices[name]]
             length = self.scene.flexure(name).length
-            s = np.linspace(0.0, length, samples)
-            for m, mq in ((model, q), (rich, rq)):
-                extremes = getattr(m, "curvature_extremes", None)
-                if extremes is not None:
-                    s = np.union1d(s, np.clip(np.asarray(extremes(mq), dtype=float), 0.0, length))
-            kappa = np.asarray(model.curvature(q, s), dtype=float)
-            kappa_rich = np.asarray(rich.curvature(rq, s), dtype=float)
-            peak = max(float(np.max(np.abs(kappa))), float(np.max(np.abs(kappa_rich))))
-            d = float(np.max(np.abs(kappa - kappa_rich)))
-            out[name] = self.factor * (d / peak if peak > 0.0 else 0.0) + ROUNDING_CURVATURE
+            d = curvature_difference(model, qs[name], rich, rq, length, samples)
+            out[name] = self.factor * d + ROUNDING_CURVATURE
         return out
 
     def _solve_richer(self, solver: Any) -> int:

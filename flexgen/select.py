@@ -550,6 +550,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
                 "pose": float(max(tot[3 * k], tot[3 * k + 1])),
                 "compliance": float(tot[3 * k + 2]),
             }
+    _stress_estimates(pb, chosen)
     msg = None
     if not reached:
         M = ", ".join(f"{ft.name} {ft.rich}" for ft in table.flexures)
@@ -560,6 +561,23 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
         )
         res.warnings.append(msg)
     return Selection(tol, choices, est, reached, res, pb.solves, time.perf_counter() - t0, msg)
+
+
+def _stress_estimates(pb: _Problem, chosen: Solved) -> None:
+    """The chosen answer's flexures with their curvature (so stress) estimates, as every
+    answer's (flexgen.estimate: the chosen models against N + 2 from the answer; the selection's
+    own comparison is with its richest models, whose own curvature error it does not bound),
+    and the safety-factor warnings those may add."""
+    from .solver import Solver, make_settings
+    from .stress import safety_warnings
+
+    res = chosen.result
+    solver = Solver(pb.scene, pb.models(chosen.modes), make_settings(**pb.kw))
+    again = solver.solve(q0=res.q, estimate=True)  # the same equilibrium: Newton from it
+    if not again.converged:
+        return
+    res.flexures = again.flexures
+    res.warnings.extend(w for w in safety_warnings(pb.scene, res.flexures) if w not in res.warnings)
 
 
 def select_models(scene, tolerance: float, /, **solve_kwargs) -> Selection:

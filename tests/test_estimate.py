@@ -312,3 +312,15 @@ def test_a_coarse_answer_reached_by_newton_is_honest_at_large_loads(model, direc
     assert est is not None
     assert max(true[0], true[1]) <= est["pose"]
     assert true[2] <= est["compliance"]  # each component against its own estimate
+
+
+def test_a_selected_answer_states_its_stress_error_too():
+    """--tol bounds poses and compliances; the stress of the selected models has its own
+    estimate, which covers its error against the elastica and exceeds the pose tolerance."""
+    r = flexgen.solve(EX / "steel_finger.toml", tolerance=1e-6)
+    exact = flexgen.solve(EX / "steel_finger.toml", model="exact").flexures
+    assert r.error_estimate <= 1e-6
+    for name, st in r.flexures.items():
+        true = abs(st.max_curvature - exact[name].max_curvature) / exact[name].max_curvature
+        assert true <= st.error_estimate, (name, true, st.error_estimate)
+    assert max(st.error_estimate for st in r.flexures.values()) > 1e-4
