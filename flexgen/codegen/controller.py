@@ -23,6 +23,7 @@ from typing import Any
 from flexgen.scene import Scene, SceneError, load_scene
 from flexgen.settings import DEFAULT, SolverSettings
 from flexgen.validity import NEAR_SINGULAR
+from flexgen.warm import WARM_CHANGE
 
 from .render import render
 
@@ -400,6 +401,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "claim_limits": [number(v) for v in _claim_limits(scene, models, problem.flexure_order)],
         "prb_moment_check": _prb_moment_check(scene, models),
         "near_critical": f"{NEAR_SINGULAR!r}",
+        "warm_change": f"{WARM_CHANGE!r}",  # flexgen/warm.py: the studies' rule too
         "settings": _settings_rows(settings, c_double),
         "kernels": kernel_names,
         "kernel_blocks": [_kernel_block(k, options.single) for k in kernel_names],
