@@ -87,14 +87,27 @@ def check_prefix(prefix: str) -> str:
     return prefix
 
 
-def _check_no_clash(prefix: str, pasted: str) -> None:
-    """The emitted names are ``prefix_*`` and ``PREFIX_*``, in one translation unit with the
-    pasted core and kernels: none of theirs may start so (``--prefix direct`` would give a
-    second ``direct_solve``)."""
-    found = re.search(rf"\b(?:{re.escape(prefix)}|{re.escape(prefix.upper())})_\w*", pasted)
-    if found:
+# a prefix no core or kernel name starts with: the names the templates define, found by
+# rendering them with it
+_PROBE = "fgprobe"
+
+
+def _check_no_clash(context: dict[str, Any]) -> None:
+    """The names the emitted code defines (``prefix_*``, ``PREFIX_*``) share one translation
+    unit with the pasted core and kernels: none may be one of theirs (``--prefix direct``
+    would define a second ``direct_solve``). The defined names are those of a rendering with
+    the probe prefix (a name the templates merely use, such as a kernel's ``SCM3_ERROR_BOUND``,
+    does not carry the prefix)."""
+    prefix = context["name"]
+    probe = dict(context, name=_PROBE, NAME=_PROBE.upper())
+    emitted = "".join(render(TEMPLATES[out], probe) for out in ("{name}.h", "{name}.c"))
+    found = re.findall(rf"\b(?:{_PROBE}|{_PROBE.upper()})_\w*", emitted)
+    ours = {n.replace(_PROBE, prefix).replace(_PROBE.upper(), prefix.upper()) for n in found}
+    pasted = context["core"] + "".join(context["kernel_blocks"])
+    clash = sorted(ours & set(re.findall(r"\b[A-Za-z_]\w*", pasted)))
+    if clash:
         raise EmitError(
-            f"--prefix: {prefix!r} clashes with the solver core's own name {found[0]!r} (the "
+            f"--prefix: {prefix!r} gives a name the solver core already has, {clash[0]!r} (the "
             "prefix names every emitted function and constant); give another --prefix"
         )
 
@@ -426,7 +439,7 @@ def controller_files(path: Path, prefix: str | None = None, single: bool = False
         bool(single),
     )
     context = controller_context(Path(path), options)
-    _check_no_clash(options.prefix, context["core"] + "".join(context["kernel_blocks"]))
+    _check_no_clash(context)
     return {
         out.format(name=options.prefix): render(template, context)
         for out, template in TEMPLATES.items()
