@@ -205,22 +205,12 @@ def _kernel_bounds(model: Any) -> tuple[float, float]:
     return pos, 2.0 * jac
 
 
-def curvature_difference(
-    model: Any, q: Any, other: Any, other_q: Any, length: float, samples: int
-) -> float:
-    """max_s |kappa(s) - kappa_other(s)| over the larger peak |kappa| of the two profiles (0
-    when both are 0), on ``samples`` points along the flexure and both models'
-    ``curvature_extremes``: the relative difference of two models' curvature, so of their
-    strains and stresses."""
-    q = np.asarray(q, dtype=float)
-    other_q = np.asarray(other_q, dtype=float)
-    s = np.linspace(0.0, length, samples)
-    for m, mq in ((model, q), (other, other_q)):
-        extremes = getattr(m, "curvature_extremes", None)
-        if extremes is not None:
-            s = np.union1d(s, np.clip(np.asarray(extremes(mq), dtype=float), 0.0, length))
-    kappa = np.asarray(model.curvature(q, s), dtype=float)
-    kappa_other = np.asarray(other.curvature(other_q, s), dtype=float)
+def curvature_difference(s: np.ndarray, kappa: np.ndarray, other: Any, other_q: Any) -> float:
+    """max |kappa - kappa_other| over the profile's arc lengths ``s`` (its grid and its model's
+    ``curvature_extremes``: flexgen.stress), relative to the larger peak |kappa| of the two (0
+    when both are 0): the relative difference of two models' curvature, so of their strains
+    and stresses."""
+    kappa_other = np.asarray(other.curvature(np.asarray(other_q, dtype=float), s), dtype=float)
     peak = max(float(np.max(np.abs(kappa))), float(np.max(np.abs(kappa_other))))
     d = float(np.max(np.abs(kappa - kappa_other)))
     return d / peak if peak > 0.0 else 0.0
@@ -345,26 +335,23 @@ class Estimator:
             f"so its error is unknown",
         )
 
-    def curvature_estimates(
-        self, est: Estimate, models: dict[str, Any], qs: dict[str, Any], samples: int
-    ) -> dict[str, float]:
-        """Per flexure, the estimated error of its curvature profile, relative to its largest
-        |kappa| (and so of its largest strain and stress, which are kappa times constants):
-        factor x max_s |kappa(s) - kappa_rich(s)| / max_s |kappa|, kappa_rich the richer
-        model's at its equilibrium (``est.rich_q``), on ``samples`` points and both models'
-        ``curvature_extremes``, plus ``ROUNDING_CURVATURE``; inf where the richer model has
-        no equilibrium."""
+    def curvature_estimates(self, est: Estimate, stresses: dict[str, Any]) -> dict[str, float]:
+        """Per flexure of ``stresses`` (``flexgen.stress.FlexureStress``: the answer's curvature
+        profile), the estimated error of that profile relative to its largest |kappa| (and so of
+        its largest strain and stress, which are kappa times constants): factor x the relative
+        difference to the richer model's profile at its equilibrium (``est.rich_q``) on the same
+        arc lengths (``curvature_difference``), plus ``ROUNDING_CURVATURE``; inf where the
+        richer model has no equilibrium."""
         out: dict[str, float] = {}
-        for name, model in models.items():
+        for name, st in stresses.items():
             rich: Any = self.rich_models.get(name)
-            if not hasattr(model, "curvature") or not hasattr(rich, "curvature"):
+            if not hasattr(rich, "curvature"):
                 continue
             if est.rich_q is None:
                 out[name] = math.inf
                 continue
             rq = est.rich_q[self.rich_slices[name]]
-            length = self.scene.flexure(name).length
-            d = curvature_difference(model, qs[name], rich, rq, length, samples)
+            d = curvature_difference(st.s, st.curvature, rich, rq)
             out[name] = self.factor * d + ROUNDING_CURVATURE
         return out
 

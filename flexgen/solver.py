@@ -35,7 +35,7 @@ from .result import UNSTABLE, LazyResult, Result, point_result
 from .scene import Scene
 from .scene_checks import scene_notes
 from .settings import DEFAULT, SolverSettings
-from .stress import DEFAULT_SAMPLES, flexure_stresses, has_strengths, safety_warnings
+from .stress import flexure_stresses, has_strengths, safety_warnings
 from .units import result_units
 
 # Why the solve took the side it did past a bifurcation (the core reports the index plus one:
@@ -368,11 +368,12 @@ class Solver:
             }
         if name == "flexures":
             qs = {n: q[sl] for n, sl in self._slices}
+            stresses = flexure_stresses(self.scene, self.models, qs)
             estimator = getattr(self, "_estimator", None)  # made by the answer's estimate
-            kappa_est = None
-            if est is not None and estimator is not None:
-                kappa_est = estimator.curvature_estimates(est, self.models, qs, DEFAULT_SAMPLES)
-            return flexure_stresses(self.scene, self.models, qs, estimates=kappa_est)
+            if est is None or estimator is None:
+                return stresses
+            errors = estimator.curvature_estimates(est, stresses)
+            return {n: replace(st, error_estimate=errors.get(n)) for n, st in stresses.items()}
         raise AttributeError(name)
 
     def estimator(self):

@@ -76,11 +76,10 @@ def flexure_stresses(
     models: Mapping[str, Any],
     q: Mapping[str, Any],
     num: int = DEFAULT_SAMPLES,
-    estimates: Mapping[str, float] | None = None,
 ) -> dict[str, FlexureStress]:
     """The profiles of every flexure whose model gives a curvature (``curvature(q, s)``;
-    a model without one is left out), at the coordinates ``q`` ({flexure: coordinates}), each
-    with its curvature's error estimate from ``estimates`` (None where it has none)."""
+    a model without one is left out), at the coordinates ``q`` ({flexure: coordinates}); their
+    error estimates are the caller's (flexgen.estimate.Estimator.curvature_estimates)."""
     out: dict[str, FlexureStress] = {}
     for f in scene.flexures:
         model = models.get(f.name)
@@ -92,14 +91,11 @@ def flexure_stresses(
         if extremes is not None:
             s = np.union1d(s, np.clip(np.asarray(extremes(qf), dtype=float), 0.0, f.length))
         kappa = np.asarray(model.curvature(qf, s), dtype=float)
-        est = None if estimates is None else estimates.get(f.name)
-        out[f.name] = section_stress(f, s, kappa, est)
+        out[f.name] = section_stress(f, s, kappa)
     return out
 
 
-def section_stress(
-    flexure: Flexure, s: np.ndarray, kappa: np.ndarray, error_estimate: float | None = None
-) -> FlexureStress:
+def section_stress(flexure: Flexure, s: np.ndarray, kappa: np.ndarray) -> FlexureStress:
     """Strain, stress and safety factor of one flexure from its curvature profile."""
     i = int(np.argmax(np.abs(kappa)))
     c = None if flexure.thickness is None else 0.5 * flexure.thickness
@@ -118,7 +114,6 @@ def section_stress(
         at=float(s[i] / flexure.length),
         safety_factor=safety,
         limited_by=limited_by,
-        error_estimate=error_estimate,
     )
 
 
