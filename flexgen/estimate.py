@@ -47,6 +47,13 @@ the answer's model uses. Every smooth curvature flexure also adds its kernel's c
 and every estimate the answer's rounding (``ROUNDING_POSE``, ``ROUNDING_COMPLIANCE``): no
 answer is claimed exact.
 
+Each flexure's curvature (so its strain and stress) is estimated from the same richer
+equilibrium, which ``fg_estimate`` also returns (``Estimate.rich_q``): the answer's curvature
+profile against the richer model's on the same arc lengths, relative to the larger peak,
+times the same margin (``Estimator.curvature_estimates``, asked when ``Result.flexures`` is
+built). It is usually far larger than the pose's: the modes approximate the curvature, the pose
+is its integral.
+
 When the richer model finds no stable equilibrium (or an equilibrium with undefined
 compliance), the estimate is inf and ``Estimate.warning`` says why. With several flexures the
 largest margin of their pairs applies to the whole answer (the flexures of a chain interact).
@@ -280,7 +287,8 @@ class Estimator:
                 if body != "base" and name in scene.flexure_path(_path_owner(scene, body)):
                     floors[i] += (a[0] + b[0]) * L / self.scales[i]
         self.rich_label = ", ".join(sorted(set(labels.values())))
-        # fg_estimate's output (2 per point, then the total) and every pointer it takes, made once
+        # fg_estimate's output (2 per point, the total, the richer q) and every pointer it takes,
+        # made once
         self.out = np.zeros(2 * self.n + 1 + nr)  # then the richer equilibrium's q
         self.rich_slices = dict(dst)
         ffi = core.ffi
