@@ -22,6 +22,8 @@ test:
 # editing flexgen/compiled/chain_solver.c).
 regen:
 	$(PYTHON) -m flexgen generate --out generated
+	@# changed kernels make the core stale: it is rebuilt before the controller is emitted from it
+	$(PYTHON) -c "import flexgen" 2>/dev/null || $(MAKE) setup
 	$(PYTHON) -m flexgen generate --scene examples/two_link_finger.toml --out examples/controller/two_link_finger
 
 check-generated:
