@@ -78,3 +78,35 @@ def test_solve_tol_bad_input(args):
     result = _flexgen("solve", "examples/arc_moment.toml", *args)
     assert result.returncode == 2 and result.stdout == ""
     assert len(result.stderr.strip().splitlines()) == 1 and "--tol" in result.stderr
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--tol=-1"], "--tol"),
+        (["--nodes", "0"], "--nodes"),
+        (["--degree", "0"], "--degree"),
+        (["--kernel", "gauss"], "--kernel"),
+        (["--range", "60", "--check"], "--range"),
+    ],
+)
+def test_kernel_options_without_modes_are_refused(tmp_path, args, named):
+    """Without --modes the checked-in set is regenerated with its own settings: an option for
+    one kernel is one line, exit 2, nothing written (0 was taken for 'not given')."""
+    result = _flexgen("generate", *args, "--out", str(tmp_path / "k"))
+    assert result.returncode == 2 and result.stdout == "", result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and named in result.stderr
+    assert "--modes" in result.stderr and not (tmp_path / "k").exists()
+
+
+def test_a_prefixed_kernel_names_the_command_that_makes_it(tmp_path):
+    """The header's command, run again, writes the same files; --check on a custom folder points
+    at that command, not only at make regen."""
+    args = ["--modes", "2", "--range", "60", "--prefix", "arm", "--lang", "c"]
+    assert _flexgen("generate", *args, "--out", str(tmp_path / "k")).returncode == 0
+    header = (tmp_path / "k" / "c" / "arm_scm2.h").read_text()
+    command = next(line for line in header.splitlines() if "flexgen generate" in line)
+    assert "--prefix arm" in command and "--range 60" in command
+    (tmp_path / "k" / "c" / "arm_scm2.c").write_text("/* edited */\n")
+    stale = _flexgen("generate", *args, "--out", str(tmp_path / "k"), "--check")
+    assert stale.returncode == 1 and "without --check" in stale.stderr

@@ -45,17 +45,19 @@ def checked_in_spec(name: str) -> KernelSpec | None:
     return None
 
 
-def command_line(kernel: FlexureKernel) -> str:
+def command_line(kernel: FlexureKernel, prefix: str = "") -> str:
     """The CLI call that reproduces this kernel (no paths, dates or versions)."""
     s = kernel.spec
     parts = [f"flexgen generate --modes {s.modes} --kernel {s.family} --range {s.range_deg:g}"]
     parts.append(f"--degree {kernel.degree}" if s.family == "poly" else f"--nodes {kernel.nodes}")
     if s.family == "local":  # the tolerance its in_range certifies
         parts.append(f"--tol {s.tol:g}")
+    if prefix:  # the names of its files and functions
+        parts.append(f"--prefix {prefix}")
     return " ".join(parts)
 
 
-def _common(kernel: FlexureKernel) -> dict:
+def _common(kernel: FlexureKernel, prefix: str = "") -> dict:
     s = kernel.spec
     what = (
         "closed-form polynomial (cos, sin -> Chebyshev interpolants of degree "
@@ -82,7 +84,7 @@ def _common(kernel: FlexureKernel) -> dict:
                 "certificate); the nodes certify the constant-curvature arc of PHI_MAX."
             )
         ),
-        "command": command_line(kernel),
+        "command": command_line(kernel, prefix),
         "N": s.modes,
         "family": s.family,
         "nodes": kernel.nodes,
@@ -133,7 +135,7 @@ def numpy_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
     lines = [f"{sym} = {printer.doprint(expr)}" for sym, expr in temps]
     lines += [f"{k} = {printer.doprint(e)}" for k, e in zip(TRIG_ROWS, reduced)]
     lines.append(f"return {', '.join(TRIG_ROWS)}")
-    context = _common(kernel) | {
+    context = _common(kernel, prefix) | {
         "trig_lines": lines,
         "node_ops": str(count_ops([e for _, e in temps] + list(reduced))),
         "energy_weights": numpy_array([float(x) for x in kernel.energy_weights]),
@@ -207,7 +209,7 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
         for row in (kernel.local_rows if kernel.spec.family == "local" else ())
     ]
     name = f"{prefix}_{kernel.name}" if prefix else kernel.name
-    return _common(kernel) | {
+    return _common(kernel, prefix) | {
         "local_rows": local_rows,
         "prefix": name,
         "macro": name.upper(),

@@ -61,9 +61,8 @@ def register(sub) -> None:
     gen.add_argument("--modes", type=integer(), help="Legendre curvature modes N (1..8)")
     gen.add_argument(
         "--kernel",
-        default="poly",
         choices=FAMILIES,
-        help="poly: cos/sin as a Chebyshev polynomial on the range (closed-form "
+        help="(default poly) poly: cos/sin as a Chebyshev polynomial on the range (closed-form "
         "polynomial in q); gauss: Gauss-Legendre quadrature, any angle; local: "
         "Gauss-Legendre quadrature with few nodes whose in_range(q) certifies the error "
         "at each q",
@@ -83,7 +82,6 @@ def register(sub) -> None:
     how.add_argument(
         "--tol",
         type=float,
-        default=DEFAULT_TOL,
         help="poly: bound on the cos/sin error on the range; gauss: bound on the "
         "pose error; local: the pose error certified at each q (J: 10x, H: 100x) "
         f"(default {DEFAULT_TOL:g}, units of the flexure length)",
@@ -122,7 +120,11 @@ def _run_scene(args) -> int:
     from flexgen.codegen.controller import controller_files, default_prefix
     from flexgen.codegen.render import check_writable, stale_files, write_files
 
-    given = [f"--{n}" for n in ("modes", "degree", "nodes") if getattr(args, n) is not None]
+    given = [
+        f"--{n}"
+        for n in ("modes", "kernel", "degree", "nodes", "tol")
+        if getattr(args, n) is not None
+    ]
     if args.range_deg is not None:
         given.append("--range")
     if given:
@@ -157,13 +159,29 @@ def _run_kernels(args) -> int:
     if not args.check:
         check_writable(out)
     if args.modes is None:
-        if args.degree or args.nodes or args.range_deg is not None:
-            raise UsageError("--degree, --nodes and --range need --modes")
+        # the checked-in set has its own kernels, ranges and tolerances: an option for one
+        # kernel is a mistake here, not something to ignore
+        given = [
+            f"--{n}"
+            for n, v in (
+                ("kernel", args.kernel),
+                ("degree", args.degree),
+                ("nodes", args.nodes),
+                ("range", args.range_deg),
+                ("tol", args.tol),
+            )
+            if v is not None
+        ]
+        if given:
+            raise UsageError(
+                f"{', '.join(given)}: need --modes (without it, the checked-in set "
+                "is regenerated as it is)"
+            )
         specs = CHECKED_IN
     else:
-        specs = (
-            KernelSpec(args.modes, args.kernel, args.range_deg, args.degree, args.nodes, args.tol),
-        )
+        tol = DEFAULT_TOL if args.tol is None else args.tol
+        kernel = "poly" if args.kernel is None else args.kernel
+        specs = (KernelSpec(args.modes, kernel, args.range_deg, args.degree, args.nodes, tol),)
     files: dict[str, str] = {}
     for i, spec in enumerate(specs, 1):
         start = time.perf_counter()
@@ -177,7 +195,8 @@ def _run_kernels(args) -> int:
         stale = stale_files(files, out)
         if stale:
             print(
-                f"flexgen: stale in {out}: {' '.join(stale)} (run `make regen`)",
+                f"flexgen: stale in {out}: {' '.join(stale)} (the same command without --check "
+                "rewrites them; in a checkout, `make regen`)",
                 file=sys.stderr,
             )
             return 1
