@@ -110,3 +110,14 @@ def test_a_prefixed_kernel_names_the_command_that_makes_it(tmp_path):
     (tmp_path / "k" / "c" / "arm_scm2.c").write_text("/* edited */\n")
     stale = _flexgen("generate", *args, "--out", str(tmp_path / "k"), "--check")
     assert stale.returncode == 1 and "without --check" in stale.stderr
+
+
+@pytest.mark.parametrize("command", ["stability", "bench"])
+def test_an_unwritable_out_fails_before_the_run(tmp_path, command):
+    """--out is checked before minutes of solving: a file, or a folder under a file, is one
+    line, exit 2 (it was an internal error after the run)."""
+    (tmp_path / "afile").write_text("")
+    for out in (tmp_path / "afile", tmp_path / "afile" / "sub"):
+        result = _flexgen(command, "--quick", "--out", str(out))
+        assert result.returncode == 2, result.stderr
+        assert len(result.stderr.strip().splitlines()) == 1 and "--out" in result.stderr

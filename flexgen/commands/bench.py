@@ -50,6 +50,9 @@ def run(args) -> int:
         raise UsageError(
             f"flexgen bench needs the flexgen_tools package of a source checkout ({exc})"
         ) from None
+    from flexgen.codegen.render import check_writable
+
+    check_writable(args.out)  # before minutes of solving, not after
     try:
         data = run_bench(quick=args.quick, out=args.out, n_random=args.random)
     except NeedsCheckout as exc:

@@ -38,6 +38,9 @@ def run(args) -> int:
         raise UsageError(
             f"flexgen stability needs the flexgen_tools package of a source checkout ({exc})"
         ) from None
+    from flexgen.codegen.render import check_writable
+
+    check_writable(args.out)  # before minutes of solving, not after
     try:
         data = run_stability(quick=args.quick, out=args.out)
     except NeedsCheckout as exc:
