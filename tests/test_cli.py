@@ -121,3 +121,13 @@ def test_an_unwritable_out_fails_before_the_run(tmp_path, command):
         result = _flexgen(command, "--quick", "--out", str(out))
         assert result.returncode == 2, result.stderr
         assert len(result.stderr.strip().splitlines()) == 1 and "--out" in result.stderr
+
+
+def test_select_prints_the_answers_warnings_as_solve_does():
+    """The selected answer's warnings (here the steel finger's safety factors) are printed as
+    warnings, and a tolerance out of reach is a warning, not a note."""
+    result = _flexgen("select", "examples/steel_finger.toml", "--tol", "1e-12", "--repeat", "0")
+    assert result.returncode == 1
+    warnings = [ln for ln in result.stdout.splitlines() if ln.startswith("  warning: ")]
+    assert any("exceeds its yield strength" in w for w in warnings), result.stdout
+    assert any("out of reach" in w for w in warnings) and "note: tolerance" not in result.stdout

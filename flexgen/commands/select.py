@@ -104,6 +104,7 @@ def report(scene, sel, repeat: int = 5) -> str:
             f"models, prepared solver, best of {repeat})"
         )
     lines.append(f"  selection: {sel.solves} solves in {sel.seconds * 1e3:.0f} ms")
-    if sel.message:
-        lines.append(f"  note: {sel.message}")
+    # the answer's own warnings (a tolerance out of reach among them) and notes, as solve's
+    lines += [f"  warning: {w}" for w in sel.result.warnings]
+    lines += [f"  note: {n}" for n in sel.result.notes]
     return "\n".join(lines)
