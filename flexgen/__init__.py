@@ -42,7 +42,7 @@ def generate(
 ) -> dict[str, str]:
     """Generate one flexure kernel: {relative path: source text} (nothing is written).
 
-    Same arguments as ``flexgen generate`` (``kernel`` "poly" or "gauss"; ``langs`` from
+    Same arguments as ``flexgen generate`` (``kernel`` "poly", "gauss" or "local"; ``langs`` from
     "numpy", "c"). Imports SymPy, so only when called."""
     from .codegen.generate import generate_files
     from .codegen.spec import KernelSpec

@@ -2,8 +2,8 @@
 
 ``KINDS`` maps a scene's ``kind`` to a ``ModelKind``: how to build the flexure's model from its
 ModelSpec, how the solver core evaluates it (``FG_MODEL_*`` and the fields of its
-``fg_flexure``), and what the Result says of it. Nothing else in the runtime tells models apart
-by kind. The model modules are imported lazily, so a scene that uses one kind needs only that
+``fg_flexure``), and what the Result says of it. The few other places that tell models apart
+by kind are listed in docs/architecture.md ("How to add a model kind"). The model modules are imported lazily, so a scene that uses one kind needs only that
 module (and the runtime never imports SymPy).
 
     scm   -> SCMModel(length, EI, modes, kernel)   the generated kernels (core: FG_MODEL_KERNEL)
