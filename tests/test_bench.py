@@ -40,6 +40,10 @@ def test_the_page_states_the_estimates_honesty(run):
     assert len(checked) >= 10
     assert sum(c for c, _ in checked) / len(checked) >= 0.95
     assert max(r for _, r in checked) <= 10.0
+    stress = [v for v in data.stress_estimate.values() if v is not None]
+    assert len(stress) >= 10 and "stress covered" in text
+    assert sum(c for c, _ in stress) / len(stress) >= 0.95
+    assert max(r for _, r in stress) <= 10.0
 
 
 def test_the_estimate_check_sees_an_understatement():
