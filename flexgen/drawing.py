@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from .geometry import Geometry, loaded, outline, unloaded
+from .geometry import Geometry, as_solved, loaded, outline, unloaded
 from .result import Result
 from .scene import BASE, Scene, as_scene
 
@@ -215,7 +215,28 @@ def _size(scene: Scene, geometries: list[Geometry]) -> float:
     return float(np.max(np.ptp(np.vstack(pts).reshape(-1, 2), axis=0))) or 1.0
 
 
+# what the drawing reads of a result, whatever it is (a Result or an object that looks like one)
+RESULT_FIELDS = ("scene", "converged", "reason", "solver", "model", "q", "points")
+# how far (relative to the scene's size; rad for angles) a result's output poses may be from
+# this scene's equilibrium solved again from the result: far below what a drawing shows, far
+# above what the solver's tolerance leaves
+SAME_POSE = 1e-6
+
+
+def _check_args(result: Any, title: Any) -> None:
+    """TypeError naming the parameter for a ``result`` or ``title`` of the wrong type (they
+    would fail deep in the drawing with an AttributeError)."""
+    if result is not None and not all(hasattr(result, name) for name in RESULT_FIELDS):
+        raise TypeError(
+            f"result: expected a flexgen Result (flexgen.solve(scene)), got {type(result).__name__}"
+        )
+    if title is not None and not isinstance(title, str):
+        raise TypeError(f"title: must be a string or None, got {type(title).__name__}")
+
+
 def _check_result(scene: Scene, result: Result) -> None:
+    """PlotError for a result without an equilibrium or of a scene of another name or other
+    flexures (``_check_same`` then tells scenes of one name apart)."""
     if not result.converged:
         raise PlotError(f"no equilibrium to draw: {result.reason}")
     names = {f.name for f in scene.flexures}
@@ -224,6 +245,50 @@ def _check_result(scene: Scene, result: Result) -> None:
             f"the result is of scene {result.scene!r} (flexures {', '.join(result.model)}), "
             f"not of {scene.name!r}; pass the scene that was solved"
         )
+
+
+def _check_same(scene: Scene, result: Result, exact_solution: Any = None) -> None:
+    """PlotError unless ``result`` is an equilibrium of ``scene`` as given. A Result names its
+    scene but keeps neither the scene nor a fingerprint of it, and the drawing puts the result's
+    shapes, poses and ellipses over this scene's links, loads and tendons; so the scene is solved
+    again from the result's q (Newton from an equilibrium: a few iterations; an exact result:
+    the exact solution the drawing solves anyway) and the output poses compared: another load,
+    tension, geometry or output set moves them."""
+    if result.solver == "exact":
+        poses = {ref: list(p) for ref, p in exact_solution.poses.items()}
+    else:
+        from .solver import Solver
+
+        again = Solver(as_solved(scene, result)).solve(q0=result.q)
+        if not again.converged:  # cannot tell (e.g. settings of its own): draw it as given
+            return
+        poses = {ref: p.pose for ref, p in again.points.items()}
+    given = {ref: p.pose for ref, p in result.points.items()}
+    if set(poses) != set(given):
+        raise PlotError(
+            f"result: its output points ({', '.join(given)}) are not those of scene "
+            f"{scene.name!r} ({', '.join(poses)}); pass the scene that was solved"
+        )
+    size = sum(f.length for f in scene.flexures)
+    for ref, pose in poses.items():
+        x, y, angle = given[ref][:3]
+        off = max(math.hypot(x - pose[0], y - pose[1]) / size, abs(angle - pose[2]))
+        if not off <= SAME_POSE:
+            raise PlotError(
+                f"result: not an equilibrium of scene {scene.name!r} as given ({ref!r} is at "
+                f"({x:.6g}, {y:.6g}) in it, ({pose[0]:.6g}, {pose[1]:.6g}) solved here): it is "
+                "of a scene with other loads, tensions or geometry; pass the scene that was solved"
+            )
+
+
+def _exact_solution(scene: Scene, result: Result) -> Any:
+    """The exact solver's solution of ``scene`` for an exact-model result (a Result keeps only
+    the root loads of the exact solver, not the shapes); None for a chain-model result."""
+    if result.solver != "exact":
+        return None
+    from .models.exact import solve_exact
+
+    return solve_exact(scene)
 
 
 def plot(
@@ -239,15 +304,18 @@ def plot(
     ``ax`` a new pyplot figure is made (``plt.show()`` or a notebook displays it); nothing is
     written or shown here. An exact-model result is solved again for its shapes (a Result keeps
     only the root loads of the exact solver)."""
+    _check_args(result, title)
     sc = as_scene(scene)
     _require_matplotlib()
+    from matplotlib.axes import Axes
+
+    if ax is not None and not isinstance(ax, Axes):
+        raise TypeError(f"ax: expected a matplotlib Axes or None, got {type(ax).__name__}")
     exact = None
     if result is not None:
         _check_result(sc, result)
-        if result.solver == "exact":
-            from .models.exact import solve_exact
-
-            exact = solve_exact(sc)
+        exact = _exact_solution(sc, result)
+        _check_same(sc, result, exact)
     if ax is None:
         import matplotlib.pyplot as plt
 
@@ -260,7 +328,11 @@ def draw(scene: Scene, result: Result, path, exact_solution=None, title: str | N
     """Draw ``scene`` at ``result``'s equilibrium into ``path`` (.png, .svg or .pdf); returns the
     path. No pyplot: a Figure of its own, whatever backend the caller uses."""
     path = check_output(path)
+    _check_args(result, title)
     _check_result(scene, result)
+    if exact_solution is None:
+        exact_solution = _exact_solution(scene, result)
+    _check_same(scene, result, exact_solution)
     _require_matplotlib()
     from matplotlib.figure import Figure
 

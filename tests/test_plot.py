@@ -128,6 +128,68 @@ def test_result_of_another_scene_is_refused():
         flexgen.plot(FINGER, flexgen.solve(EX / "arc_moment.toml"))
 
 
+@pytest.mark.parametrize(
+    "path, value",
+    [
+        ("load.0.force.1", -2.0),
+        ("flexure.proximal.length", 0.04),
+        ("tendon.0.tension", 3.0),
+        ("output.points", ["middle.pad"]),
+    ],
+)
+def test_result_of_a_scene_of_the_same_name_is_refused(path, value, tmp_path):
+    """Same name, same flexures, another load, geometry, tension or output set: the drawing
+    would put that scene's shapes and ellipses over this one's loads and links."""
+    from flexgen.drawing import PlotError, draw
+
+    scene = flexgen.load_scene(FINGER)
+    other = scene.with_value(path, value)
+    assert other.name == scene.name
+    result = flexgen.solve(other)
+    with pytest.raises(PlotError) as exc:
+        flexgen.plot(scene, result, ax=Figure().add_subplot())
+    assert "\n" not in str(exc.value) and str(exc.value).startswith("result:")
+    with pytest.raises(PlotError, match="^result:"):
+        draw(scene, result, tmp_path / "f.png")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_exact_result_of_another_load_is_refused():
+    from flexgen.drawing import PlotError
+
+    arc = flexgen.load_scene(EX / "arc_moment.toml")
+    other = arc.with_value("load.0.moment", 0.5 * arc.loads[0].moment)
+    with pytest.raises(PlotError, match="^result:"):
+        flexgen.plot(arc, flexgen.solve(other, model="exact"), ax=Figure().add_subplot())
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [dict(modes=5), dict(model="fem", elements=4), dict(model="prb"), dict(tolerance=1e-6)],
+    ids=["modes", "fem", "prb", "tolerance"],
+)
+def test_results_of_the_scene_with_other_models_are_drawn(kw):
+    """The model overrides are the result's own (as_solved): still this scene's answer."""
+    scene = flexgen.load_scene(FINGER)
+    ax = flexgen.plot(scene, flexgen.solve(scene, **kw), ax=Figure().add_subplot())
+    assert gids(ax, "flexure:") == ["flexure:distal", "flexure:proximal"]
+
+
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        (dict(result="notaresult"), "result"),
+        (dict(ax="x"), "ax"),
+        (dict(title=5), "title"),
+    ],
+)
+def test_arguments_of_the_wrong_type_are_one_line_type_errors(kw, name):
+    with pytest.raises(TypeError) as exc:
+        flexgen.plot(flexgen.load_scene(FINGER), **kw)
+    assert str(exc.value).startswith(f"{name}:") and "\n" not in str(exc.value)
+    assert plt.get_fignums() == []  # refused before a figure was made
+
+
 # ---- colouring by stress or curvature (result.flexures) ---------------------------------------
 
 
