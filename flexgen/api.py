@@ -5,8 +5,10 @@ tolerance=None, **options)``:
 
 - ``scene``: a ``Scene``, a dict (``scene_from_dict``) or a path to a TOML file (``load_scene``);
 - ``model`` / ``modes`` / ``elements``: override every flexure's ``kind`` / ``modes`` /
-  ``elements`` (they beat the scene's ``[model]`` and per-flexure keys; ``modes`` also clears a
-  ``tolerance``, since the modes are then given);
+  ``elements`` (they beat the scene's ``[model]`` and per-flexure keys; ``modes`` also clears
+  the scene's ``tolerance``, since the modes are then given; with the ``tolerance`` argument
+  ``modes`` or ``elements`` is a ValueError, as ``--tol`` with ``--modes`` is exit 2; a count
+  the ``model`` given does not read, such as ``modes`` with ``"cc"``, is a SceneError);
 - ``models``: {flexure: FlexureModel} for some flexures (the others from the scene);
 - ``settings``: a ``SolverSettings``; ``options``: any of its fields by name (``tol``,
   ``max_steps``, ...), checked; ignored by the exact solver;
@@ -37,8 +39,6 @@ from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
 
-import numpy as np
-
 from .result import Result
 from .scene import (
     MAX_ELEMENTS,
@@ -51,7 +51,7 @@ from .scene import (
     check_limits,
 )
 from .settings import DEFAULT, SolverSettings
-from .solver import Solver, make_settings
+from .solver import Solver, check_flag, checked_q0, make_settings
 from .validity import calm as validity_calm
 from .validity import check, units_reason
 
@@ -64,16 +64,33 @@ def _count(value, key: str, maximum: int) -> int | None:
     return value
 
 
+def unused_count(model: str | None, modes: Any, elements: Any) -> tuple[str, str] | None:
+    """``(option, why)`` when ``modes`` or ``elements`` is given with a ``model`` kind that does
+    not read it (it would be dropped silently: ``cc`` is scm with one mode), else None. The
+    CLI words it with its flags (``--modes``), ``override`` with the keyword."""
+    if model is None:  # per-flexure kinds: the counts apply where the kind reads them
+        return None
+    if modes is not None and model != "scm":
+        return "modes", ("cc is scm with one mode" if model == "cc" else "only scm has modes")
+    if elements is not None and model != "fem":
+        return "elements", "only fem has elements"
+    return None
+
+
 def override(
     scene: Scene, model: str | None = None, modes: int | None = None, elements: int | None = None
 ) -> Scene:
-    """``scene`` with every flexure's model kind, modes and elements replaced where given."""
+    """``scene`` with every flexure's model kind, modes and elements replaced where given; a
+    count the model kind does not read is a SceneError (``unused_count``)."""
     if model is not None and (not isinstance(model, str) or model not in MODEL_KINDS):
         raise SceneError(
             f"model: unknown kind {_fmt(model)} (choose from {', '.join(MODEL_KINDS)})"
         )
     modes = _count(modes, "modes", MAX_MODES)
     elements = _count(elements, "elements", MAX_ELEMENTS)
+    unused = unused_count(model, modes, elements)
+    if unused is not None:
+        raise SceneError(f"{unused[0]}: not used with model {model!r} ({unused[1]})")
     changes: dict[str, Any] = {}
     if model is not None:
         changes["kind"] = model
@@ -132,31 +149,24 @@ def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
 
 def _check_inputs(scene: Scene, models: Any, q0: Any) -> None:
     """TypeError/ValueError naming the key for a ``models`` or ``q0`` that is not a mapping of
-    the scene's flexures to models / finite coordinates."""
+    the scene's flexures to models / finite coordinates (q0: ``solver.checked_q0``, the check
+    ``Solver.solve`` makes)."""
     names = {f.name for f in scene.flexures}
-    for what, given in (("models", models), ("q0", q0)):
-        if given is None:
-            continue
-        if not isinstance(given, Mapping):
-            raise TypeError(f"{what}: expected a dict {{flexure: ...}}, got {type(given).__name__}")
-        for name, value in given.items():
+    if models is not None:
+        if not isinstance(models, Mapping):
+            raise TypeError(
+                f"models: expected a dict {{flexure: ...}}, got {type(models).__name__}"
+            )
+        for name, value in models.items():
             if name not in names:
-                raise ValueError(f"{what}: unknown flexure {_fmt(name)}")
-            if what == "models":
-                if not hasattr(value, "n_dof"):  # the registry refuses a kind it does not know
-                    raise TypeError(
-                        f"models[{name!r}]: expected a flexure model (flexgen.models), "
-                        f"got {type(value).__name__}"
-                    )
-                continue
-            try:
-                v = np.asarray(value, dtype=float)
-            except (TypeError, ValueError, OverflowError):
-                v = None
-            if v is None or v.ndim > 1 or not np.all(np.isfinite(v)):
-                raise ValueError(
-                    f"q0[{name!r}]: must be a list of finite numbers, got {_fmt(value)}"
+                raise ValueError(f"models: unknown flexure {_fmt(name)}")
+            if not hasattr(value, "n_dof"):  # the registry refuses a kind it does not know
+                raise TypeError(
+                    f"models[{name!r}]: expected a flexure model (flexgen.models), "
+                    f"got {type(value).__name__}"
                 )
+    if q0 is not None:
+        checked_q0(q0, names)
 
 
 def solve_scene(
@@ -174,6 +184,7 @@ def solve_scene(
     selection's) and, when converged, the validity warnings of its models
     (``flexgen.validity.check``: appended to ``warnings``). A failed solve at a load level that
     suggests the wrong units says so at the end of its reason (``validity.units_reason``)."""
+    check_flag(estimate, "estimate")  # "no" would be truthy
     result, solution = _solve_scene(scene, models, settings, q0, tolerance, estimate, **options)
     if not result.converged:
         _units_hint(scene, result)
@@ -274,6 +285,12 @@ def solve(
             if not result.converged:
                 _units_hint(scene, result)
             return result
+    if options.get("tolerance") is not None and (modes is not None or elements is not None):
+        # the tolerance would choose the modes and drop these silently (as --tol with --modes)
+        given = "modes" if modes is not None else "elements"
+        raise ValueError(
+            f"tolerance: chooses the modes itself: give either tolerance or {given}, not both"
+        )
     sc = override(as_scene(scene), model, modes, elements)
     return solve_scene(sc, **options)[0]
 
@@ -293,4 +310,6 @@ def prepare(
     sc = override(as_scene(scene), model, modes, elements)
     if uses_exact(sc):
         raise SceneError("Solver: the exact model is a reference solver; use flexgen.solve")
+    if models is not None:  # flexgen.solve's check: a bad model would fail deep in the build
+        _check_inputs(sc, models, None)
     return Solver(sc, models, make_settings(settings, **options))

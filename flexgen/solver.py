@@ -19,7 +19,7 @@ object again costs the core call and the Result.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Container, Mapping
 from dataclasses import fields, replace
 from functools import partial
 from typing import Any
@@ -32,7 +32,7 @@ from .models.base import FlexureModel
 from .models.registry import build_models, model_info
 from .problem import Problem, Workspace, answer_views
 from .result import UNSTABLE, LazyResult, Result, point_result
-from .scene import Scene
+from .scene import MAX_MAGNITUDE, Scene, _fmt, _number
 from .scene_checks import scene_notes
 from .settings import DEFAULT, SolverSettings
 from .stress import flexure_stresses, has_strengths, safety_warnings
@@ -105,6 +105,38 @@ def make_settings(settings: SolverSettings | None = None, **options: Any) -> Sol
     return replace(base, **options)
 
 
+def check_flag(value: Any, key: str) -> None:
+    """TypeError naming ``key`` unless ``value`` is a bool (a string such as "no" is truthy)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{key}: must be True or False, got {_fmt(value)}")
+
+
+def checked_q0(q0: Any, flexures: Container[str]) -> dict[str, np.ndarray]:
+    """A warm start ``{flexure: coordinates}`` as ``{flexure: 1-D float array}``: a TypeError if
+    it is not a mapping, a ValueError naming the key for a flexure not in ``flexures`` or
+    coordinates that are not a list of finite numbers. ``flexgen.solve`` and ``Solver.solve``
+    check q0 with it (on the loop path of a warm start: written for speed)."""
+    if type(q0) is not dict and not isinstance(q0, Mapping):  # a dict: no ABC check
+        raise TypeError(f"q0: expected a dict {{flexure: ...}}, got {type(q0).__name__}")
+    out = {}
+    for name, value in q0.items():
+        if name not in flexures:
+            raise ValueError(f"q0: unknown flexure {_fmt(name)}")
+        try:
+            v = np.asarray(value, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            v = None
+        if v is not None and v.ndim <= 1:
+            if not v.ndim:
+                v = v.reshape(1)
+            # all(map(isfinite)) on the list: a fraction of np.isfinite's cost on a few values
+            if all(map(math.isfinite, v.tolist())):
+                out[name] = v
+                continue
+        raise ValueError(f"q0[{name!r}]: must be a list of finite numbers, got {_fmt(value)}")
+    return out
+
+
 class Solver:
     """A scene prepared for repeated solves: its ``Problem`` and a ``Workspace``.
 
@@ -170,6 +202,8 @@ class Solver:
         left out starts at zero; an unknown flexure is a ValueError). ``estimate=True`` adds the error estimate
         (``flexgen.estimate``: Newton on the richer model from this answer; ``flexgen.solve`` asks
         for it by default): ``Result.error_estimate`` and each point's ``error_estimate``."""
+        if estimate is not False and estimate is not True:  # the usual bools cost nothing more
+            check_flag(estimate, "estimate")
         status = self.run(loads, tensions, q0)
         return self._result(status, estimate_answer(self, status, Solver) if estimate else None)
 
@@ -192,12 +226,11 @@ class Solver:
             )
         ws = self.workspace
         if q0 is not None:
-            unknown = [name for name in q0 if name not in p.chain.slices]
-            if unknown:
-                raise ValueError(f"q0: unknown flexure {unknown[0]!r}")
+            start = checked_q0(q0, p.chain.slices)  # flexgen.solve's check of q0
             ws.q0[:] = 0.0
-            for name, sl in self._slices:
-                v = np.asarray(q0.get(name, ()), dtype=float).ravel()[: sl.stop - sl.start]
+            for name, v in start.items():
+                sl = p.chain.slices[name]
+                v = v[: sl.stop - sl.start]
                 ws.q0[sl.start : sl.start + v.size] = v
             p.struct.q0 = ws.q0_ptr
             self._warm = True
@@ -215,15 +248,33 @@ class Solver:
     def _set(target: np.ndarray, values: Any, what: str) -> None:
         if values is target:
             return
-        a = np.asarray(values, dtype=float)
-        if a.shape != target.shape:
-            if a.size != target.size:
+        try:
+            a = np.asarray(values, dtype=float)
+        except (TypeError, ValueError, OverflowError):  # e.g. "x": numpy's message names nothing
+            a = None
+        if a is None or a.shape != target.shape:
+            if a is None or a.size != target.size:
                 raise ValueError(
-                    f"{what}: expected {target.shape} values (the scene's "
-                    f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), "
-                    f"got shape {a.shape}"
+                    f"{what}: expected {target.shape} numbers (the scene's "
+                    f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), got "
+                    f"{_fmt(values) if a is None else f'shape {a.shape}'}"
                 )
             a = a.reshape(target.shape)
+        # the scene's rule for these values (scene._number: every value finite and within
+        # MAX_MAGNITUDE, a tension zero or positive: a tendon cannot push, and the core would
+        # solve a negative tension silently). The validator names the value it refuses but costs
+        # microseconds a value; these sums (NaN and inf fail them; a false alarm only costs the
+        # validator's pass) decide whether to ask it
+        flat = a.ravel().tolist()
+        if what == "tensions":
+            sign = "0+"
+            suspect = not (0.0 <= min(flat, default=0.0) and sum(flat) <= MAX_MAGNITUDE)
+        else:
+            sign = ""
+            suspect = not sum(map(abs, flat)) <= MAX_MAGNITUDE
+        if suspect:
+            for index, x in zip(np.ndindex(a.shape), flat):
+                _number(x, what + "".join(f"[{i}]" for i in index), sign)
         target[...] = a
 
     # ---- the answer -------------------------------------------------------------------------

@@ -60,12 +60,15 @@ OPTION_NAMES = ["tolerance"]
 def solve_args(args):
     """Load the scene, apply the command-line overrides and solve:
     ``(scene, Result, exact SceneSolution or None)``. Bad input raises SceneError/UsageError."""
-    from flexgen.api import as_scene, override, solve_scene
+    from flexgen.api import as_scene, override, solve_scene, unused_count
     from flexgen.kernels import KernelNotFound
     from flexgen.models.registry import ModelError
 
     if getattr(args, "tolerance", None) is not None and (args.modes or args.elements):
         raise UsageError("--tol chooses the modes itself: give either --tol or --modes/--elements")
+    unused = unused_count(args.model, args.modes, args.elements)
+    if unused is not None:  # e.g. --model cc --modes 3 would solve one mode silently
+        raise UsageError(f"--{unused[0]}: not used with --model {args.model} ({unused[1]})")
     scene = override(as_scene(args.scene), args.model, args.modes, args.elements)
     options = {
         name: getattr(args, name) for name in OPTION_NAMES if getattr(args, name, None) is not None

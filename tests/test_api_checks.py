@@ -1,0 +1,187 @@
+"""Argument checks of the Python API and of `flexgen solve`: what one front door refuses, the
+others refuse too, with one line naming the option (docs/solve.md, Python API).
+
+- ``flexgen.solve``: ``tolerance`` with ``modes``/``elements`` (as ``--tol`` with ``--modes``),
+  a count the model kind does not use (``model="cc", modes=3``), a non-bool ``estimate``;
+- ``flexgen.Solver(...).solve``: loads, tensions and q0 checked as the scene and
+  ``flexgen.solve`` check them; ``flexgen.Solver(models=...)`` as ``flexgen.solve``;
+- ``flexgen solve --model cc --modes 3``: exit 2, one line."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexgen
+from flexgen.cli import main
+
+EX = Path(__file__).resolve().parents[1] / "examples"
+FINGER = EX / "two_link_finger.toml"
+
+
+@pytest.fixture(scope="module")
+def finger():
+    return flexgen.load_scene(FINGER)
+
+
+def one_line(exc: pytest.ExceptionInfo) -> str:
+    text = str(exc.value)
+    assert "\n" not in text
+    return text
+
+
+# ---- tolerance with modes or elements ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("count", [{"modes": 3}, {"elements": 8}], ids=["modes", "elements"])
+def test_tolerance_with_modes_or_elements_is_refused(finger, count):
+    """The selection would choose the modes and drop the count given (it did, silently)."""
+    with pytest.raises(ValueError) as exc:
+        flexgen.solve(finger, tolerance=1e-6, **count)
+    text = one_line(exc)
+    assert text.startswith("tolerance:") and next(iter(count)) in text
+
+
+def test_modes_still_clear_the_scenes_tolerance(finger):
+    """A tolerance of the scene file gives way to modes given as a keyword (documented)."""
+    scene = finger.with_value("model.tolerance", 1e-4)
+    assert flexgen.solve(scene).tolerance == 1e-4  # the scene's tolerance selects the modes
+    r = flexgen.solve(scene, modes=2)
+    assert r.tolerance is None
+    assert {spec["modes"] for spec in r.model.values()} == {2}
+
+
+# ---- a count the model kind does not use ------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kw, option",
+    [
+        (dict(model="cc", modes=3), "modes"),
+        (dict(model="prb", modes=3), "modes"),
+        (dict(model="fem", modes=3), "modes"),
+        (dict(model="scm", elements=8), "elements"),
+        (dict(model="cc", elements=8), "elements"),
+    ],
+)
+def test_a_count_the_model_does_not_use_is_refused(finger, kw, option):
+    with pytest.raises(flexgen.SceneError) as exc:
+        flexgen.solve(finger, **kw)
+    text = one_line(exc)
+    assert text.startswith(f"{option}:") and repr(kw["model"]) in text
+    with pytest.raises(flexgen.SceneError, match=f"^{option}:"):
+        flexgen.Solver(finger, **kw)
+
+
+def test_counts_the_model_uses_are_still_applied(finger):
+    assert flexgen.solve(finger, model="scm", modes=5).model["proximal"]["modes"] == 5
+    assert flexgen.solve(finger, model="fem", elements=8).model["proximal"]["elements"] == 8
+
+
+@pytest.mark.parametrize(
+    "args, option",
+    [
+        (["--model", "cc", "--modes", "3"], "--modes"),
+        (["--model", "fem", "--modes", "3"], "--modes"),
+        (["--model", "prb", "--elements", "4"], "--elements"),
+    ],
+)
+@pytest.mark.parametrize("command", ["solve", "plot"])
+def test_cli_refuses_a_count_the_model_does_not_use(capsys, tmp_path, command, args, option):
+    out = ["-o", str(tmp_path / "f.png")] if command == "plot" else []
+    assert main([command, str(FINGER), *args, *out]) == 2
+    captured = capsys.readouterr()
+    (line,) = captured.err.splitlines()
+    assert option in line and args[1] in line and "Traceback" not in captured.err
+    assert list(tmp_path.iterdir()) == []
+
+
+# ---- estimate must be a bool ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", ["no", 0, None, 1.0])
+def test_estimate_must_be_a_bool(finger, value):
+    with pytest.raises(TypeError) as exc:
+        flexgen.solve(finger, estimate=value)
+    assert one_line(exc).startswith("estimate:")
+    with pytest.raises(TypeError, match="^estimate:"):
+        flexgen.Solver(finger).solve(estimate=value)
+
+
+def test_estimate_false_and_true_still_work(finger):
+    assert flexgen.solve(finger, estimate=False).error_estimate is None
+    assert flexgen.solve(finger, estimate=np.True_).error_estimate is not None
+
+
+# ---- the prepared Solver checks as the scene and flexgen.solve do -----------------------------
+
+
+BAD_SOLVES = {
+    "negative tension": (
+        dict(tensions=[-5.0]),
+        ValueError,
+        "tensions[0]: must be zero or a positive number <= 1e+100, got -5.0",
+    ),
+    "nan tension": (dict(tensions=[math.nan]), ValueError, "tensions[0]: must be zero"),
+    "tension a string": (dict(tensions="x"), ValueError, "tensions: expected (1,) numbers"),
+    "loads a string": (dict(loads="x"), ValueError, "loads: expected (1, 3) numbers"),
+    "infinite load": (dict(loads=[[0.0, math.inf, 0.0]]), ValueError, "loads[0][1]: must be"),
+    "huge load": (dict(loads=[[0.0, 0.0, 1e101]]), ValueError, "loads[0][2]: must be"),
+    "q0 nan": (
+        dict(q0={"proximal": [math.nan] * 3}),
+        ValueError,
+        "q0['proximal']: must be a list of finite numbers",
+    ),
+    "q0 2-d": (dict(q0={"proximal": [[1, 2], [3, 4]]}), ValueError, "q0['proximal']: must be"),
+    "q0 a string": (dict(q0={"proximal": "abc"}), ValueError, "q0['proximal']: must be"),
+    "q0 a list": (dict(q0=[1, 2, 3]), TypeError, "q0: expected a dict {flexure: ...}, got list"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_SOLVES, ids=list(BAD_SOLVES))
+def test_prepared_solver_refuses_what_the_scene_and_solve_refuse(finger, case):
+    kw, kind, start = BAD_SOLVES[case]
+    solver = flexgen.Solver(finger)
+    with pytest.raises(kind) as exc:
+        solver.solve(**kw)
+    assert one_line(exc).startswith(start)
+    # nothing of the refused call stays: the next solve is the scene's own answer
+    assert solver.solve().q == flexgen.solve(finger, estimate=False).q
+
+
+@pytest.mark.parametrize("case", [c for c in BAD_SOLVES if c.startswith("q0")])
+def test_solve_and_solver_give_one_message_for_a_bad_q0(finger, case):
+    kw, kind, _ = BAD_SOLVES[case]
+    with pytest.raises(kind) as by_solve:
+        flexgen.solve(finger, **kw)
+    with pytest.raises(kind) as by_solver:
+        flexgen.Solver(finger).solve(**kw)
+    assert str(by_solve.value) == str(by_solver.value)
+
+
+def test_the_scene_refuses_a_negative_tension_as_the_solver_does(finger):
+    """The rule is the scene's: its own message for its key."""
+    with pytest.raises(flexgen.SceneError, match=r"tendon\[0\]\.tension: must be zero or"):
+        finger.with_value("tendon.0.tension", -5.0)
+
+
+def test_valid_loads_and_tensions_solve_as_the_scene_with_them(finger):
+    solver = flexgen.Solver(finger)
+    r = solver.solve(loads=np.array([[0.0, -0.5, 0.0]]), tensions=[0.0])
+    scene = finger.with_values({"load.0.force.1": -0.5, "tendon.0.tension": 0.0})
+    np.testing.assert_allclose(
+        r.q["proximal"], flexgen.solve(scene).q["proximal"], rtol=0, atol=1e-10
+    )
+    warm = solver.solve(q0={"proximal": np.array(r.q["proximal"]), "distal": 0.0})
+    assert warm.converged
+
+
+def test_solver_refuses_a_model_that_is_no_flexure_model(finger):
+    with pytest.raises(TypeError) as exc:
+        flexgen.Solver(finger, models={"proximal": "x"})
+    assert one_line(exc).startswith("models['proximal']: expected a flexure model")
+    with pytest.raises(ValueError, match="^models: unknown flexure 'wrist'"):
+        flexgen.Solver(finger, models={"wrist": "x"})
