@@ -554,7 +554,6 @@ def test_warm_start_gives_the_same_equilibrium(name, warm, label):
     "name, q0",
     [
         ("cantilever_tip_load", {"beam": [3.0, -1.0, 0.5]}),  # far off: Newton leaves max_dq
-        ("cantilever_tip_load", {"beam": [float("nan")] * 3}),  # not even a state
         ("two_link_finger", {}),  # all zeros: Newton at the full load
         ("rectangular_elastica", {}),  # zeros: the unstable straight state
         ("rectangular_elastica", {"beam": [-1.5]}),  # the mirrored post-buckled branch
@@ -579,6 +578,26 @@ def test_a_poor_warm_start_still_reaches_the_stable_equilibrium(name, q0):
     else:
         for p in cold.points:
             assert np.allclose(r.points[p].pose, cold.points[p].pose, rtol=0, atol=1e-9)
+
+
+def test_a_non_finite_warm_start_is_refused_and_the_core_survives_one():
+    """Python refuses a NaN q0 as flexgen.solve does (one line naming it); the core, given one
+    anyway (a C caller), rejects the warm start and answers cold."""
+    from flexgen import core
+    from flexgen.solver import Solver
+
+    scene = example("cantilever_tip_load")
+    cold = solve(scene, "scm3")
+    s = Solver(scene, models(scene, "scm3"))
+    with pytest.raises(ValueError, match=r"^q0\['beam'\]: must be a list of finite numbers"):
+        s.solve(q0={"beam": [float("nan")] * 3})
+    ws = s.workspace
+    ws.q0[:] = float("nan")
+    s.problem.struct.q0 = ws.q0_ptr
+    status = core.lib.fg_solve(s.problem.struct, ws.work_ptr, ws.iwork_ptr, ws.answer)
+    s.problem.struct.q0 = core.ffi.NULL
+    assert status == core.SOLVED and ws.answer.stable and not ws.answer.warm
+    assert np.allclose(ws.pose[0], cold.points["beam.tip"].pose, rtol=0, atol=1e-9)
 
 
 # -- 6. compliance and stiffness -------------------------------------------------------------------
