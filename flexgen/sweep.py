@@ -30,7 +30,7 @@ import numpy as np
 from .estimate import estimate_answer
 from .scene import Scene, SceneError, as_scene, scene_from_dict
 from .settings import SolverSettings
-from .solver import Solver
+from .solver import Solver, check_flag
 from .sweep_chunk import CASE_FIELDS, FLEXURE_FIELDS, POINT_FIELDS, Chunk, run_chunk, stress_columns
 from .sweep_plan import CHUNK_SIZE, Plan, plan
 
@@ -95,6 +95,8 @@ def sweep(
         raise ValueError(f"workers: must be an integer >= 1, got {workers!r}")
     if workers is not None and workers < 1:
         raise ValueError(f"workers: must be an integer >= 1, got {workers}")
+    check_flag(estimate, "estimate")  # a string such as "no" would be truthy
+    check_flag(stress, "stress")
     chunks = _chunks(sc, study, chunk_size, estimate, stress, settings)
     bar = _progress(progress, study.cases, interactive=client is not None)
     try:

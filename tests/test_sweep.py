@@ -774,3 +774,11 @@ def test_cli_table_gets_a_new_files_mode(tmp_path):
     finally:
         os.umask(old)
     assert stat.S_IMODE(out.stat().st_mode) == stat.S_IMODE(reference.stat().st_mode) == 0o640
+
+
+@pytest.mark.parametrize("key", ["estimate", "stress"])
+def test_switches_must_be_booleans(finger, key):
+    """estimate="no" is truthy: a switch that is not True or False is a one-line TypeError
+    naming it, before anything is solved."""
+    with pytest.raises(TypeError, match=rf"^{key}: must be True or False"):
+        flexgen.sweep(finger, {"load.0.force.1": [0.0, -0.1]}, workers=1, **{key: "no"})
