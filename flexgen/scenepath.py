@@ -158,11 +158,16 @@ def resolve(
     (``flexure.0.thickness`` for ``flexure.proximal.thickness``, ``load.0.force.1`` for
     ``load.0.force.01``)."""
     container, key, canon = _walk(root, path, tables)
-    if isinstance(container, dict) and key in tables.get(MODEL_KEY_TABLE, ()):
+    model_keys = tables.get(MODEL_KEY_TABLE, ())
+    if isinstance(container, dict) and key in model_keys:
         sub = container.get("model")
         if key not in container and isinstance(sub, dict) and key in sub:
             container = sub
             canon.insert(-1, "model")
+    # a flexure's model key is one value however it is spelled (flexure.0.modes and
+    # flexure.0.model.modes): one canonical path, the sub-table's
+    if len(canon) == 3 and canon[0] == "flexure" and canon[2] in model_keys:
+        canon.insert(-1, "model")
     return container, key, ".".join(canon)
 
 

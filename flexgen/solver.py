@@ -248,18 +248,18 @@ class Solver:
     def _set(target: np.ndarray, values: Any, what: str) -> None:
         if values is target:
             return
-        try:
-            a = np.asarray(values, dtype=float)
-        except (TypeError, ValueError, OverflowError):  # e.g. "x": numpy's message names nothing
+        try:  # no dtype: strings, booleans and ragged rows stay what they are, and are refused
+            a = None if isinstance(values, (str, bytes)) else np.asarray(values)
+        except (TypeError, ValueError, OverflowError):
             a = None
-        if a is None or a.shape != target.shape:
-            if a is None or a.size != target.size:
-                raise ValueError(
-                    f"{what}: expected {target.shape} numbers (the scene's "
-                    f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), got "
-                    f"{_fmt(values) if a is None else f'shape {a.shape}'}"
-                )
-            a = a.reshape(target.shape)
+        # the exact shape: a (3, 2) array for (2, 3) loads, reshaped, would be other loads
+        if a is None or a.dtype.kind not in "iuf" or a.shape != target.shape:
+            got = f"shape {a.shape}" if a is not None and a.dtype.kind in "iuf" else _fmt(values)
+            raise ValueError(
+                f"{what}: expected {target.shape} numbers (the scene's "
+                f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), got {got}"
+            )
+        a = a.astype(float, copy=False)
         # the scene's rule for these values (scene._number: every value finite and within
         # MAX_MAGNITUDE, a tension zero or positive: a tendon cannot push, and the core would
         # solve a negative tension silently). The validator names the value it refuses but costs

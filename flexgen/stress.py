@@ -157,15 +157,18 @@ def safety_factor(flexure: Flexure, max_stress: float | None) -> tuple[float | N
 
 def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list[str]:
     """One warning per flexure whose safety factor is below 1, naming every strength its
-    largest stress exceeds, or may be below 1: its stress raised by its error estimate would
-    exceed the smaller strength (a coarse model's stress is far from the true one)."""
+    largest stress exceeds, or may be below 1: the largest stress its error estimate allows,
+    max_stress / (1 - estimate) (the estimate is relative to the larger peak; any stress at an
+    estimate of 1 or more), would exceed the smaller strength."""
     out = []
     for f in scene.flexures:
         st = stresses.get(f.name)
         if st is None or st.safety_factor is None:
             continue
         est = st.error_estimate or 0.0
-        if st.safety_factor >= 1.0 and st.safety_factor >= 1.0 + est:
+        # the estimate is relative to the larger of the two peaks, so the true stress is at most
+        # max_stress / (1 - est): the true safety factor at least safety_factor (1 - est)
+        if st.safety_factor >= 1.0 and st.safety_factor * (1.0 - est) >= 1.0:
             continue
         if st.safety_factor >= 1.0:
             off = f"{est:.0%}" if math.isfinite(est) else "an unknown amount"

@@ -185,3 +185,37 @@ def test_solver_refuses_a_model_that_is_no_flexure_model(finger):
     assert one_line(exc).startswith("models['proximal']: expected a flexure model")
     with pytest.raises(ValueError, match="^models: unknown flexure 'wrist'"):
         flexgen.Solver(finger, models={"wrist": "x"})
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(loads=[[0.0, -0.2], [0.0, 0.0], [0.0, 0.0]]),  # the same size, another shape
+        dict(loads=[0.0, -0.2, 0.0]),  # flat
+        dict(loads=[["0", "-0.2", "0"]]),  # strings
+        dict(loads=[[False, True, False]]),  # booleans, which the scene refuses
+        dict(tensions=["1"]),
+        dict(tensions=1.0),
+        dict(tensions=[[1.0]]),
+    ],
+)
+def test_solver_loads_and_tensions_have_their_exact_shape_and_numbers(kwargs):
+    """One (fx, fy, moment) row per [[load]], one number per [[tendon]]: anything else would be
+    reshaped or converted into other inputs than meant, so it is a ValueError naming it."""
+    solver = flexgen.Solver(EX / "two_link_finger.toml")
+    with pytest.raises(ValueError, match=r"^(loads|tensions): expected"):
+        solver.solve(**kwargs)
+    assert solver.solve().converged
+
+
+def test_a_prepared_solver_refuses_a_scene_tolerance_without_modes(tmp_path):
+    """flexgen.Solver does not select modes: on a tolerance scene it would solve the default
+    modes silently. Refused, unless modes are given (they clear the tolerance)."""
+    scene = {
+        "model": {"tolerance": 1e-6},
+        "flexure": [{"name": "b", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "b.tip", "force": [0.0, -1.0]}],
+    }
+    with pytest.raises(flexgen.SceneError, match="^Solver: the scene asks for a tolerance"):
+        flexgen.Solver(scene)
+    assert flexgen.Solver(scene, modes=4).solve().model["b"]["modes"] == 4

@@ -782,3 +782,14 @@ def test_switches_must_be_booleans(finger, key):
     naming it, before anything is solved."""
     with pytest.raises(TypeError, match=rf"^{key}: must be True or False"):
         flexgen.sweep(finger, {"load.0.force.1": [0.0, -0.1]}, workers=1, **{key: "no"})
+
+
+def test_a_flexures_model_key_in_both_spellings_is_one_value(finger):
+    """flexure.X.modes and flexure.X.model.modes name one value (the scene refuses it given
+    twice): refused before solving, as every alias pair."""
+    with pytest.raises(SceneError, match="name the same value"):
+        flexgen.sweep(
+            finger,
+            {"flexure.proximal.modes": [2, 3], "flexure.proximal.model.modes": [2, 3]},
+            workers=1,
+        )

@@ -82,7 +82,8 @@ def check_prefix(prefix: str) -> str:
     if not C_IDENTIFIER.match(prefix) or prefix.lower() in RESERVED or prefix.startswith("_"):
         raise EmitError(
             f"--prefix: {prefix!r} is not usable as a C identifier prefix (letters, digits and "
-            "_, not starting with a digit or _, not a C keyword)"
+            "_, not starting with a digit or _, not a C keyword, and not fg or main, which the "
+            "emitted code uses itself)"
         )
     return prefix
 
