@@ -310,9 +310,10 @@ def prepare(
     sc = override(as_scene(scene), model, modes, elements)
     if uses_exact(sc):
         raise SceneError("Solver: the exact model is a reference solver; use flexgen.solve")
-    if models is None and (
-        sc.model.tolerance is not None or any(f.model.tolerance for f in sc.flexures)
-    ):  # its modes would be the defaults, not the tolerance's: a silently other model
+    from .select import scene_tolerance
+
+    if models is None and scene_tolerance(sc) is not None:
+        # its modes would be the defaults, not the tolerance's: a silently other model
         raise SceneError(
             "Solver: the scene asks for a tolerance, which chooses the modes per solve; give "
             "modes instead (flexgen select SCENE --tol T says which), or use flexgen.solve"

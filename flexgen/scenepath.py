@@ -163,9 +163,8 @@ def resolve(
         sub = container.get("model")
         if key not in container and isinstance(sub, dict) and key in sub:
             container = sub
-            canon.insert(-1, "model")
-    # a flexure's model key is one value however it is spelled (flexure.0.modes and
-    # flexure.0.model.modes): one canonical path, the sub-table's
+    # a flexure's model key is one value however it is spelled, and wherever it is given
+    # (flexure.0.modes, flexure.0.model.modes): one canonical path, the sub-table's
     if len(canon) == 3 and canon[0] == "flexure" and canon[2] in model_keys:
         canon.insert(-1, "model")
     return container, key, ".".join(canon)

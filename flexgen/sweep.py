@@ -114,7 +114,9 @@ def _check_scene(scene: Scene) -> None:
     different answer shape) and a tolerance (a mode selection per solve)."""
     if any(f.model.kind == "exact" for f in scene.flexures):
         raise SceneError("sweep: the exact model is a reference solver; study a chain model")
-    if scene.model.tolerance is not None or any(f.model.tolerance for f in scene.flexures):
+    from .select import scene_tolerance
+
+    if scene_tolerance(scene) is not None:
         raise SceneError(
             "sweep: the scene asks for a tolerance, which chooses the modes per solve; give "
             "modes instead (flexgen select SCENE --tol T says which)"
