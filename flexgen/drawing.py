@@ -31,7 +31,6 @@ from __future__ import annotations
 import math
 import os
 import stat
-import tempfile
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -41,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from .geometry import Geometry, as_solved, loaded, outline, unloaded
+from .outfiles import folder_problem, write_all
 from .result import Result
 from .scene import BASE, Scene, as_scene
 
@@ -80,13 +80,9 @@ def check_output(
             raise PlotError(f"{option}: {str(path)!r} is a folder")
         if not stat.S_ISREG(info.st_mode):
             raise PlotError(f"{option}: {str(path)!r} is not a regular file")
-    probe = path.parent
-    while not probe.exists() and probe != probe.parent:
-        probe = probe.parent
-    if not probe.is_dir():
-        raise PlotError(f"{option}: cannot write {str(path)!r}: {str(probe)!r} is not a folder")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise PlotError(f"{option}: cannot write {str(path)!r}: {str(probe)!r} is not writable")
+    problem = folder_problem(path.parent)
+    if problem is not None:
+        raise PlotError(f"{option}: cannot write {str(path)!r}: {problem}")
     return path
 
 
@@ -98,23 +94,16 @@ def _text(s: str) -> str:
 
 
 def _save(fig, path: Path) -> None:
-    """``fig`` into ``path``: a temporary file in the same folder, then a rename (removed again
-    if anything fails)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    try:
-        with os.fdopen(fd, "wb") as handle, warnings.catch_warnings():
+    """``fig`` into ``path``, whole or not at all (flexgen/outfiles.py: a temporary file in the
+    same folder, then a rename; WriteFailed, an OSError, if that fails)."""
+
+    def write(tmp: Path) -> None:
+        with warnings.catch_warnings():
             # a name's characters missing from the font are drawn as boxes, not warned about
             warnings.filterwarnings("ignore", message="Glyph .* missing from")
-            fig.savefig(handle, format=path.suffix[1:].lower(), dpi=130)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+            fig.savefig(tmp, format=path.suffix[1:].lower(), dpi=130)
+
+    write_all([(path, write)])
 
 
 def _model_label(result: Result) -> str:

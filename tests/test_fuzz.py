@@ -784,7 +784,7 @@ def test_plot_failed_write_leaves_nothing(tmp_path, monkeypatch):
     target.write_bytes(b"old plot")
 
     def full_disk(self, fname, *args, **kwargs):
-        fname.write(b"partial")
+        Path(fname).write_bytes(b"partial")
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(Figure, "savefig", full_disk)

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import jinja2
+
+from flexgen.outfiles import WriteFailed, folder_problem, write_texts
 
 _PACKAGE = Path(__file__).resolve().parents[1]
 # installed: the package's own copy (flexgen/templates); a source checkout: the top-level folder
@@ -47,44 +47,19 @@ class OutputError(OSError):
 def check_writable(out_dir: Path) -> None:
     """OutputError unless out_dir is, or can be created as, a folder this user may write (so
     that a bad --out fails before any work)."""
-    probe = Path(out_dir)
-    while not probe.exists() and probe != probe.parent:
-        probe = probe.parent
-    if not probe.is_dir():
-        raise OutputError(f"--out: cannot write {out_dir}: {probe} is not a folder")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise OutputError(f"--out: cannot write {out_dir}: {probe} is not writable")
+    problem = folder_problem(out_dir)
+    if problem is not None:
+        raise OutputError(f"--out: cannot write {out_dir}: {problem}")
 
 
 def write_files(files: dict[str, str], out_dir: Path) -> list[str]:
-    """Write every file atomically (temp file + rename); returns the paths written.
-
-    All texts are rendered before this is called, and a folder or file that cannot be written
-    is an OutputError after the files this call created are removed again, so a failure leaves
-    nothing half-written.
-    """
-    written: list[str] = []
-    created: list[Path] = []
+    """Write every file (relative path -> text) under out_dir, all or nothing
+    (flexgen/outfiles.py); returns the paths written. All texts are rendered before this is
+    called; a file that cannot be written is an OutputError naming it, and nothing is left
+    half-written."""
+    paths = {out_dir / rel: text for rel, text in sorted(files.items())}
     try:
-        for rel, text in sorted(files.items()):
-            path = out_dir / rel
-            path.parent.mkdir(parents=True, exist_ok=True)
-            existed = path.exists()
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-            try:
-                with os.fdopen(fd, "w", newline="\n") as handle:
-                    handle.write(text)
-                os.chmod(tmp, 0o644)
-                os.replace(tmp, path)
-            except BaseException:  # a full disk: no half-written temporary file stays behind
-                Path(tmp).unlink(missing_ok=True)
-                raise
-            if not existed:
-                created.append(path)
-            written.append(str(path))
-    except OSError as exc:
-        for path in created:
-            path.unlink(missing_ok=True)
-        where = exc.filename or out_dir
-        raise OutputError(f"--out: cannot write {where}: {exc.strerror or exc}") from None
-    return written
+        write_texts(paths)
+    except WriteFailed as exc:
+        raise OutputError(f"--out: cannot write {exc.path}: {exc.why}") from None
+    return [str(path) for path in paths]

@@ -12,16 +12,13 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import os
 import sys
-import tempfile
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from flexgen.commands.common import UsageError, integer, printable
+from flexgen.outfiles import WriteFailed, write_all
 from flexgen.sweep_plan import DISTRIBUTIONS, plan
 
 TABLES = (".parquet", ".csv")
@@ -270,84 +267,11 @@ class SchedulerError(Exception):
 # -- the output files -------------------------------------------------------------------------
 
 
-class WriteFailed(Exception):
-    """An output file could not be written (exit 1); ``path`` the file meant, ``why`` the
-    system's reason."""
-
-    def __init__(self, path: Path, error: OSError):
-        super().__init__(f"{path}: {error}")
-        self.path, self.why = path, error.strerror or str(error)
-
-
 def write_outputs(df: Any, out: Path | None, plot: Path | None, draw: Any) -> None:
     """The table into ``out`` and the plot (``draw(path)``) into ``plot``, either None: all or
-    nothing. Each is written to a temporary file in its folder, then both are renamed; when
-    anything fails, the temporaries, the files renamed into place that did not exist before and
-    the folders this run created are removed, and WriteFailed names the file that failed."""
-    made: list[Path] = []
-    temps: dict[Path, Path] = {}  # target -> its temporary file
-    renamed: list[Path] = []
-    new = {p for p in (out, plot) if p is not None and not p.exists()}
-    try:
-        for target, write in ((out, _table_writer(df)), (plot, draw)):
-            if target is None:
-                continue
-            with _naming(target):
-                made += _make_folders(target.parent)
-                temps[target] = _reserve(target)
-                write(temps[target])
-        for target, tmp in temps.items():
-            with _naming(target):
-                os.replace(tmp, target)
-            renamed.append(target)
-    except BaseException:
-        for tmp in temps.values():
-            tmp.unlink(missing_ok=True)
-        for target in renamed:
-            if target in new:
-                target.unlink(missing_ok=True)
-        _remove_folders(made)
-        raise
-
-
-@contextmanager
-def _naming(target: Path) -> Iterator[None]:
-    """An OSError inside it as WriteFailed naming ``target``: a write's error names no file,
-    or the temporary one."""
-    try:
-        yield
-    except OSError as exc:
-        raise WriteFailed(target, exc) from None
-
-
-def _make_folders(folder: Path) -> list[Path]:
-    """Create ``folder`` and its missing parents; the folders created, outermost first."""
-    missing = []
-    while not folder.exists() and folder != folder.parent:
-        missing.append(folder)
-        folder = folder.parent
-    made = []
-    for f in reversed(missing):
-        f.mkdir()
-        made.append(f)
-    return made
-
-
-def _remove_folders(made: list[Path]) -> None:
-    """Remove the folders a failed run created, innermost first (each only if empty)."""
-    for folder in reversed(made):
-        try:
-            folder.rmdir()
-        except OSError:
-            pass
-
-
-def _reserve(target: Path) -> Path:
-    """A new temporary file beside ``target`` (hidden, with its suffix: the writers pick the
-    format by it)."""
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=target.suffix)
-    os.close(fd)
-    return Path(tmp)
+    nothing (flexgen/outfiles.py; WriteFailed names the file that failed)."""
+    targets = [(out, _table_writer(df)), (plot, draw)]
+    write_all([(target, write) for target, write in targets if target is not None])
 
 
 def _table_writer(df: Any) -> Any:
@@ -356,14 +280,5 @@ def _table_writer(df: Any) -> Any:
             df.to_parquet(tmp, index=False)
         else:
             df.to_csv(tmp, index=False)
-        # mkstemp makes it 0600; the table gets what a file created with open() gets
-        os.chmod(tmp, 0o666 & ~_umask())
 
     return write
-
-
-def _umask() -> int:
-    """The process's umask (read by setting it, the only portable way, and setting it back)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask

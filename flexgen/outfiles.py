@@ -1,0 +1,135 @@
+"""Output files written whole or not at all: the one writer of every file flexgen makes
+(`generate`, `bench` and `stability` pages, `plot`, `sweep --out/--plot`).
+
+Every target is first written to a hidden temporary file in its own folder (so that the rename
+onto it is atomic), and only when every one is complete are they renamed onto their targets. If
+anything fails, the temporary files, the targets this call created and the folders it created
+are removed, and WriteFailed names the target: a full disk never leaves a half-written or
+0-byte file behind, and a set of files (a controller's five) never ends up half old, half new.
+A written file gets the mode a file created with open() gets, 0666 less the umask (mkstemp's
+0600 would hide a generated header from the rest of a build team; a private umask keeps it
+private).
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import secrets
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+Writer = Callable[[Path], None]  # writes a target's content into the file at the path given
+
+
+class WriteFailed(OSError):
+    """A target that could not be written: ``path`` names it, ``why`` is the system's reason
+    (also OSError's ``filename`` and ``strerror``, so handlers of OSError word it too)."""
+
+    def __init__(self, path: Path, error: OSError):
+        self.why = error.strerror or str(error)
+        super().__init__(error.errno, self.why, str(path))
+        self.path = path
+
+
+def folder_problem(folder: Path) -> str | None:
+    """Why files cannot be written into ``folder`` (created with its parents if missing), or
+    None: the nearest existing ancestor must be a folder this user may write."""
+    probe = Path(folder)
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        return f"{probe} is not a folder"
+    if not os.access(probe, os.W_OK | os.X_OK):
+        return f"{probe} is not writable"
+    return None
+
+
+def write_all(targets: Sequence[tuple[Path, Writer]]) -> None:
+    """Each ``(target, writer)``: ``writer(temporary)`` fills a temporary file beside the target
+    (hidden, with the target's suffix: writers that pick a format by it see the right one),
+    then every temporary is renamed onto its target. All or nothing (the module's docstring);
+    WriteFailed on failure."""
+    made: list[Path] = []
+    temps: dict[Path, Path] = {}  # target -> its temporary file
+    renamed: list[Path] = []
+    new = {target for target, _ in targets if not target.exists()}
+    try:
+        for target, write in targets:
+            with _naming(target):
+                made += _make_folders(target.parent)
+                temps[target] = _reserve(target)
+                write(temps[target])
+        for target, tmp in temps.items():
+            with _naming(target):
+                os.replace(tmp, target)
+            renamed.append(target)
+    except BaseException:
+        for tmp in temps.values():
+            tmp.unlink(missing_ok=True)
+        for target in renamed:
+            if target in new:
+                target.unlink(missing_ok=True)
+        _remove_folders(made)
+        raise
+
+
+def write_texts(files: dict[Path, str]) -> None:
+    """Text files (``\\n`` line ends on every platform: byte-stable generated code), all or
+    nothing as ``write_all``."""
+
+    def writer(text: str) -> Writer:
+        def write(tmp: Path) -> None:
+            with open(tmp, "w", newline="\n") as handle:
+                handle.write(text)
+
+        return write
+
+    write_all([(path, writer(text)) for path, text in files.items()])
+
+
+@contextmanager
+def _naming(target: Path) -> Iterator[None]:
+    """An OSError inside it as WriteFailed naming ``target``: a write's error names no file,
+    or the temporary one."""
+    try:
+        yield
+    except OSError as exc:  # a nested write's WriteFailed too: this call's target is the one
+        raise WriteFailed(target, exc) from None
+
+
+def _make_folders(folder: Path) -> list[Path]:
+    """Create ``folder`` and its missing parents; the folders created, outermost first."""
+    missing = []
+    while not folder.exists() and folder != folder.parent:
+        missing.append(folder)
+        folder = folder.parent
+    made = []
+    for f in reversed(missing):
+        f.mkdir()
+        made.append(f)
+    return made
+
+
+def _remove_folders(made: list[Path]) -> None:
+    """Remove the folders a failed run created, innermost first (each only if empty)."""
+    for folder in reversed(made):
+        try:
+            folder.rmdir()
+        except OSError:
+            pass
+
+
+def _reserve(target: Path) -> Path:
+    """A new temporary file beside ``target`` (hidden, with its suffix), created with mode 0666
+    so that the system applies the umask: what open() gives a new file, without reading the
+    umask (which only setting it can do: a race with other threads)."""
+    for _ in range(100):
+        tmp = target.parent / f".{target.name}.{secrets.token_hex(4)}{target.suffix}"
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        except FileExistsError:
+            continue
+        return tmp
+    raise FileExistsError(errno.EEXIST, "no free temporary name", str(target.parent))
