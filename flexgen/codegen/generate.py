@@ -14,7 +14,7 @@ import sympy as sp
 from flexgen.codegen.lower import count_ops, lower
 from flexgen.codegen.printers import CPrinter, NumPyPrinter, numpy_array
 from flexgen.codegen.render import render
-from flexgen.codegen.spec import BACKENDS, KernelSpec
+from flexgen.codegen.spec import BACKENDS, CConfig, KernelSpec, NumPyConfig
 from flexgen.kernels import name_parts
 from flexgen.symbolic.flexure import RANGE_SAMPLES, FlexureKernel
 
@@ -160,9 +160,10 @@ def numpy_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
             "local_nu": numpy_array([list(r.nu) for r in rows]),
             "local_limit": numpy_array([r.limit for r in rows]),
         }
-    folder = BACKENDS["numpy"].folder
+    config = BACKENDS["numpy"]
+    assert isinstance(config, NumPyConfig)
     name = f"{prefix}_{kernel.name}" if prefix else kernel.name
-    return {f"{folder}/{name}.py": render("numpy/kernel.py.jinja", context)}
+    return {f"{config.folder}/{name}.py": render(config.template, context)}
 
 
 def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dict:
@@ -225,10 +226,12 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
 
 def c_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
     context = c_context(kernel, prefix)
-    name, folder = context["prefix"], BACKENDS["c"].folder
+    config = BACKENDS["c"]
+    assert isinstance(config, CConfig)
+    name = context["prefix"]
     return {
-        f"{folder}/{name}.h": render("c/kernel.h.jinja", context),
-        f"{folder}/{name}.c": render("c/kernel.c.jinja", context),
+        f"{config.folder}/{name}.h": render(config.header_template, context),
+        f"{config.folder}/{name}.c": render(config.source_template, context),
     }
 
 

@@ -82,17 +82,19 @@ class KernelSpec:
 class NumPyConfig:
     """NumPy backend: one module per kernel, imports numpy only."""
 
-    folder: str = "numpy"
-    template_folder: str = "numpy"
+    folder: str = "numpy"  # under the output folder
+    template: str = "numpy/kernel.py.jinja"
 
 
 @dataclass(frozen=True)
 class CConfig:
-    """C99 backend: a header and a source per kernel, double and float entry points."""
+    """C99 backend: a header and a source per kernel, with double and float entry points."""
 
     folder: str = "c"
-    template_folder: str = "c"
-    float_twin: bool = True
+    header_template: str = "c/kernel.h.jinja"
+    source_template: str = "c/kernel.c.jinja"
 
 
+# the languages `flexgen generate --lang` offers: each one's config here, its printer in
+# printers.py and its emitter in generate.py's EMITTERS
 BACKENDS: dict[str, NumPyConfig | CConfig] = {"numpy": NumPyConfig(), "c": CConfig()}
