@@ -1,4 +1,4 @@
-"""Find and load the generated kernels: NumPy modules (runtime) and C sources (tests, benchmarks).
+"""Find and load the generated kernels (NumPy modules); name them.
 
 Generated modules never import flexgen; flexgen loads them from ``generated/`` by file path, so
 they need not be on sys.path. Kernel names: ``scm{N}`` (polynomial, 90 degrees),
@@ -8,11 +8,9 @@ they need not be on sys.path. Kernel names: ``scm{N}`` (polynomial, 90 degrees),
 
 from __future__ import annotations
 
-import ctypes
 import importlib.util
 import os
 import re
-import subprocess
 from functools import cache, lru_cache
 from pathlib import Path
 from types import ModuleType
@@ -22,6 +20,7 @@ _PACKAGE = Path(__file__).resolve().parent
 GENERATED = (
     _PACKAGE / "generated" if (_PACKAGE / "generated").is_dir() else _PACKAGE.parent / "generated"
 )
+# the flags the generated C compiles cleanly under (docs/kernels.md); the tests build with them
 C_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
 _NAME = re.compile(r"^scm(\d+)(?:_(gauss|local)(\d+))?$")
 
@@ -116,48 +115,3 @@ def load_numpy(name: str, folder: Path = GENERATED) -> ModuleType:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
-
-
-def gcc_shared(
-    source: Path, library, extra_flags: tuple[str, ...] = ()
-) -> subprocess.CompletedProcess:
-    """Run gcc with the strict flags on one C source (its folder on the include path) into a
-    shared library; the finished process (stderr captured). OSError if gcc cannot be run."""
-    return subprocess.run(
-        [
-            "gcc",
-            *C_FLAGS,
-            *extra_flags,
-            "-shared",
-            "-fPIC",
-            f"-I{Path(source).parent}",
-            str(source),
-            "-lm",
-            "-o",
-            str(library),
-        ],
-        capture_output=True,
-        text=True,
-    )
-
-
-def compile_c(
-    name: str, build_dir: Path, folder: Path = GENERATED, extra_flags: tuple[str, ...] = ()
-) -> ctypes.CDLL:
-    """Compile generated/c/<name>.c with the strict flags into a shared library and load it."""
-    source = folder / "c" / f"{name}.c"
-    if not source.is_file():
-        raise KernelNotFound(f"C kernel {name!r} not found in {folder}/c")
-    build_dir.mkdir(parents=True, exist_ok=True)
-    library = build_dir / f"lib{name}.so"
-    gcc_shared(source, library, extra_flags).check_returncode()
-    lib = ctypes.CDLL(str(library))
-    double_p, float_p = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_float)
-    for suffix, ptr in (("", double_p), ("_f", float_p)):
-        fn = getattr(lib, f"{name}_evaluate{suffix}")
-        fn.argtypes = [ptr] * 4
-        fn.restype = None
-    in_range = getattr(lib, f"{name}_in_range")
-    in_range.argtypes = [double_p]
-    in_range.restype = ctypes.c_int
-    return lib

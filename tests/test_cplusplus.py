@@ -9,12 +9,12 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from cbuild import STRICT
 
 from flexgen import kernels
 
 ROOT = Path(__file__).resolve().parents[1]
 CORE = ROOT / "flexgen" / "compiled"
-STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2"]
 
 PROGRAM = r"""
 #include <cstdio>

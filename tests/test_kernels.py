@@ -1,19 +1,24 @@
 """The generated kernels against independent references, closed forms, the C twins, the goldens."""
 
 import ctypes
+import importlib.metadata
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 import reference
 import sympy as sp
+from cbuild import compile_kernel
 
 from flexgen import kernels
 from flexgen.codegen.generate import CHECKED_IN, generate_files
 from flexgen.codegen.render import write_files
 from flexgen.codegen.spec import KernelSpec
 
+ROOT = Path(__file__).resolve().parents[1]
 NAMES = kernels.available()
 POLY = [n for n in NAMES if "_" not in n]
 # the kernels certified on a range of angles (|phi| <= PHI_MAX), and those certified at each q
@@ -189,7 +194,7 @@ def test_polynomial_kernel_is_the_expanded_polynomial():
 @pytest.fixture(scope="module")
 def c_libraries(tmp_path_factory):
     build = tmp_path_factory.mktemp("c")
-    return {name: kernels.compile_c(name, build) for name in NAMES}
+    return {name: compile_kernel(name, build) for name in NAMES}
 
 
 def _call(lib, name, q, suffix="", ctype=ctypes.c_double, dtype=np.float64):
@@ -237,6 +242,31 @@ def test_emitted_c_uses_no_heap_and_no_globals():
         assert all("(" in line for line in top), f"{path.name}: non-function top-level {top}"
 
 
+def machine_specific(tmp_path) -> list[re.Pattern[str]]:
+    """What must not reach a generated file: this machine's paths (the output folder, the
+    checkout, the home folder), a date, the versions of flexgen and SymPy."""
+    paths = [p for p in (str(tmp_path), str(ROOT), str(Path.home())) if p != "/"]
+    versions = [importlib.metadata.version("flexgen"), sp.__version__]
+    return [
+        *(re.compile(re.escape(p)) for p in paths),
+        re.compile(r"20\d\d-\d\d-\d\d"),
+        *(re.compile(r"(?<![\d.])" + re.escape(v) + r"(?![\d.])") for v in versions),
+    ]
+
+
+def test_machine_specific_catches_each_leak(tmp_path):
+    for leak in (
+        str(tmp_path / "numpy"),
+        str(ROOT / "templates"),
+        str(Path.home() / "x"),
+        "on 2024-06-01",
+        f"flexgen {importlib.metadata.version('flexgen')}",
+        f"sympy {sp.__version__}",
+    ):
+        assert any(p.search(leak) for p in machine_specific(tmp_path)), leak
+    assert not any(p.search("0.12005194278465664*q[1]") for p in machine_specific(tmp_path))
+
+
 def test_generated_is_byte_identical_to_a_fresh_regeneration(tmp_path):
     files = {}
     for spec in CHECKED_IN:
@@ -252,7 +282,8 @@ def test_generated_is_byte_identical_to_a_fresh_regeneration(tmp_path):
     for rel in fresh:
         assert (tmp_path / rel).read_bytes() == (kernels.GENERATED / rel).read_bytes(), rel
         text = (tmp_path / rel).read_text()
-        assert "/work" not in text and str(tmp_path) not in text
+        for leak in machine_specific(tmp_path):
+            assert not leak.search(text), f"{rel}: {leak.pattern}"
 
 
 def _cli(*args):
