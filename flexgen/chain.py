@@ -259,11 +259,6 @@ class Chain:
         self._points = {}
         return frames
 
-    def root_frame(self, name: str, q) -> PointKinematics:
-        """World frame of flexure ``name``'s root (s = 0)."""
-        self.frames(q)
-        return self._roots[name]
-
     def _resolve(self, ref: str) -> tuple[str, tuple[float, float]]:
         got = self._resolved.get(ref)
         if got is None:

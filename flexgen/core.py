@@ -53,6 +53,12 @@ def check_fresh() -> None:
         )
 
 
+def double_ptr(array: Any) -> Any:
+    """A C ``double *`` to the data of a C-contiguous float64 NumPy array (the caller keeps the
+    array alive while the core may use the pointer)."""
+    return ffi.cast("double *", array.ctypes.data)
+
+
 @cache
 def kernel_functions(name: str) -> tuple[Any, Any]:
     """The C function pointers ``<name>_evaluate`` and ``<name>_in_range`` of a shipped kernel."""

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from .geometry import Geometry, as_solved, loaded, outline, unloaded
+from .models import registry
 from .outfiles import folder_problem, write_all
 from .result import Result
 from .scene import BASE, Scene, as_scene
@@ -107,12 +108,8 @@ def _save(fig, path: Path) -> None:
 
 
 def _model_label(result: Result) -> str:
-    labels = []
-    for spec in result.model.values():
-        kind = spec.get("kind", "?")
-        extra = spec.get("modes", spec.get("elements"))
-        labels.append(f"{kind}{extra}" if kind in ("scm", "fem") and extra else kind)
-    return ", ".join(dict.fromkeys(labels))
+    """The flexures' model names (``registry.label``), each once: "cc", "scm3, fem16"."""
+    return ", ".join(dict.fromkeys(registry.label(info) for info in result.model.values()))
 
 
 def _xy(v: np.ndarray | Sequence[float]) -> tuple[float, float]:

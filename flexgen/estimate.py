@@ -291,24 +291,28 @@ class Estimator:
         # made once
         self.out = np.zeros(2 * self.n + 1 + nr)  # then the richer equilibrium's q
         self.rich_slices = dict(dst)
-        ffi = core.ffi
-        dbl = lambda x: ffi.cast("double *", x.ctypes.data)  # noqa: E731
+        double_ptr = core.double_ptr
         self._args = (
             rp.struct,
-            dbl(self.T),
+            double_ptr(self.T),
             nb,
-            dbl(solver.workspace.q),
-            dbl(solver.workspace.pose),
-            dbl(solver.workspace.compliance),
-            dbl(self._scale),
-            dbl(self._floors),
+            double_ptr(solver.workspace.q),
+            double_ptr(solver.workspace.pose),
+            double_ptr(solver.workspace.compliance),
+            double_ptr(self._scale),
+            double_ptr(self._floors),
             self.factor,
             REACH * solver.settings.max_dq,
             rw.work_ptr,
             rw.iwork_ptr,
-            dbl(self.out),
+            double_ptr(self.out),
         )
-        self._solved_args = (rp.struct, dbl(self._identity), nr, dbl(rw.q)) + self._args[4:]
+        self._solved_args = (
+            rp.struct,
+            double_ptr(self._identity),
+            nr,
+            double_ptr(rw.q),
+        ) + self._args[4:]
         self._ws = solver.workspace
 
     def estimate(self, solver: Any) -> Estimate:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .chain import BASE, Chain
-from .core import ffi, lapack, lib
+from .core import double_ptr, ffi, lapack, lib
 from .models.registry import core_description
 from .scene import Scene
 from .settings import SolverSettings
@@ -159,25 +159,24 @@ class Workspace:
         self.kernel = np.zeros(max(int(p.nflex), 1), dtype=np.intc)  # FG_KERNEL_*
         self.q0 = np.zeros(max(n, 1))
         a = ffi.new("fg_answer *")
-        dbl = lambda x: ffi.cast("double *", x.ctypes.data)  # noqa: E731
         a.q, a.pose, a.compliance, a.stiffness = (
-            dbl(self.q),
-            dbl(self.pose),
-            dbl(self.compliance),
-            dbl(self.K),
+            double_ptr(self.q),
+            double_ptr(self.pose),
+            double_ptr(self.compliance),
+            double_ptr(self.K),
         )
-        a.critical = dbl(self.critical)
+        a.critical = double_ptr(self.critical)
         a.critical_kind = ffi.cast("int *", self.critical_kind.ctypes.data)
         a.max_critical = MAX_CRITICAL
         a.switched = ffi.cast("int *", self.switched.ctypes.data)
-        a.bend = dbl(self.bend)
-        a.ellipse = dbl(self.ellipse)
+        a.bend = double_ptr(self.bend)
+        a.ellipse = double_ptr(self.ellipse)
         a.kernel = ffi.cast("int *", self.kernel.ctypes.data)
         self.answer = a
-        self.work_ptr = dbl(self.work)
-        self.K_ptr = dbl(self.K)
+        self.work_ptr = double_ptr(self.work)
+        self.K_ptr = double_ptr(self.K)
         self.iwork_ptr = ffi.cast("int *", self.iwork.ctypes.data)
-        self.q0_ptr = dbl(self.q0)
+        self.q0_ptr = double_ptr(self.q0)
 
 
 def _answer_layout(n: int, m: int, nf: int) -> list[tuple[str, int, tuple[int, ...]]]:
@@ -214,12 +213,16 @@ def _set_kernel_at_zero(flex: Any, i: int) -> np.ndarray | None:
     k = f.ndof
     out = np.zeros(3 + 3 * k + 3 * k * k)
     scratch = np.zeros(4 * (k + 1))
-    dbl = lambda x: ffi.cast("double *", x.ctypes.data)  # noqa: E731
     length, f.length = f.length, 1.0  # the kernel itself, unscaled (tip0 is not set yet)
     ok = lib.fg_flexure_tip(
-        flex + i, dbl(np.zeros(k)), dbl(out), dbl(out[3:]), dbl(out[3 + 3 * k :]), dbl(scratch)
+        flex + i,
+        double_ptr(np.zeros(k)),
+        double_ptr(out),
+        double_ptr(out[3:]),
+        double_ptr(out[3 + 3 * k :]),
+        double_ptr(scratch),
     )
     f.length = length
     assert ok, "every kernel evaluates at q = 0"
-    f.tip0 = dbl(out)
+    f.tip0 = double_ptr(out)
     return out

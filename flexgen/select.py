@@ -62,8 +62,8 @@ class SelectionError(SceneError):
 
 def max_gauss_modes() -> int:
     """The most modes a shipped Gauss kernel has (8 in the checked-in set: every mode count)."""
-    found = [int(m[1]) for n in kernels.available() if (m := re.match(r"^scm(\d+)_gauss\d+$", n))]
-    return max(found, default=0)
+    parts = [kernels.name_parts(n) for n in kernels.available()]
+    return max((p[0] for p in parts if p is not None and p[1] == "gauss"), default=0)
 
 
 def scene_tolerance(scene: Scene) -> float | None:

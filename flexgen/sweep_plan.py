@@ -49,10 +49,6 @@ class Plan:
     def cases(self) -> int:
         return int(self.values.shape[0])
 
-    @property
-    def design_keys(self) -> tuple[int, ...]:
-        return tuple(k for k, t in enumerate(self.targets) if t is None)
-
     def chunks(self, size: int = CHUNK_SIZE) -> list[tuple[int, int]]:
         """(start, stop) in solve order: contiguous, fixed by the study alone (never by the
         number of workers), so every way of running it solves the same cases from the same

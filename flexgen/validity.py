@@ -126,12 +126,6 @@ def _scene_constants(scene: Scene) -> str | None:
     return got[1]
 
 
-def prb_load_case(scene: Scene) -> bool:
-    """The case the PRB constants are fitted for: one flexure, loads only at its tip, no moment,
-    no tendon."""
-    return _prb_case_problem(scene) is None
-
-
 def _prb_case_problem(scene: Scene) -> str | None:
     for ld in scene.loads:
         if ld.moment != 0.0:
@@ -154,10 +148,13 @@ def prb_structure_problem(scene: Scene) -> str | None:
 
 
 def model_label(model) -> str:
-    """The label of a flexure model in warnings: "cc", "prb", "scm3 auto", "fem16", ..."""
-    from flexgen.models.registry import kind_of
+    """The label of a flexure model in warnings: its name (``registry.label``: "cc", "prb",
+    "fem16", "scm3") and, with more than one mode, its kernel choice ("scm3 auto")."""
+    from flexgen.models.registry import label, model_info
 
-    return kind_of(model).label(model)
+    info = model_info(model)
+    name = label(info)
+    return f"{name} {model.kernel}" if info["kind"] == "scm" and info["modes"] > 1 else name
 
 
 def _deg(x: float) -> str:
@@ -216,15 +213,13 @@ class _Context:
 _CONTEXTS: dict[tuple, tuple] = {}
 
 
-def _context(scene: Scene, models: Mapping, label) -> _Context:
-    key = (id(scene), id(models), label if isinstance(label, str | None) else id(label))
+def _context(scene: Scene, models: Mapping, label: str | None) -> _Context:
+    # the entry holds scene and models, so neither id is reused while it is kept
+    key = (id(scene), id(models), label)
     got = _CONTEXTS.get(key)
     if got is not None and got[0] is scene and got[1] is models:
         return got[2]
-    labels = {
-        name: (label if isinstance(label, str) else (label or {}).get(name) or model_label(m))
-        for name, m in models.items()
-    }
+    labels = {name: label or model_label(m) for name, m in models.items()}
     ctx = _Context(
         labels,
         tuple(n for n, m in models.items() if getattr(m, "kind", "") == "scm"),
@@ -241,11 +236,11 @@ def assess(
     scene: Scene,
     result,
     models: Mapping,
-    label: str | Mapping[str, str] | None = None,
+    label: str | None = None,
 ) -> Claim:
     """The validity warnings of a converged ``solve`` result whose flexure models are
     ``models`` ({flexure: model}, as passed to solve). ``label``: the label of every flexure's
-    model in the warnings (a str for all, or {flexure: label}; default ``model_label`` of each).
+    model in the warnings (default ``model_label`` of each).
     The bend and kernel at the equilibrium are the core's (``Result.bend``, ``kernel``), and so
     is the stability margin where the result carries it."""
     ctx = _context(scene, models, label)

@@ -18,8 +18,12 @@ install: they then stop with ``NeedsCheckout``, a one-line message.
 
 from __future__ import annotations
 
+import tomllib
 from pathlib import Path
 
+import flexgen
+
+# the folder above this package: a source checkout's root, or site-packages in an installed wheel
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -27,10 +31,23 @@ class NeedsCheckout(RuntimeError):
     """A tool needs files of a source checkout of flexgen that this installation does not have."""
 
 
+def is_checkout(root: Path) -> bool:
+    """Is ``root`` a source checkout of the flexgen being measured: flexgen's pyproject.toml and
+    the imported ``flexgen`` package beside each other? (In site-packages a folder such as
+    ``benchmarks/`` may belong to any other distribution.)"""
+    try:
+        with open(root / "pyproject.toml", "rb") as f:
+            name = tomllib.load(f).get("project", {}).get("name")
+    except (OSError, tomllib.TOMLDecodeError):
+        return False
+    return name == "flexgen" and (root / "flexgen").resolve() == Path(flexgen.__file__).parent
+
+
 def repo_path(relative: str, what: str = "this tool") -> Path:
-    """``REPO / relative``, or NeedsCheckout (one line) if it is not there (an installed wheel)."""
+    """``REPO / relative`` of a source checkout, or NeedsCheckout (one line) if REPO is not one
+    (an installed wheel) or the file is not there."""
     path = REPO / relative.rstrip("/")
-    if not path.exists():
+    if not (is_checkout(REPO) and path.exists()):
         raise NeedsCheckout(
             f"{what} needs a source checkout of flexgen ({relative} is not "
             f"installed with the package): run it from a clone of the repository"

@@ -19,13 +19,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from flexgen.scene import Scene, load_scene, scene_from_dict
 
+from . import repo_path
 from .honesty import (
     REFERENCE_NOISE,
     _alpha_for_bend,
@@ -34,8 +34,6 @@ from .honesty import (
     point_within,
     true_over_estimate,
 )
-
-EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 # (label, flexgen.solve keyword arguments)
 MODELS: tuple[tuple[str, dict[str, Any]], ...] = (
@@ -55,7 +53,8 @@ MODELS: tuple[tuple[str, dict[str, Any]], ...] = (
 
 
 def _examples() -> list[tuple[str, Scene]]:
-    return [(p.stem, load_scene(p)) for p in sorted(EXAMPLES.glob("*.toml"))]
+    folder = repo_path("examples/", "the estimate honesty suite")
+    return [(p.stem, load_scene(p)) for p in sorted(folder.glob("*.toml"))]
 
 
 def _three_link(rng: np.random.Generator, k: int) -> tuple[str, Scene]:

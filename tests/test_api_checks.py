@@ -175,8 +175,12 @@ def test_valid_loads_and_tensions_solve_as_the_scene_with_them(finger):
     np.testing.assert_allclose(
         r.q["proximal"], flexgen.solve(scene).q["proximal"], rtol=0, atol=1e-10
     )
+    # a start of the other loads' q (distal as one number): the scene's own equilibrium again
     warm = solver.solve(q0={"proximal": np.array(r.q["proximal"]), "distal": 0.0})
+    cold = flexgen.solve(finger)
     assert warm.converged
+    for name in ("proximal", "distal"):
+        np.testing.assert_allclose(warm.q[name], cold.q[name], rtol=0, atol=1e-10)
 
 
 def test_solver_refuses_a_model_that_is_no_flexure_model(finger):

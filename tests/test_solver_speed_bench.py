@@ -67,8 +67,6 @@ def test_cases_have_their_model(sb, scenes):
 def test_speed_row_fields(speed):
     r = speed["cantilever scm3"]
     assert r["us_api"] > 0 and r["us_prepared"] > 0 and r["us_core"] > 0
-    assert r["api_core"] == pytest.approx(r["us_api"] / r["us_core"])
-    assert r["overhead_us"] == pytest.approx(r["us_prepared"] - r["us_core"])
     assert r["converged"] and r["stable"] and r["critical"] == 0
     assert r["iterations"] >= 1
     assert r["evaluations"] is None or r["evaluations"] >= r["iterations"]
@@ -89,7 +87,9 @@ def test_exact_row(speed):
 
 def test_lapack_row(lapack):
     r = lapack["cantilever fem16"]
-    assert r["ndof"] == 16 and r["lapack_used"] in (True, False)
+    # 16 coordinates: below the 32 from which the default settings factorize with LAPACK
+    # (docs/accuracy-vs-speed.md), so the default solve is the built-in one
+    assert r["ndof"] == 16 and r["lapack_used"] is False
     assert r["us_lapack"] > 0 and r["us_builtin"] > 0 and r["ratio"] > 0
     assert r["agree"] and r["q_rel_diff"] <= 1e-12
 

@@ -24,7 +24,6 @@ class TipKinematics:
 
 class FlexureModel(Protocol):
     kind: str  # "scm", "cc", "prb", "fem"
-    label: str  # e.g. "scm3", "fem16", "prb"
     n_dof: int
     length: float
     EI: float

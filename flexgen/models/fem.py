@@ -38,7 +38,6 @@ class FEMModel:
         self.EI = float(EI)
         self.elements = elements
         self.n_dof = elements
-        self.label = f"fem{elements}"
         self.h = self.length / elements
         self.spring = self.EI / self.h
         seg = np.full(elements + 1, self.h)

@@ -18,7 +18,6 @@ from .base import TipKinematics, core_tip
 class PRBModel:
     kind = "prb"
     CONSTANT_HESSIAN = True  # quadratic energy: energy_hessian does not depend on q
-    label = "prb"
     n_dof = 1
 
     def __init__(self, length: float, EI: float, gamma: float = 0.85, K_theta: float = 2.65):

@@ -57,12 +57,12 @@ class ModelKind:
     build: Callable[[Flexure, Any], FlexureModel] | None
     chain: bool  # a chain model: the core solves it (its class fills its fg_flexure)
     info: Callable[[Any], dict[str, Any]]  # the Result's "model" entry of a flexure
-    # "scm3 auto", "cc", "fem16", "prb": the model in validity's warnings
-    label: Callable[[Any], str]
+    # its name from that entry: "cc", "scm3", "fem16", "prb", "exact" (``label``)
+    label: Callable[[Mapping[str, Any]], str]
 
 
-def _scm_label(m: Any) -> str:
-    return "cc" if int(m.n_dof) == 1 else f"scm{int(m.n_dof)} {m.kernel}"
+def _scm_label(info: Mapping[str, Any]) -> str:
+    return "cc" if info["modes"] == 1 else f"scm{info['modes']}"
 
 
 KINDS: dict[str, ModelKind] = {
@@ -91,7 +91,7 @@ KINDS: dict[str, ModelKind] = {
         _prb,
         True,
         lambda m: {"kind": "prb"},
-        lambda m: "prb",
+        lambda info: "prb",
     ),
     "fem": ModelKind(
         "fem",
@@ -100,10 +100,10 @@ KINDS: dict[str, ModelKind] = {
         _fem,
         True,
         lambda m: {"kind": "fem", "elements": int(m.n_dof)},
-        lambda m: f"fem{int(m.n_dof)}",
+        lambda info: f"fem{info['elements']}",
     ),
     "exact": ModelKind(
-        "exact", None, None, None, False, lambda m: {"kind": "exact"}, lambda m: "exact"
+        "exact", None, None, None, False, lambda m: {"kind": "exact"}, lambda info: "exact"
     ),
 }
 MODEL_KINDS = tuple(KINDS)
@@ -154,6 +154,12 @@ def core_description(model: Any, flexure_struct: Any) -> np.ndarray:
 def model_info(model: Any) -> dict[str, Any]:
     """The Result's description of a flexure's model ({"kind": ..., "modes"/"elements": ...})."""
     return kind_of(model).info(model)
+
+
+def label(info: Mapping[str, Any]) -> str:
+    """A flexure model's name from its Result entry (``Result.model[flexure]``, ``model_info``):
+    "cc" (smooth curvature with one mode), "scm3", "prb", "fem16", "exact"."""
+    return KINDS[info["kind"]].label(info)
 
 
 def build_models(

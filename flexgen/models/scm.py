@@ -55,7 +55,6 @@ class SCMModel:
         if kernel not in KERNEL_CHOICES:
             raise ValueError(f"kernel: must be one of {', '.join(KERNEL_CHOICES)}, got {kernel!r}")
         self.length, self.EI, self.n_dof, self.kernel = float(length), float(EI), modes, kernel
-        self.label = "cc" if modes == 1 else f"scm{modes}"
         # the kernels in the order the core tries them (fg_flexure.local, .poly, .gauss; the
         # module docstring); a name and a NumPy module each, None where the choice has none
         self.local_name = self.local = None
@@ -67,7 +66,7 @@ class SCMModel:
                 pass  # the polynomial kernel in its place (slower, as accurate)
         self.poly_name = self.poly = None
         if kernel in ("auto", "poly") or (kernel == "local" and self.local is None):
-            self.poly_name = f"scm{modes}"
+            self.poly_name = kernels.kernel_name(modes)
             self.poly = kernels.load_numpy(self.poly_name)
         self.gauss_name = self.gauss = self.no_gauss = None
         if kernel != "poly":

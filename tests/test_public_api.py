@@ -1,0 +1,105 @@
+"""Documented calls of the public API against values computed without them: Solver.margin_above
+(docs/solve.md) against Euler's buckling load and NumPy's eigenvalues, Result.to_dict against the
+JSON of the same answer, and a model's one name in plots, warnings and the Result."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flexgen
+from flexgen.scene import scene_from_dict
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+# Euler: a cantilever (fixed-free) of length 1 and EI 1 buckles at P = pi^2 EI / (4 L^2)
+EULER = math.pi**2 / 4
+
+
+def column(load_fraction: float, model: dict) -> flexgen.Solver:
+    """A straight cantilever along +x under an axial compressive tip force of load_fraction of
+    Euler's load: solved straight, with margin 1 - P/P_cr (docs/model-notes)."""
+    scene = scene_from_dict(
+        {
+            "model": model,
+            "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+            "load": [{"point": "beam.tip", "force": [-load_fraction * EULER, 0.0]}],
+        }
+    )
+    solver = flexgen.Solver(scene)
+    assert solver.solve().converged
+    return solver
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.7])
+def test_margin_above_on_an_axial_load_below_euler(fraction):
+    solver = column(fraction, {"kind": "scm", "modes": 5})
+    margin = 1 - fraction  # the closed form; scm5's critical load is Euler's to < 1e-6
+    assert solver.margin_above(margin - 1e-3)
+    assert not solver.margin_above(margin + 1e-3)
+
+
+def test_margin_above_against_numpy_on_a_bent_finger():
+    """The margin of K against the elastic stiffness D (diagonal): the smallest eigenvalue of
+    D^-1/2 K D^-1/2, from the answer's stiffness."""
+    solver = flexgen.Solver(EXAMPLES / "two_link_finger.toml")
+    r = solver.solve()
+    d = 1 / np.sqrt(np.asarray(solver.problem.stiffness, dtype=float))
+    margin = np.linalg.eigvalsh(d[:, None] * np.asarray(r.stiffness) * d[None, :])[0]
+    assert 0 < margin < 1
+    assert solver.margin_above(margin * (1 - 1e-6))
+    assert not solver.margin_above(margin * (1 + 1e-6))
+
+
+def _plain(x):
+    """Python data as JSON holds it: arrays as lists, non-finite numbers as None."""
+    if isinstance(x, np.ndarray):
+        return _plain(x.tolist())
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_plain(v) for v in x]
+    if isinstance(x, float | np.floating):
+        return float(x) if math.isfinite(x) else None
+    return x
+
+
+def _holds(full, part, where="result"):
+    """Every entry of the JSON ``part`` is in ``full`` with the same value."""
+    if isinstance(part, dict):
+        assert isinstance(full, dict), where
+        for k, v in part.items():
+            assert k in full, f"{where}.{k}"
+            _holds(full[k], v, f"{where}.{k}")
+    else:
+        assert full == part, where
+
+
+def test_to_dict_holds_every_field_of_the_json():
+    r = flexgen.solve(EXAMPLES / "two_link_finger.toml")
+    full = _plain(r.to_dict())
+    _holds(full, json.loads(r.to_json()))
+    # and the fields the JSON leaves out: the curvature along each flexure, the core's bends
+    assert len(full["flexures"]["proximal"]["curvature"]) == len(full["flexures"]["proximal"]["s"])
+    assert set(full["bend"]) == {"proximal", "distal"}
+
+
+@pytest.mark.parametrize(
+    ("options", "name"),
+    [({"model": "cc"}, "cc"), ({}, "scm3"), ({"model": "fem", "elements": 4}, "fem4")],
+)
+def test_one_name_per_model(options, name):
+    """A one-mode smooth curvature flexure is "cc" in the drawing's title and the warnings, as
+    the Result's entry names it."""
+    from flexgen import drawing, validity
+    from flexgen.models import registry
+
+    path = EXAMPLES / "two_link_finger.toml"
+    r = flexgen.solve(path, **options)
+    assert drawing._model_label(r) == name
+    models = validity.models_of(flexgen.load_scene(path), r)
+    assert {registry.label(registry.model_info(m)) for m in models.values()} == {name}
+    assert {validity.model_label(m).split()[0] for m in models.values()} == {name}
