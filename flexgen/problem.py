@@ -32,14 +32,8 @@ MAX_CRITICAL = 64
 
 def output_points(scene: Scene, chain: Chain) -> list[str]:
     """The scene's [output] points; else every loaded point; else the tips of the flexures that
-    carry no other flexure."""
-    if scene.outputs:
-        return list(scene.outputs)
-    refs = list(dict.fromkeys(ld.point for ld in scene.loads))
-    if refs:
-        return refs
-    carriers = {chain.frame_of(f.parent) for f in scene.flexures}
-    return [f"{f.name}.tip" for f in scene.flexures if f.name not in carriers]
+    carry no other flexure (``Scene.output_points``, which the exact solver uses too)."""
+    return list(scene.output_points())
 
 
 class Problem:

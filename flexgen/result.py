@@ -143,8 +143,9 @@ class Result:
     units: dict[str, str] | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """Every field, as plain Python data."""
-        return asdict(self)
+        """Every field, as plain Python data (NumPy arrays as nested lists, NumPy scalars as
+        Python numbers)."""
+        return _plain(asdict(self))
 
     def contract(self) -> dict[str, Any]:
         """Exactly the fields of the JSON contract (plus ``reason`` when not converged)."""
@@ -319,3 +320,14 @@ def _finite(obj):
     if isinstance(obj, (list, tuple)):
         return [_finite(v) for v in obj]
     return obj
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with every NumPy array and scalar inside it as Python lists and numbers."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return type(value)(_plain(v) for v in value)
+    if isinstance(value, np.ndarray | np.generic):
+        return value.tolist()
+    return value

@@ -78,8 +78,20 @@ def _holds(full, part, where="result"):
         assert full == part, where
 
 
+def _no_numpy(x, where="result"):
+    """Nothing in ``x`` is a NumPy array or scalar: "plain Python data", as to_dict promises."""
+    assert not isinstance(x, np.ndarray | np.generic), where
+    if isinstance(x, dict):
+        for k, v in x.items():
+            _no_numpy(v, f"{where}.{k}")
+    elif isinstance(x, list | tuple):
+        for i, v in enumerate(x):
+            _no_numpy(v, f"{where}[{i}]")
+
+
 def test_to_dict_holds_every_field_of_the_json():
     r = flexgen.solve(EXAMPLES / "two_link_finger.toml")
+    _no_numpy(r.to_dict())
     full = _plain(r.to_dict())
     _holds(full, json.loads(r.to_json()))
     # and the fields the JSON leaves out: the curvature along each flexure, the core's bends
