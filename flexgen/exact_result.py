@@ -59,6 +59,11 @@ def to_result(scene: Scene, sol) -> Result:
     warnings = [w for w in sol.warnings if w not in notes]
     critical = [] if sol.critical_load_factor is None else [float(sol.critical_load_factor)]
     if not sol.converged:
+        # the SceneSolution holds the equilibrium at the last converged load factor; the Result
+        # gives no pose or q, so the warning that offers that partial result is not its own
+        from .models.exact import PARTIAL_LOAD  # (scipy: imported by the exact solve anyway)
+
+        warnings = [w for w in warnings if w != PARTIAL_LOAD]
         reason = f"exact solver: no equilibrium found beyond load factor {sol.load_factor:.6g}" + (
             f" ({(warnings + notes)[0]})" if warnings or notes else ""
         )

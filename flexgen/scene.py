@@ -316,6 +316,18 @@ class Scene:
             name = self._index["parents"].get(name)
         return tuple(reversed(path))
 
+    def output_points(self) -> tuple[str, ...]:
+        """The points an answer reports: ``outputs`` (the [output] points, else every loaded
+        point in load order); with neither, the tip of every flexure that carries no other
+        flexure (directly or through a link), in declaration order."""
+        if self.outputs:
+            return self.outputs
+        loaded = tuple(dict.fromkeys(ld.point for ld in self.loads))
+        if loaded:
+            return loaded
+        carriers = {path[-1] for f in self.flexures if (path := self.flexure_path(f.parent))}
+        return tuple(f"{f.name}.tip" for f in self.flexures if f.name not in carriers)
+
     def resolve_point(self, ref: str) -> tuple[str, tuple[float, float]]:
         """``"<body>.<point>"`` -> (body name, (x, y) in that body's frame)."""
         if not isinstance(ref, str) or ref.count(".") != 1:
@@ -422,7 +434,7 @@ def scene_from_dict(
     choice (SI by default), by ``flexgen.units.normalise``; docs/scene.md, "Units".
     """
     try:
-        plain, units = normalise(d, MAX_MAGNITUDE)
+        plain, units = normalise(d, MAX_MAGNITUDE, wrap=_Written)
     except UnitsError as e:
         raise SceneError(str(e)) from None
     from .scenepath import freeze
@@ -433,6 +445,26 @@ def scene_from_dict(
 
 
 # -- validation helpers ----------------------------------------------------------------------
+
+
+class _Written(float):
+    """A number converted from a unit string (``"-20 mm"``), only while a scene is validated:
+    a message shows it as written and as converted (``'-20 mm' (-0.02 m)``). Every value the
+    Scene keeps goes through ``float()``, so none of these outlives the validation."""
+
+    text: str
+    unit: str
+
+    def __new__(cls, value: float, text: str, unit: str) -> _Written:
+        obj = super().__new__(cls, value)
+        obj.text, obj.unit = text, unit
+        return obj
+
+    def __repr__(self) -> str:
+        text = repr(self.text)
+        text = text if len(text) <= 40 else text[:37] + "..."
+        return f"{text} ({float(self):.15g} {self.unit})"
+
 
 _MISSING = object()
 _REPR = reprlib.Repr()
@@ -617,6 +649,13 @@ class _Parser:
         _check_keys(model_tbl, "model", MODEL_KEYS + STRENGTH_KEYS)
         self.model = ModelSpec(**_model_fields(model_tbl, "model."))
         self.strengths = _strengths(model_tbl, "model.")
+        self.kind_key = "model.kind" if "kind" in model_tbl else None
+        # (path, value) of every modes and tolerance given: a tolerance chooses the modes
+        self.modes_given: list[tuple[str, Any]] = []
+        self.tolerances: list[tuple[str, Any]] = []
+        for key, seen in (("modes", self.modes_given), ("tolerance", self.tolerances)):
+            if key in model_tbl:
+                seen.append((f"model.{key}", model_tbl[key]))
 
         base_tbl = _table(d.get("base", {}), "base")
         _check_keys(base_tbl, "base", BASE_KEYS)
@@ -670,6 +709,7 @@ class _Parser:
                 counters[kind] += 1
 
         flexures = tuple(self._flexure(t, i, flex_names) for i, t in enumerate(flex_tbls))
+        self._check_tolerance()
         links = tuple(self._link(t, i, flex_names, link_names) for i, t in enumerate(link_tbls))
         parents = {f.name: f.parent for f in flexures} | {lk.name: lk.parent for lk in links}
         keys = {f.name: f"flexure[{i}]" for i, f in enumerate(flexures)}
@@ -774,6 +814,8 @@ class _Parser:
 
         fields = _model_fields(tbl, f"{prefix}.")
         strengths = self.strengths | _strengths(tbl, f"{prefix}.")
+        # where each model key of this flexure is given: key -> (path, value as written)
+        given = {k: (f"{prefix}.{k}", tbl[k]) for k in MODEL_KEYS if k in tbl}
         if "model" in tbl:
             sub = _table(tbl["model"], f"{prefix}.model")
             _check_keys(sub, f"{prefix}.model", MODEL_KEYS + STRENGTH_KEYS)
@@ -784,7 +826,12 @@ class _Parser:
                     )
             fields |= _model_fields(sub, f"{prefix}.model.")
             strengths |= _strengths(sub, f"{prefix}.model.")
+            given |= {k: (f"{prefix}.model.{k}", sub[k]) for k in MODEL_KEYS if k in sub}
         model = replace(self.model, **fields)
+        self._check_counts(model, given)
+        for key, seen in (("modes", self.modes_given), ("tolerance", self.tolerances)):
+            if key in given:
+                seen.append(given[key])
         return Flexure(
             name=name,
             parent=parent,
@@ -795,6 +842,35 @@ class _Parser:
             **section,
             **strengths,
         )
+
+    def _check_counts(self, model: ModelSpec, given: Mapping[str, tuple[str, Any]]) -> None:
+        """A count given on a flexure that its kind does not read is an error, as ``--model cc
+        --modes 3`` is (it would be dropped silently: cc is scm with one mode). A count in
+        [model] is only the default of the flexures whose kind reads it."""
+        for count, reader in (("modes", "scm"), ("elements", "fem")):
+            if count in given and model.kind != reader:
+                path, value = given[count]
+                source = given["kind"][0] if "kind" in given else (self.kind_key or "the default")
+                why = (
+                    "cc is scm with one mode"
+                    if count == "modes" and model.kind == "cc"
+                    else f"only {reader} has {count}"
+                )
+                raise _fail(
+                    path, f"not used by this flexure's kind {model.kind!r} ({source}; {why})", value
+                )
+
+    def _check_tolerance(self) -> None:
+        """A tolerance chooses every flexure's modes (docs/selection.md): a ``modes`` given
+        anywhere beside one would be dropped silently, so the two are an error together."""
+        if self.tolerances and self.modes_given:
+            path, value = self.modes_given[0]
+            raise _fail(
+                path,
+                f"a tolerance ({self.tolerances[0][0]}) chooses every flexure's modes; give "
+                "modes or a tolerance, not both",
+                value,
+            )
 
     @staticmethod
     def _stiffness(tbl: Mapping[str, Any], prefix: str) -> tuple[float, dict[str, float]]:
@@ -950,6 +1026,12 @@ class _Parser:
             if len(pts) > MAX_ENTRIES:
                 raise _fail(
                     "output.points", f"too many output points: {len(pts)} (at most {MAX_ENTRIES})"
+                )
+            if not pts:
+                raise _fail(
+                    "output.points",
+                    "must name at least one point (leave the key out for the default points)",
+                    pts,
                 )
             refs = [self._ref(r, f"output.points[{j}]") for j, r in enumerate(pts)]
         else:

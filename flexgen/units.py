@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from functools import cache
 from typing import TYPE_CHECKING, Any, cast
@@ -413,11 +413,17 @@ def quantity(text: str, dimension: str, system: System, key: str) -> float:
     return value
 
 
-def normalise(d: Any, max_magnitude: float = math.inf) -> tuple[Any, Units | None]:
+def normalise(
+    d: Any,
+    max_magnitude: float = math.inf,
+    wrap: Callable[[float, str, str], float] | None = None,
+) -> tuple[Any, Units | None]:
     """(the scene dict with every unit string replaced by its float in the scene's system, the
     system's Units), or (``d`` itself, None) when ``d`` has no unit string and no ``units`` key.
     A converted magnitude above ``max_magnitude`` is an error naming the string (the validator
-    checks the plain numbers). UnitsError for anything that cannot be converted."""
+    checks the plain numbers). UnitsError for anything that cannot be converted. ``wrap(value,
+    text, unit symbol)``, if given, makes each converted value (``flexgen.scene`` keeps the text
+    as written for its messages: ``'-20 mm' (-0.02 m)``)."""
     if not isinstance(d, Mapping):
         return d, None  # the validator's error
     found = [
@@ -436,5 +442,5 @@ def normalise(d: Any, max_magnitude: float = math.inf) -> tuple[Any, Units | Non
                 f"{key}: {_show(text)} is {value:g} {_symbol(system.unit(dim))}, beyond the "
                 f"limit {max_magnitude:g}"
             )
-        values[path] = value
+        values[path] = value if wrap is None else wrap(value, text, _symbol(system.unit(dim)))
     return _replaced(d, values) if values else d, system.units

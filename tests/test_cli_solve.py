@@ -211,6 +211,25 @@ BAD = {  # name: (replace this, with that, key the message must name)
     "modes < 1": ('name = "bad"', 'name = "bad"\n[model]\nmodes = 0', "model.modes"),
     "unknown kind": ('name = "bad"', 'name = "bad"\n[model]\nkind = "magic"', "model.kind"),
     "unknown flexure kind": ("EI = 1.0", 'EI = 1.0\nkind = "spline"', "flexure[0].kind"),
+    # a model the scene contradicts, as --model cc --modes 3 (it solved one mode silently)
+    "modes on a cc flexure": ("EI = 1.0", 'EI = 1.0\nkind = "cc"\nmodes = 3', "flexure[0].modes"),
+    "elements on an scm flexure": ("EI = 1.0", "EI = 1.0\nelements = 8", "flexure[0].elements"),
+    "modes with a tolerance": (
+        'name = "bad"',
+        'name = "bad"\n[model]\nmodes = 5\ntolerance = 1e-2',
+        "model.modes: a tolerance (model.tolerance)",
+    ),
+    "no output point": (
+        "tension = 1.0",
+        "tension = 1.0",
+        "output.points",
+        "[output]\npoints = []\n",
+    ),
+    "a unit value as written": (
+        "length = 1.0",
+        'length = "-20 mm"',
+        "flexure[0].length: must be a positive number in [1e-100, 1e+100], got '-20 mm' (-0.02 m)",
+    ),
 }
 
 
@@ -402,3 +421,30 @@ def test_select_json_on_bad_input_prints_the_unsolvable_object(tmp_path, capsys)
     _one_line_error(code, out, err, "flexure[0].length", json_out=True)
     code, out, err = run(capsys, "select", _bad_scene(tmp_path, "negative length"), "--tol", "1e-3")
     _one_line_error(code, out, err, "flexure[0].length")
+
+
+def test_a_failed_exact_solve_claims_no_partial_result(tmp_path, capsys):
+    """kind = "exact" beyond its load cap: exit 1, empty q and points, and no warning that the
+    answer is "at the last converged load factor" (none is given)."""
+    scene = tmp_path / "exact.toml"
+    scene.write_text(
+        '[model]\nkind = "exact"\n[[flexure]]\nname = "f"\nlength = 1.0\nEI = 1.0\n'
+        '[[load]]\npoint = "f.tip"\nforce = [0.0, 5000.0]\n'
+    )
+    code, out, err = run(capsys, "solve", scene, "--json")
+    d = json.loads(out)
+    assert code == 1 and len(err.splitlines()) == 1
+    assert d["converged"] is False and d["q"] == {} and d["points"] == {}
+    assert not any("load not fully applied" in w for w in d["warnings"])
+    assert "beyond the exact solver's cap" in d["reason"]
+
+
+def test_without_loads_or_output_the_free_tips_are_reported(tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        '[[flexure]]\nname = "a"\nlength = 1.0\nEI = 1.0\n'
+        '[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1.0\n'
+    )
+    for model in ("scm", "exact"):
+        code, out, _ = run(capsys, "solve", scene, "--json", "--model", model)
+        assert code == 0 and list(json.loads(out)["points"]) == ["b.tip"]

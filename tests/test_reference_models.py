@@ -552,3 +552,33 @@ def test_exact_solver_refuses_a_load_past_its_cap_and_says_so():
     scene["flexure"][0]["E"] = 200e9
     scene["load"][0]["force"] = [0.0, -2.0]
     assert flexgen.solve(scene, model="exact").converged
+
+
+def test_a_failed_exact_solve_offers_no_partial_result():
+    """Beyond the cap the exact solve fails with nothing solved: its Result has no q and no
+    points, so no warning may say "result is at the last converged load factor" (it did)."""
+    import flexgen
+    from flexgen.models.exact import PARTIAL_LOAD
+
+    f = Flexure("f", "base", (0.0, 0.0, 0.0), 1.0, 1.0, MS)
+    scene = make_scene([f], loads=[Load("f.tip", (0.0, 5000.0), 0.0)], outputs=["f.tip"])
+    sol = solve_exact(scene)
+    assert not sol.converged and PARTIAL_LOAD in sol.warnings  # the SceneSolution keeps it
+    r = flexgen.solve(scene)
+    assert not r.converged and r.q == {} and r.points == {}
+    assert r.load_factor == 0.0 and "beyond the exact solver's cap" in r.reason
+    assert all("load not fully applied" not in w for w in r.warnings)
+    assert "load not fully applied" not in r.reason
+
+
+def test_exact_and_chain_models_report_the_same_default_points():
+    """No [output], no load: the tips of the flexures that carry no other flexure, for every
+    model (the exact solver gave every tip)."""
+    import flexgen
+
+    a = Flexure("a", "base", (0.0, 0.0, 0.0), 1.0, 1.0, MS)
+    b = Flexure("b", "l", (0.5, 0.0, 0.0), 1.0, 1.0, MS)
+    c = Flexure("c", "base", (0.0, 0.0, 1.0), 1.0, 1.0, MS)
+    scene = make_scene([a, b, c], links=[Link("l", "a", {})])
+    assert list(flexgen.solve(scene).points) == ["b.tip", "c.tip"]
+    assert list(flexgen.solve(scene, model="scm").points) == ["b.tip", "c.tip"]

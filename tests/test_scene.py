@@ -12,6 +12,8 @@ import pytest
 import flexgen.scene as scene_mod
 from flexgen.scene import KERNELS, MODEL_KINDS, ModelSpec, SceneError, load_scene, scene_from_dict
 
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
 CONTRACT_TOML = """\
 name = "two-link finger"
 
@@ -247,17 +249,37 @@ def test_E_and_I_gives_EI():
 
 def test_per_flexure_overrides_direct_and_subtable():
     d = valid()
-    d["model"] = {"kind": "scm", "modes": 4, "kernel": "poly", "tolerance": 1e-3}
+    d["model"] = {"kind": "scm", "modes": 4, "kernel": "poly", "elements": 12}
     d["flexure"][0].update(kind="fem", elements=8, kernel="gauss")
-    d["flexure"][1]["model"] = {"modes": 6, "tolerance": 1e-6}
+    d["flexure"][1]["model"] = {"modes": 6}
     s = scene_from_dict(d)
-    assert s.model == ModelSpec(kind="scm", modes=4, elements=16, kernel="poly", tolerance=1e-3)
-    assert s.flexures[0].model == ModelSpec(
-        kind="fem", modes=4, elements=8, kernel="gauss", tolerance=1e-3
-    )
-    assert s.flexures[1].model == ModelSpec(
-        kind="scm", modes=6, elements=16, kernel="poly", tolerance=1e-6
-    )
+    assert s.model == ModelSpec(kind="scm", modes=4, elements=12, kernel="poly")
+    # [model] counts are defaults: each flexure reads the one its kind uses
+    assert s.flexures[0].model == ModelSpec(kind="fem", modes=4, elements=8, kernel="gauss")
+    assert s.flexures[1].model == ModelSpec(kind="scm", modes=6, elements=12, kernel="poly")
+    del d["model"]["modes"], d["flexure"][1]["model"]
+    d["flexure"][0] = {k: v for k, v in d["flexure"][0].items() if k not in ("kind", "elements")}
+    d["model"]["tolerance"] = 1e-3
+    d["flexure"][1]["model"] = {"tolerance": 1e-6}
+    s = scene_from_dict(d)
+    assert [f.model.tolerance for f in s.flexures] == [1e-3, 1e-6]
+
+
+def test_a_model_count_is_a_default_of_the_kinds_that_read_it():
+    """[model] modes and elements are defaults: a flexure whose kind does not read them is not
+    an error (a study may vary model.kind of a scene that gives modes), one that gives its own
+    is (as --model cc --modes 3)."""
+    d = valid()
+    d["model"] = {"kind": "cc", "modes": 5, "elements": 4}
+    assert {f.model.kind for f in scene_from_dict(d).flexures} == {"cc"}
+    d["flexure"][1]["kind"] = "scm"
+    assert scene_from_dict(d).flexures[1].model.modes == 5
+    d["flexure"][1]["modes"] = 2
+    d["flexure"][0]["model"] = {"kind": "fem", "elements": 7}
+    s = scene_from_dict(d)
+    assert (s.flexures[0].model.elements, s.flexures[1].model.modes) == (7, 2)
+    s = load_scene(EXAMPLES / "two_link_finger.toml")
+    assert s.with_value("model.kind", "fem").flexures[0].model.kind == "fem"
 
 
 @pytest.mark.parametrize("kind", MODEL_KINDS)
@@ -292,8 +314,28 @@ def test_output_defaults_to_loaded_points_and_dedups_explicit():
     assert scene_from_dict(d).outputs == ("fingertip.pad", "middle.pad")
     d["output"] = {"points": ["proximal.tip", "middle.pad", "proximal.tip"]}
     assert scene_from_dict(d).outputs == ("proximal.tip", "middle.pad")
-    d["output"] = {"points": []}
-    assert scene_from_dict(d).outputs == ()
+    d["output"] = {"points": []}  # no point at all: refused, not silently the default
+    with pytest.raises(SceneError, match=r"^output\.points: must name at least one point"):
+        scene_from_dict(d)
+
+
+def test_output_points_without_loads_are_the_free_tips():
+    """No [output] and no load: every flexure tip that carries no other flexure (directly or
+    through a link), the same points for the chain models and the exact solver."""
+    d = {
+        "flexure": [
+            {"name": "a", "length": 1.0, "EI": 1.0},
+            {"name": "b", "length": 1.0, "EI": 1.0, "parent": "l"},
+            {"name": "c", "length": 1.0, "EI": 1.0, "parent": "base"},
+            {"name": "d", "length": 1.0, "EI": 1.0, "parent": "c"},
+        ],
+        "link": [{"name": "l", "parent": "a"}],
+    }
+    s = scene_from_dict(d)
+    assert s.outputs == ()
+    assert s.output_points() == ("b.tip", "d.tip")
+    d["load"] = [{"point": "a.tip", "force": [0.0, 1.0]}] * 2
+    assert scene_from_dict(d).output_points() == ("a.tip",)
 
 
 # -- Scene helpers ---------------------------------------------------------------------------
@@ -667,6 +709,43 @@ BAD = [
     ),
     ("tolerance-zero", _set(("model", "tolerance"), 0.0), ["model.tolerance:", "got 0.0"]),
     ("tolerance-negative", _set((*F0, "tolerance"), -1e-4), ["flexure[0].tolerance:", "-0.0001"]),
+    # a count the flexure's kind does not read (as --model cc --modes 3), a tolerance with modes
+    (
+        "cc-flexure-modes",
+        _all(_set((*F0, "kind"), "cc"), _set((*F0, "modes"), 3)),
+        ["flexure[0].modes:", "'cc'", "flexure[0].kind", "one mode", "got 3"],
+    ),
+    (
+        "fem-subtable-modes",
+        _set((*F1, "model"), {"kind": "fem", "modes": 4}),
+        ["flexure[1].model.modes:", "'fem'", "flexure[1].model.kind", "got 4"],
+    ),
+    (
+        "prb-from-model-modes",
+        _all(_set(("model", "kind"), "prb"), _set((*F0, "modes"), 2)),
+        ["flexure[0].modes:", "'prb'", "model.kind", "only scm has modes", "got 2"],
+    ),
+    (
+        "scm-flexure-elements",
+        _set((*F1, "elements"), 8),
+        ["flexure[1].elements:", "'scm'", "only fem has elements", "got 8"],
+    ),
+    (
+        "exact-flexure-elements",
+        _set((*F0, "model"), {"kind": "exact", "elements": 8}),
+        ["flexure[0].model.elements:", "'exact'", "got 8"],
+    ),
+    (
+        "model-modes-with-tolerance",
+        _set(("model", "tolerance"), 1e-2),
+        ["model.modes:", "(model.tolerance)", "not both", "got 3"],
+    ),
+    (
+        "flexure-modes-with-flexure-tolerance",
+        _all(_del(("model", "modes")), _set((*F0, "modes"), 5), _set((*F1, "tolerance"), 1e-3)),
+        ["flexure[0].modes:", "(flexure[1].tolerance)", "not both", "got 5"],
+    ),
+    ("output-points-empty", _set(("output", "points"), []), ["output.points:", "got []"]),
     (
         "override-given-twice",
         _all(_set((*F0, "modes"), 4), _set((*F0, "model"), {"modes": 5})),

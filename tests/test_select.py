@@ -242,3 +242,20 @@ def test_cli_select_unreachable_exits_1(capsys):
 def test_cli_select_missing_scene(capsys, tmp_path):
     rc = main(["select", str(tmp_path / "nope.toml"), "--tol", "1e-3"])
     assert rc == 2 and capsys.readouterr().err.count("\n") == 1
+
+
+def test_modes_beside_a_scene_tolerance_are_refused(tmp_path):
+    """[model] modes = 5 with tolerance = 1e-2 chose 2 modes and dropped the 5 silently: a
+    given count is no minimum of the selection, so the scene is refused (one line, exit 2)."""
+    text = (EXAMPLES / "two_link_finger.toml").read_text()
+    path = tmp_path / "finger.toml"
+    path.write_text(text.replace("modes = 3", "modes = 5\ntolerance = 1e-2"))
+    with pytest.raises(SceneError, match=r"^model\.modes: a tolerance \(model\.tolerance\) .*5$"):
+        load_scene(path)
+    path.write_text(
+        text.replace("modes = 3", "tolerance = 1e-2").replace(
+            'name = "distal"', 'name = "distal"\nmodel = { modes = 4 }'
+        )
+    )
+    with pytest.raises(SceneError, match=r"^flexure\[1\]\.model\.modes: .* not both, got 4$"):
+        load_scene(path)

@@ -242,6 +242,40 @@ def test_bad_units_are_one_line_errors_naming_the_key(d, key, words):
     assert msg.startswith(f"{key}: ") and words in msg, msg
 
 
+@pytest.mark.parametrize(
+    "d, message",
+    [
+        (
+            _flexure(length="-20 mm"),
+            "flexure[0].length: must be a positive number in [1e-100, 1e+100], "
+            "got '-20 mm' (-0.02 m)",
+        ),
+        (
+            _flexure()
+            | {"units": {"length": "mm"}, "load": [{"point": "f.tip", "force": [0, 1]}]}
+            | {"tendon": [{"tension": "-2 kN", "route": ["f.tip", "base.a"]}]}
+            | {"base": {"points": {"a": [0, 1]}}},
+            "tendon[0].tension: must be zero or a positive number <= 1e+100, got '-2 kN' (-2000 N)",
+        ),
+        (  # a value that conflicts, as written
+            _flexure(E="200 GPa"),
+            "flexure[0].E: conflicts with EI (give EI, or E and I, or E, width and thickness), "
+            "got '200 GPa' (200000000000 N/m^2)",
+        ),
+    ],
+)
+def test_a_bad_value_with_a_unit_is_shown_as_written(d, message):
+    """The message ends with the value as the user wrote it (and what it converts to), not with
+    the converted number alone (it said "got -0.02" for "-20 mm")."""
+    assert _error(d) == message
+
+
+def test_no_converted_value_outlives_the_validation():
+    s = scene_from_dict(_flexure(length="20 mm", at=["1 mm", 0, "30 deg"]))
+    f = s.flexures[0]
+    assert all(type(v) is float for v in (f.length, *f.at))
+
+
 def test_cli_bad_unit_exits_2_with_one_line(tmp_path):
     scene = tmp_path / "bad.toml"
     scene.write_text('[[flexure]]\nname = "f"\nlength = "3 N"\nEI = 1.0\n')

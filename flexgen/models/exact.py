@@ -37,6 +37,9 @@ ATOL = 1e-14
 # the largest nondimensional unknown (F L^2/EI, M L/EI) the shooting integrates: the integration
 # costs steps in proportion to the turns of the curve, so beyond it a solve could run for hours
 MAX_LOAD = 1e3
+# the warning of a solution whose load was not fully applied: it is the equilibrium at the last
+# converged load factor (``load_factor``), which a Result does not report (exact_result.py)
+PARTIAL_LOAD = "load not fully applied: result is at the last converged load factor"
 
 
 # ----------------------------------------------------------------------------------------------
@@ -292,7 +295,7 @@ def cantilever(
     lam_c = res["lam_c"]
     crit = None if lam_c is None else lam_c * math.hypot(force[0], force[1])
     if not converged:
-        warnings.append("load not fully applied: result is at the last converged load factor")
+        warnings.append(PARTIAL_LOAD)
     branch = "post-buckled" if res["branch"].startswith("post") else "primary"
     return CantileverSolution(
         pose=np.array([L * sol.y[0, -1], L * sol.y[1, -1], sol.y[2, -1]]),
@@ -465,9 +468,8 @@ class _SceneProblem:
             if len(td.route) < 2:
                 raise ValueError("tendon route needs at least two points")
             self.tendons.append((float(td.tension), [self._pid(p) for p in td.route]))
-        outs = list(scene.outputs) or list(dict.fromkeys(ld.point for ld in scene.loads))
-        if not outs:
-            outs = [f"{n}.tip" for n in order]
+        # the chain models' points: [output], else the loaded points, else the free tips
+        outs = list(scene.output_points())
         self.outputs = outs
         self.out_ids = [self._pid(p) for p in outs]
         self.P_owner = [self.resolve(p)[0] for p in self.point_names]
@@ -825,7 +827,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     converged = lam >= 1.0
     lam = max(lam, 0.0)
     if not converged:
-        warnings.append("load not fully applied: result is at the last converged load factor")
+        warnings.append(PARTIAL_LOAD)
     # final quantities
     R0, J, dpts, pts, tips = prob.jacobian(z, lam)
     stable = bool(np.sign(np.linalg.det(J)) == ref_sign)
