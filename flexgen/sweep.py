@@ -261,7 +261,7 @@ def _table(scene: Scene, study: Plan, results: Iterable[Result]) -> pd.DataFrame
     table[study.order] = data
     why = np.empty(len(reasons), dtype=object)
     why[study.order] = reasons
-    points = list(scene.outputs)
+    points = list(scene.output_points())
     flexures = [f.name for f in scene.flexures]
     cols: dict[str, Any] = {k: study.values[:, i] for i, k in enumerate(study.keys)}
     cols["converged"] = table[:, 0] == 1.0

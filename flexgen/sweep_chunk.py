@@ -81,7 +81,7 @@ def run_chunk(
     if base is None:
         base = scene_from_dict(chunk.source, order=chunk.order, default_name=chunk.name)
         _keep(_scenes, chunk.study, base)
-    points = list(base.outputs)
+    points = list(base.output_points())
     flexures = [f.name for f in base.flexures]
     width = columns(points, flexures)
     failed_design = [0.0, 0.0, 0.0] + [math.nan] * (width - 3)

@@ -241,6 +241,16 @@ def test_a_scene_without_a_section_has_empty_stress_columns():
     assert want > 0 and df["beam.max_stress"].iloc[0] == pytest.approx(want, rel=1e-9)
 
 
+def test_a_scene_without_loads_reports_the_free_tips_as_a_solve_does():
+    """No [[load]] and no [output]: the table's point columns are the points flexgen.solve
+    reports (the tip of the flexure that carries no other), not none."""
+    beam = {"flexure": [{"name": "a", "length": 1.0, "EI": 1.0}, {"name": "b", "length": 0.5}]}
+    beam["flexure"][1]["EI"] = 2.0
+    df = flexgen.sweep(beam, {"flexure.a.length": [1.0, 2.0]}, workers=1)
+    assert list(flexgen.solve(beam).points) == ["b.tip"]
+    assert df["b.tip.x"].tolist() == pytest.approx([1.5, 2.5], rel=1e-12)
+
+
 def test_failed_cases_are_rows_with_their_reason(finger):
     # the polynomial kernel only: a tendon bending the distal flexure past 90 deg has no answer
     scene = finger.with_value("model.kernel", "poly")
