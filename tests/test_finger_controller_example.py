@@ -105,3 +105,64 @@ def test_control_loop_agrees_with_flexgen_solve(tmp_path):
     # the local kernel, and the Gauss kernel past what it certifies and past 90 degrees
     assert kernels_seen >= {5, 3}
     np.testing.assert_equal(len(rows), len(cases))
+
+
+FAILING = r"""
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+#include "two_link_finger.h"
+/* the finger at a tension of 100 N, cold: status, failure, evaluations, milliseconds */
+int main(void)
+{
+    two_link_finger_inputs in;
+    static two_link_finger_state state;
+    two_link_finger_outputs out;
+    clock_t start;
+    int status;
+    two_link_finger_inputs_default(&in);
+    in.tension[0] = 100.0;
+    state.solved = 0;
+    start = clock();
+    status = two_link_finger_solve(&in, &state, &out);
+    printf("%d %d %d %.3f\n", status, out.failure, out.evaluations,
+           1e3 * (double)(clock() - start) / CLOCKS_PER_SEC);
+    return 0;
+}
+"""
+
+
+def evaluation_bound(s) -> int:
+    """The most chain evaluations one NAME_solve may make under the settings ``s``, as the core
+    (flexgen/compiled/chain_solver.c) spends them; docs/controller.md, "Worst-case time"."""
+    newton = 1 + s.max_iterations * s.line_search_halvings  # its start, then line searches
+    descent = 1 + s.descent_iteration_factor * s.max_iterations * (
+        s.line_search_halvings + s.expansion_doublings
+    )
+    direct = min(s.direct_max_iterations, s.max_iterations) * s.line_search_halvings
+    bifurcation = s.bracket_iterations * newton + 2 * descent
+    step = 2 * newton + max(bifurcation, descent)
+    return newton + 1 + direct + s.direct_samples + s.max_steps * step + s.polish_steps
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+def test_a_failed_solve_is_costly_and_within_the_bound(tmp_path):
+    """The worst case docs/controller.md quotes: the finger at 100 N has no equilibrium
+    (FAIL_LIMIT, as flexgen.solve), found after tens of thousands of chain evaluations (printed
+    with the time: pytest -s), within the bound the settings imply (146,553,868)."""
+    from flexgen.settings import DEFAULT
+
+    bound = evaluation_bound(DEFAULT)
+    assert bound == 146_553_868  # the number docs/controller.md states
+    doc = (ROOT / "docs" / "controller.md").read_text()
+    assert f"{bound:,}" in doc
+    (tmp_path / "failing.c").write_text(FAILING)
+    exe = tmp_path / "failing"
+    sources = [str(FOLDER / "two_link_finger.c"), str(tmp_path / "failing.c")]
+    subprocess.run(["gcc", *STRICT, f"-I{FOLDER}", *sources, "-lm", "-o", str(exe)], check=True)
+    status, failure, evaluations, ms = subprocess.check_output([str(exe)], text=True).split()
+    print(f"finger at 100 N: {evaluations} evaluations, {ms} ms, status {status}")
+    scene = flexgen.load_scene(SCENE)
+    r = flexgen.solve(replace(scene, tendons=(replace(scene.tendons[0], tension=100.0),)))
+    assert not r.converged and (int(status), int(failure)) == (1, 4)  # FAIL_LIMIT
+    assert 10_000 < int(evaluations) <= bound

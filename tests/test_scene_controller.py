@@ -211,6 +211,7 @@ def test_emitted_solver_answers_as_the_library(built, prefix):
     assert bool(got["flags"] & 1) == past, warned
     assert bool(got["flags"] & 2) == (not r.stable)
     assert bool(got["flags"] & 16) == ("near a critical load" in warned), warned
+    assert bool(got["flags"] & 8) == ("no accuracy is claimed" in warned), warned
     assert bool(got["notes"] & 1) == ("buckling" in noted or "snap" in noted), noted
     assert bool(got["notes"] & 2) == ("switched to the Gauss kernel" in noted), noted
 
@@ -565,21 +566,27 @@ def test_names_are_escaped_in_comments_strings_and_json(tmp_path):
     assert list(got["q"]) == ["b*/x"]
 
 
-MAKEFILE = """include gen/finger.mk
-my_controller: my_controller.o $(FINGER_OBJECTS)
-\t$(CC) -o $@ $^ -lm
-my_controller.o: CFLAGS += $(FINGER_INCLUDE)
-"""
+def _makefile_of_the_comment(mk: str) -> str:
+    """The usage lines of NAME.mk's header comment, pasted as they are (their indentation
+    kept, only the "#" taken off), include path set to gen/."""
+    lines = []
+    for line in mk.splitlines():
+        if not line.startswith("#     "):
+            continue
+        lines.append(line[1:].replace("path/to/", "gen/"))
+    return "\n".join(lines) + "\n"
 
 
 @NEEDS_GCC
 def test_the_makefile_fragment_keeps_the_including_default_goal(tmp_path):
-    """As NAME.mk's comment says to use it: plain `make` builds the controller, not the
+    """As NAME.mk's comment says to use it, its lines pasted into a Makefile as they are (no
+    tab to restore: the recipe follows a ";"): plain `make` builds the controller, not the
     fragment's first rule."""
-    write_files(
-        controller_files(ROOT / "examples" / "two_link_finger.toml", "finger"), tmp_path / "gen"
-    )
-    (tmp_path / "Makefile").write_text(MAKEFILE)
+    files = controller_files(ROOT / "examples" / "two_link_finger.toml", "finger")
+    write_files(files, tmp_path / "gen")
+    makefile = _makefile_of_the_comment(files["finger.mk"])
+    assert "include gen/finger.mk" in makefile and "$(CC) -o $@ $^ -lm" in makefile
+    (tmp_path / "Makefile").write_text(makefile)
     (tmp_path / "my_controller.c").write_text(
         '#include "finger.h"\nint main(void) { finger_inputs in; static finger_state st; '
         "finger_outputs out; finger_inputs_default(&in); return finger_solve(&in, &st, &out); }\n"
@@ -598,7 +605,7 @@ int main(void) {
     in.load[0][2] = MOMENT;
     s = prb_solve(&in, &st, &out);
     printf("%d %d\n", s, out.flags);
-    in.load[0][0] = 1e308;  /* finite loads whose sum overflows: not bad input */
+    in.load[0][0] = 1e308;  /* finite, but past the library's MAX_MAGNITUDE: bad input */
     in.load[0][1] = 1e308;
     printf("%d\n", prb_solve(&in, &st, &out));
     return 0;
@@ -630,7 +637,7 @@ def test_prb_claims_follow_the_run_time_moment(tmp_path, scene_moment, moment):
     assert (
         bool(flags & 8) == any("pseudo-rigid-body" in w for w in library.warnings) == (moment != 0)
     )
-    assert overflow != 2  # FAIL or solved, never BAD_INPUT (that is NaN or inf)
+    assert overflow == 2  # BAD_INPUT: the library refuses a load above MAX_MAGNITUDE (1e100)
 
 
 def test_kernel_prefix_links_beside_the_shipped_kernel(tmp_path):
@@ -699,3 +706,369 @@ def test_clang_compiles_the_emitted_solver_strictly(tmp_path, single):
     subprocess.run(["clang", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
     out = subprocess.run([str(exe), "--no-timing"], check=True, capture_output=True).stdout
     assert json.loads(out)["converged"] is True
+
+
+# -- inputs the library refuses, and what out holds on each status -------------------------------
+
+BAD = r"""
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "finger.h"
+/* argv: tension, fx, fy, moment of the pad load; one line per case: status, what out holds */
+static int all_nan(const double *x, int n)
+{
+    int i;
+    for (i = 0; i < n; ++i)
+        if (!isnan(x[i]))
+            return 0;
+    return 1;
+}
+int main(int argc, char **argv)
+{
+    finger_inputs in;
+    finger_state state;
+    finger_outputs out;
+    int k, j, none;
+    for (k = 1; k + 3 < argc; k += 4) {
+        memset(&state, 0, sizeof state);
+        memset(&out, 0x55, sizeof out);   /* every field must be written */
+        finger_inputs_default(&in);
+        in.tension[0] = strtod(argv[k], NULL);
+        in.load[FINGER_LOAD_FINGERTIP_PAD][0] = strtod(argv[k + 1], NULL);
+        in.load[FINGER_LOAD_FINGERTIP_PAD][1] = strtod(argv[k + 2], NULL);
+        in.load[FINGER_LOAD_FINGERTIP_PAD][2] = strtod(argv[k + 3], NULL);
+        int status = finger_solve(&in, &state, &out);
+        none = 1;
+        for (j = 0; j < FINGER_NFLEXURES; ++j)
+            none &= out.kernel[j] == FINGER_KERNEL_NONE;
+        printf("%d %d %d %d %d %d %d %d %.17g %.17g %d %d\n", status, out.iterations,
+               out.evaluations, out.warm, out.stable, out.flags, out.notes, out.failure,
+               out.failure_load_factor, out.critical_load_factor,
+               all_nan(&out.pose[0][0], 3 * FINGER_NOUTPUTS)
+                   && all_nan(&out.compliance[0][0][0], 9 * FINGER_NOUTPUTS)
+                   && all_nan(&out.ellipse[0][0], 3 * FINGER_NOUTPUTS)
+                   && all_nan(out.q, FINGER_NDOF) && all_nan(out.bend, FINGER_NFLEXURES)
+                   && all_nan(out.kernel_error, FINGER_NFLEXURES) && isnan(out.energy)
+                   && isnan(out.residual) && none,
+               state.solved);
+    }
+    return 0;
+}
+"""
+
+# (tension, fx, fy, moment) of the finger: the values the library refuses (flexgen/scene.py:
+# _number, through flexgen.Solver.solve) and their neighbours it takes
+INPUT_CASES = [
+    ((-5.0, 0.0, -0.2, 0.0), "refused"),  # a pushing tendon
+    ((-1e-300, 0.0, -0.2, 0.0), "refused"),
+    ((10.0, 0.0, 1e300, 0.0), "refused"),  # past MAX_MAGNITUDE
+    ((10.0, -1e101, -0.2, 0.0), "refused"),
+    ((10.0, 0.0, -0.2, 2e100), "refused"),
+    ((1.1e100, 0.0, -0.2, 0.0), "refused"),
+    ((10.0, 0.0, float("nan"), 0.0), "refused"),
+    ((10.0, 0.0, -0.2, float("-inf")), "refused"),
+    ((float("inf"), 0.0, -0.2, 0.0), "refused"),
+    ((0.0, 0.0, -0.2, 0.0), "taken"),
+    ((-0.0, 0.0, -0.2, 0.0), "taken"),
+    ((10.0, 0.0, -0.2, 0.0), "taken"),
+    ((10.0, 0.0, -0.2, 1e-3), "taken"),
+    ((10.0, 0.0, -1e100, 0.0), "taken"),  # MAX_MAGNITUDE itself: taken (and far from solved)
+    ((100.0, 0.0, -0.2, 0.0), "taken"),  # no equilibrium
+]
+
+
+@NEEDS_GCC
+def test_inputs_the_library_refuses_are_bad_input_and_out_is_set_per_status(tmp_path):
+    """NAME_solve refuses exactly what the library refuses (a negative tension, a value past
+    MAX_MAGNITUDE, NaN, inf): NAME_BAD_INPUT before any evaluation, the answer fields NaN and
+    the counters, flags and notes 0; it solves the rest. On NO_EQUILIBRIUM the answer fields are
+    NaN, the failure and the counters set; on SOLVED none is NaN. Every field is written (out
+    starts filled with 0x55 bytes), and a failure clears state.solved."""
+    from flexgen.scene import MAX_MAGNITUDE
+
+    scene_path = ROOT / "examples" / "two_link_finger.toml"
+    write_files(controller_files(scene_path, "finger"), tmp_path)
+    header = (tmp_path / "finger.h").read_text()
+    assert f"#define FINGER_MAX_MAGNITUDE {MAX_MAGNITUDE!r}" in header
+    (tmp_path / "bad.c").write_text(BAD)
+    exe = tmp_path / "bad"
+    sources = [str(tmp_path / "finger.c"), str(tmp_path / "bad.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    args = [repr(v) for case, _ in INPUT_CASES for v in case]
+    rows = subprocess.check_output([str(exe), *args], text=True).splitlines()
+    assert len(rows) == len(INPUT_CASES)
+    solver = flexgen.Solver(flexgen.load_scene(scene_path))
+    for (case, expected), row in zip(INPUT_CASES, rows):
+        tension, fx, fy, moment = case
+        status, its, evals, warm, stable, flags, notes, failure = map(int, row.split()[:8])
+        lam, critical = map(float, row.split()[8:10])
+        no_answer, solved = map(int, row.split()[10:])
+        try:
+            r = solver.solve(loads=[[fx, fy, moment]], tensions=[tension])
+            library = "taken"
+        except ValueError:
+            library = "refused"
+        assert library == expected, (case, library)
+        if expected == "refused":
+            assert status == 2, (case, row)
+            assert (its, evals, warm, stable, flags, notes, failure) == (0,) * 7, row
+            assert lam == 0.0 and critical == 0.0 and no_answer == 1 and solved == 0, row
+            continue
+        assert status != 2, (case, row)
+        assert (status == 0) == r.converged, (case, r.reason)
+        if status == 0:
+            assert no_answer == 0 and solved == 1 and failure == 0 and lam == 0.0, row
+        else:  # NO_EQUILIBRIUM: why and where, what it spent; no answer
+            assert failure > 0 and 0.0 <= lam < 1.0 and evals > 0 and its > 0, row
+            assert no_answer == 1 and solved == 0 and (warm, stable, flags) == (0, 0, 0), row
+            assert bool(notes & 1) == bool(r.critical_load_factors), (row, r.notes)
+            switched = any("switched to the Gauss kernel" in n for n in r.notes)
+            assert bool(notes & 2) == switched, (row, r.notes)
+
+
+COLD = r"""
+#include <stdio.h>
+#include <string.h>
+#include "finger.h"
+/* the finger at 5 tensions, cold each time: from a zeroed state, and from a state filled with
+ * 0xFF bytes but solved = 0; prints 1 if every answer is bit for bit the same */
+int main(void)
+{
+    finger_inputs in;
+    static finger_state zero, junk;
+    finger_outputs a, b;
+    int k, same = 1;
+    finger_inputs_default(&in);
+    for (k = 0; k < 5; ++k) {
+        in.tension[0] = 4.0 * k;
+        memset(&zero, 0, sizeof zero);
+        memset(&junk, 0xFF, sizeof junk);
+        junk.solved = 0;
+        memset(&a, 0, sizeof a);
+        memset(&b, 0, sizeof b);
+        same &= finger_solve(&in, &zero, &a) == finger_solve(&in, &junk, &b);
+        same &= memcmp(&a, &b, sizeof a) == 0 && a.warm == 0;
+    }
+    printf("%d\n", same);
+    return 0;
+}
+"""
+
+
+@NEEDS_GCC
+def test_solved_zero_is_all_a_cold_solve_needs(tmp_path):
+    """As the header says: state.solved = 0 asks for a cold solve and nothing else in the state
+    needs clearing (a state of 0xFF bytes with solved = 0 answers bit for bit as a zeroed one)."""
+    write_files(controller_files(ROOT / "examples" / "two_link_finger.toml", "finger"), tmp_path)
+    header = (tmp_path / "finger.h").read_text()
+    assert "Setting it\n                              * to 0 is all a cold solve needs" in header
+    (tmp_path / "cold.c").write_text(COLD)
+    exe = tmp_path / "cold"
+    sources = [str(tmp_path / "finger.c"), str(tmp_path / "cold.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    assert subprocess.check_output([str(exe)], text=True).split() == ["1"]
+
+
+# -- the example's warnings are the library's -----------------------------------------------------
+
+PRB_SCM = """name = "prb then scm"
+[[flexure]]
+name = "root"
+length = 0.5
+EI = 1.0
+model = {{ kind = "prb" }}
+[[flexure]]
+name = "outer"
+parent = "root"
+length = 0.5
+EI = 1.0
+model = {{ kind = "scm", modes = 3 }}
+[[load]]
+point = "outer.tip"
+force = [0.0, {fy!r}]
+[output]
+points = ["outer.tip"]
+"""
+
+ONE_PRB = """[model]
+kind = "prb"
+[[flexure]]
+name = "beam"
+length = 1.0
+EI = 1.0
+[[load]]
+point = "beam.tip"
+force = [0.0, {fy!r}]
+moment = {moment!r}
+"""
+
+WARNING_SCENES = {
+    # a prb flexure in a chain: no accuracy claimed on every call
+    "prb then scm": PRB_SCM.format(fy=-0.5),
+    # and bent: the scm flexure past 90 deg (the Gauss kernel), the prb pin past 64 deg
+    "prb then scm, bent": PRB_SCM.format(fy=-12.0),
+    # a single prb flexure: its fitted case, left by a moment; and past its 64 deg
+    "prb with a moment": ONE_PRB.format(fy=-0.5, moment=0.1),
+    "prb past its range": ONE_PRB.format(fy=-6.0, moment=0.0),
+    "prb in its case": ONE_PRB.format(fy=-0.5, moment=0.0),
+    # an scm flexure bent past 180 deg (no accuracy claimed) and past its Gauss kernel's range
+    "scm past 180 deg": (
+        '[model]\nkind = "scm"\nmodes = 3\n[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'
+        '[[load]]\npoint = "beam.tip"\nforce = [0.0, 0.0]\nmoment = 3.6\n'
+    ),
+}
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize("case", list(WARNING_SCENES))
+def test_example_warnings_are_the_library_warnings(tmp_path, case):
+    """The example's JSON "warnings" equal `flexgen solve --json`'s, text for text, on scenes
+    where FLAG_NO_CLAIM is set for each of its reasons (a prb flexure followed by an scm
+    flexure, a moment on a prb flexure, a prb pin past 64 deg, a bend past 180 deg) and where
+    it is not; and the header's FLAG_NO_CLAIM comment names the scene's own reason."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(WARNING_SCENES[case])
+    write_files(controller_files(scene, "s"), tmp_path)
+    exe = tmp_path / "s_example"
+    sources = [str(tmp_path / "s.c"), str(tmp_path / "s_example.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    run = subprocess.run([str(exe), "--no-timing"], capture_output=True, text=True)
+    got = json.loads(run.stdout)
+    ref = json.loads(
+        subprocess.check_output(
+            [sys.executable, "-m", "flexgen", "solve", str(scene), "--json"], text=True
+        )
+    )
+    assert got["converged"] is ref["converged"] is True
+    assert got["warnings"] == ref["warnings"]
+    assert got["notes"] == [] or ref["notes"], (got["notes"], ref["notes"])
+    if case == "prb then scm":
+        assert len(ref["warnings"]) == 1 and "2 flexures" in ref["warnings"][0]
+        header = (tmp_path / "s.h").read_text()
+        assert "always, in this scene: the prb constants are" in header
+        assert "it has 2 flexures" in header
+    if case == "prb in its case":
+        assert ref["warnings"] == []
+
+
+# -- the float twin past a bifurcation ------------------------------------------------------------
+
+ELASTICA = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "re.h"
+/* argv: fx of the tip load; one line each: status, failure (cold solves) */
+int main(int argc, char **argv)
+{
+    re_inputs in;
+    static re_state st;
+    re_outputs out;
+    int k, status;
+    for (k = 1; k < argc; ++k) {
+        re_inputs_default(&in);
+        in.load[0][0] = (REAL)strtod(argv[k], NULL);
+        st.solved = 0;
+        status = re_solve(&in, &st, &out);
+        printf("%d %d\n", status, out.failure);
+    }
+    return 0;
+}
+"""
+
+
+@NEEDS_GCC
+def test_float_twin_may_fail_past_a_bifurcation(tmp_path):
+    """docs/controller.md's claim, pinned: the rectangular elastica's float twin finds no
+    equilibrium (FAIL_BIFURCATION) at fx = -3.096205 and -4.4928, 1.25 and 1.82 times the Euler
+    load, far past the bifurcation, where the double solver and the library solve; at the
+    scene's own -3.4375929 both solve."""
+    scene = ROOT / "examples" / "rectangular_elastica.toml"
+    loads = [-3.096205, -4.4928, -3.4375929]
+    got = {}
+    for single in (False, True):
+        folder = tmp_path / ("float" if single else "double")
+        write_files(controller_files(scene, "re", single=single), folder)
+        (folder / "main.c").write_text(ELASTICA.replace("REAL", "float" if single else "double"))
+        exe = folder / "main"
+        sources = [str(folder / "re.c"), str(folder / "main.c")]
+        subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+        rows = subprocess.check_output([str(exe), *map(repr, loads)], text=True).splitlines()
+        got[single] = [tuple(map(int, row.split())) for row in rows]
+    solver = flexgen.Solver(flexgen.load_scene(scene))
+    for fx in loads:
+        assert solver.solve(loads=[[fx, 0.0, 0.0]]).converged
+    assert got[False] == [(0, 0)] * 3
+    assert got[True] == [(1, 3), (1, 3), (0, 0)]  # NO_EQUILIBRIUM, FAIL_BIFURCATION
+
+
+# -- units, models and the CMake target ------------------------------------------------------------
+
+
+def test_header_names_the_scene_units_and_the_coordinates(tmp_path):
+    """A scene in mm and N: the header gives every input's and output's unit in them; with fem
+    and prb flexures, what their coordinates are. A scene without units names L and F."""
+    scene = tmp_path / "mm.toml"
+    scene.write_text(
+        'units = { length = "mm", force = "N" }\n'
+        '[[flexure]]\nname = "a"\nlength = 20.0\nEI = 2000.0\nmodel = { kind = "fem", elements = 4 }\n'
+        '[[flexure]]\nname = "b"\nparent = "a"\nlength = 10.0\nEI = 2000.0\nmodel = { kind = "prb" }\n'
+        '[[load]]\npoint = "b.tip"\nforce = [0.0, -1.0]\n'
+    )
+    header = controller_files(scene, "mm")["mm.h"]
+    assert 'units = {length = "mm", force = "N"}' in header
+    for text in ("tensions in N, moments in N*mm", "kernel_error in mm", "energy in N*mm"):
+        assert text in header, text
+    for text in ("mm/N for a position", "1/N for a position", "rad/N for the angle"):
+        assert text in header, text
+    assert "rad/(N*mm) for the angle" in header and "SI: m, N" not in header
+    assert '"a": q[0] .. q[3] (fem, 4 elements)' in header
+    assert "fem, N elements: the relative rotations (rad) of its N joints" in header
+    assert '"b": q[4] .. q[4] (prb)' in header and "prb: the pin angle (rad)" in header
+    plain = controller_files(ROOT / "examples" / "cantilever_tip_load.toml", "c")["c.h"]
+    assert "L its length unit and\n * F its force unit" in plain and "L/F for a position" in plain
+
+
+@pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
+@NEEDS_GCC
+@pytest.mark.parametrize(
+    "options, optimized",
+    [([], "-O2"), (["-DCMAKE_BUILD_TYPE=Debug"], None), (["-DCMAKE_C_FLAGS=-O1"], "-O1")],
+    ids=["no build type", "Debug", "parent flags"],
+)
+def test_cmake_subdirectory_is_optimized_unless_the_parent_chose(tmp_path, options, optimized):
+    """add_subdirectory in a project with no build type: the solver target compiles with -O2;
+    a parent's build type (Debug) or its own -O flag is left as it chose."""
+    write_files(
+        controller_files(ROOT / "examples" / "cantilever_tip_load.toml", "beam"), tmp_path / "beam"
+    )
+    (tmp_path / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.10)\nproject(parent C)\nadd_subdirectory(beam)\n"
+    )
+    build = tmp_path / "build"
+    subprocess.run(
+        ["cmake", "-S", str(tmp_path), "-B", str(build), *options], check=True, capture_output=True
+    )
+    made = subprocess.run(
+        ["cmake", "--build", str(build), "--verbose"], check=True, capture_output=True, text=True
+    ).stdout
+    line = next(x for x in made.splitlines() if "beam.c" in x and " -c " in x)
+    flags = [w for w in line.split() if w.startswith("-O")]
+    assert flags == ([optimized] if optimized else []), line
+
+
+def test_a_file_name_that_is_no_prefix_is_named_as_the_file_name(tmp_path):
+    """Without --prefix the prefix is the scene file's stem: a stem that cannot be one is named
+    as the file name, with the way out (--prefix), not as a --prefix that was not given."""
+    scene = (ROOT / "examples" / "cantilever_tip_load.toml").read_text()
+    for stem, why in (("int", "a C keyword"), ("direct", "direct_solve"), ("_x", "starts with _")):
+        (tmp_path / f"{stem}.toml").write_text(scene)
+        r = _emit(["--scene", f"{stem}.toml"], tmp_path)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+        assert f"the file name {stem!r}" in r.stderr and why in r.stderr, r.stderr
+        assert "give --prefix NAME" in r.stderr and "--prefix:" not in r.stderr, r.stderr
+        assert not (tmp_path / stem).exists()
+    r = _emit(["--scene", "int.toml", "--prefix", "beam", "--out", "o"], tmp_path)
+    assert r.returncode == 0, r.stderr

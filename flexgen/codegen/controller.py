@@ -20,9 +20,10 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from flexgen.scene import Scene, SceneError, load_scene
+from flexgen.result import UNSTABLE
+from flexgen.scene import MAX_MAGNITUDE, Scene, SceneError, load_scene
 from flexgen.settings import DEFAULT, SolverSettings
-from flexgen.validity import NEAR_SINGULAR
+from flexgen.validity import BEND_LIMIT, NEAR_SINGULAR, PRB_LIMIT
 from flexgen.warm import WARM_CHANGE
 
 from .render import render
@@ -78,14 +79,44 @@ def default_prefix(path: Path) -> str:
     return stem if re.match(r"^[A-Za-z_]", stem) else f"scene_{stem}"
 
 
-def check_prefix(prefix: str) -> str:
-    if not C_IDENTIFIER.match(prefix) or prefix.lower() in RESERVED or prefix.startswith("_"):
-        raise EmitError(
-            f"--prefix: {prefix!r} is not usable as a C identifier prefix (letters, digits and "
-            "_, not starting with a digit or _, not a C keyword, and not fg or main, which the "
-            "emitted code uses itself)"
+KEYWORDS = RESERVED - {"fg", "main"}
+
+
+def _prefix_problem(prefix: str) -> str | None:
+    """Why ``prefix`` cannot prefix the emitted C names, or None."""
+    if not C_IDENTIFIER.match(prefix):
+        return "not a C identifier: letters, digits and _, not starting with a digit"
+    if prefix.startswith("_"):
+        return "it starts with _, which C reserves"
+    if prefix.lower() in KEYWORDS:
+        return (
+            "a C keyword"
+            if prefix in KEYWORDS
+            else f"a C keyword in other case, {prefix.lower()!r}"
         )
-    return prefix
+    if prefix.lower() in RESERVED:
+        return f"{prefix.lower()!r}, which the emitted code uses itself"
+    return None
+
+
+def check_prefix(prefix: str, scene: Path | None = None) -> str:
+    """``prefix`` if it can prefix the emitted C names, else an EmitError saying why: for
+    --prefix, or (``scene`` given) for the prefix taken from the scene file's name."""
+    why = _prefix_problem(prefix)
+    if why is None:
+        return prefix
+    if scene is None:
+        raise EmitError(f"--prefix: {prefix!r} is not usable as a C identifier prefix ({why})")
+    raise EmitError(
+        f"{_from_file_name(scene, prefix)} is not a usable C prefix ({why}); give --prefix NAME"
+    )
+
+
+def _from_file_name(scene: Path, prefix: str) -> str:
+    """How a message names a prefix taken from the scene file's name."""
+    if scene.stem == prefix:
+        return f"the file name {prefix!r}"
+    return f"the file name {scene.name!r}, as the C prefix {prefix!r},"
 
 
 # a prefix no core or kernel name starts with: the names the templates define, found by
@@ -93,12 +124,12 @@ def check_prefix(prefix: str) -> str:
 _PROBE = "fgprobe"
 
 
-def _check_no_clash(context: dict[str, Any]) -> None:
+def _check_no_clash(context: dict[str, Any], scene: Path | None = None) -> None:
     """The names the emitted code defines (``prefix_*``, ``PREFIX_*``) share one translation
     unit with the pasted core and kernels: none may be one of theirs (``--prefix direct``
     would define a second ``direct_solve``). The defined names are those of a rendering with
     the probe prefix (a name the templates merely use, such as a kernel's ``SCM3_ERROR_BOUND``,
-    does not carry the prefix)."""
+    does not carry the prefix). ``scene``: the prefix is the scene file's name (no --prefix)."""
     prefix = context["name"]
     probe = dict(context, name=_PROBE, NAME=_PROBE.upper())
     emitted = "".join(render(TEMPLATES[out], probe) for out in ("{name}.h", "{name}.c"))
@@ -107,10 +138,13 @@ def _check_no_clash(context: dict[str, Any]) -> None:
     pasted = context["core"] + "".join(context["kernel_blocks"])
     clash = sorted(ours & set(re.findall(r"\b[A-Za-z_]\w*", pasted)))
     if clash:
-        raise EmitError(
-            f"--prefix: {prefix!r} gives a name the solver core already has, {clash[0]!r} (the "
-            "prefix names every emitted function and constant); give another --prefix"
+        why = (
+            f"gives a name the solver core already has, {clash[0]!r} (the prefix names every "
+            "emitted function and constant)"
         )
+        if scene is None:
+            raise EmitError(f"--prefix: {prefix!r} {why}; give another --prefix")
+        raise EmitError(f"{_from_file_name(scene, prefix)} {why}; give --prefix NAME")
 
 
 def identifier(name: str) -> str:
@@ -315,6 +349,23 @@ def _prb_moment_check(scene: Scene, models: dict) -> bool:
     return has_prb and prb_structure_problem(scene) is None
 
 
+def _prb_structure(scene: Scene, models: dict) -> str | None:
+    """What in the scene's structure leaves the prb fitted case, when it has a prb flexure
+    (validity.prb_structure_problem: several flexures, a tendon, a load not at the tip)."""
+    from flexgen.validity import prb_structure_problem
+
+    if not any(_kind(m) == "prb" for m in models.values()):
+        return None
+    problem = prb_structure_problem(scene)
+    return None if problem is None else c_comment(problem)
+
+
+def _kind(model: Any) -> str:
+    from flexgen.models.registry import model_info
+
+    return str(model_info(model)["kind"])
+
+
 def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
     """The bend of each flexure (body order) past which flexgen/validity.py claims no accuracy:
     BEND_LIMIT; for prb, its pin-rotation validity, or -1 (never claimed) in a scene whose
@@ -331,6 +382,133 @@ def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
             limit = -1.0 if prb_problem is not None else min(limit, PRB_LIMIT)
         limits.append(float(limit))
     return limits
+
+
+def _units(scene: Scene) -> dict[str, str]:
+    """The unit of each quantity the header names: the scene's ``units`` as ``Units.label``
+    names them (the JSON's "units" object), else L and F, the length and force units of the
+    scene's consistent set."""
+    units = scene.units
+    if units is None:
+        return {
+            "given": "",
+            "length": "L",
+            "force": "F",
+            "moment": "F*L",
+            "compliance": "L/F",
+            "length_per_moment": "1/F",
+            "angle_per_force": "rad/F",
+            "rotational": "rad/(F*L)",
+        }
+    force = units.label("force")
+    grouped = f"({force})" if any(c in force for c in "*/^ ") else force  # as Units.label does
+    return {
+        "given": c_comment(f'units = {{length = "{units.length}", force = "{units.force}"}}'),
+        "length": units.label("length"),
+        "force": force,
+        "moment": units.label("moment"),
+        "compliance": units.label("compliance"),
+        "length_per_moment": f"1/{grouped}",
+        "angle_per_force": f"rad/{grouped}",
+        "rotational": units.label("rotational compliance"),
+    }
+
+
+def _q_meaning(models: dict) -> list[str]:
+    """Each flexure's model as the header's list of q slices names it, in scene order (the
+    template defines each kind's coordinates below the list)."""
+    from flexgen.models.registry import model_info
+
+    out = []
+    for model in models.values():
+        info = model_info(model)
+        if info["kind"] == "fem":
+            out.append(f"fem, {info['elements']} elements")
+        elif info["kind"] == "prb":
+            out.append("prb")
+        else:
+            out.append(f"{info['kind']}, {info.get('modes', 1)} modes")
+    return out
+
+
+def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, Any]:
+    """The library's warning texts (flexgen/validity.py: assess; flexgen/solver.py;
+    flexgen.result.UNSTABLE) that the example prints for the flags, as C string bodies: whole
+    texts, or a head and a tail around a bend in degrees (``%.0f deg``) or a point name. The
+    near-critical warning's numbers (the margin) are not computed in C: its text is the C's."""
+    from flexgen.validity import _deg, _names, model_label, prb_structure_problem
+
+    flex_index = {f.name: i for i, f in enumerate(scene.flexures)}
+    idents = dict(zip([f.name for f in scene.flexures], [i for i, _ in _enum_names(scene)]))
+    scm, pins = [], []
+    for name, m in models.items():
+        if getattr(m, "kind", "") == "scm":
+            head = f"flexure {name!r} ({model_label(m)}): bend "
+            past = gauss = None
+            if m.poly is not None or m.local is not None:
+                past = f", past {m.first_range()}; the answer may be wrong by any amount"
+            if m.gauss is not None:
+                gauss = (
+                    f" is past the certified range of the Gauss kernel {m.gauss_name} "
+                    f"({math.degrees(m.gauss.PHI_MAX):.0f} deg); its error bound does not hold"
+                )
+            scm.append(
+                {
+                    "ident": idents[name],
+                    "head": c_json_string(head),
+                    "past": None if past is None else c_json_string(past),
+                    "gauss": None if gauss is None else c_json_string(gauss),
+                }
+            )
+        elif getattr(m, "kind", "") == "prb":
+            pins.append(
+                {
+                    "ident": idents[name],
+                    "head": c_json_string(f"flexure {name!r} (prb): pin rotation "),
+                    "tail": c_json_string(
+                        f" is past the pseudo-rigid-body model's {_deg(PRB_LIMIT)} validity; no "
+                        "accuracy is claimed for it"
+                    ),
+                }
+            )
+    prb = [n for n, m in models.items() if getattr(m, "kind", "") == "prb"]
+    case_head = (
+        f"{_names(prb)} (prb): the pseudo-rigid-body constants are fitted for a force at the tip "
+        "of a single flexure, and this scene has "
+    )
+    case_tail = "; no accuracy is claimed"
+    structure = prb_structure_problem(scene) if prb else None
+    return {
+        "unstable": c_json_string(UNSTABLE),
+        "prb_limit": c_double(PRB_LIMIT),
+        "bend_limit": c_double(BEND_LIMIT),
+        "scm": scm,
+        "pins": pins,
+        "prb_structure": None
+        if structure is None
+        else c_json_string(case_head + structure + case_tail),
+        "prb_moment": None
+        if not prb or structure is not None
+        else {
+            "head": c_json_string(case_head + "a moment at "),
+            "tail": c_json_string(case_tail),
+            "points": [c_json_string(repr(ld.point)) for ld in scene.loads],
+        },
+        # the flexure bent most, in body order (flexgen.Result.bend's order), as assess picks it
+        "body_order": [flex_index[n] for n in order],
+        "bend_heads": [
+            c_json_string(f"flexure {f.name!r} ({model_label(models[f.name])}): bent ")
+            for f in scene.flexures
+        ],
+        "bend_tail": c_json_string(
+            f", past the {_deg(BEND_LIMIT)} to which the error estimate's Gauss kernels are "
+            "certified; no accuracy is claimed"
+        ),
+    }
+
+
+def _enum_names(scene: Scene) -> list[tuple[str, str]]:
+    return _enum("flexure.name", [f.name for f in scene.flexures])
 
 
 def _settings_rows(settings: SolverSettings, number) -> list[tuple[str, str]]:
@@ -355,7 +533,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
     number = c_float if options.single else c_double
     loads = _enum("load.point", [ld.point for ld in scene.loads])
     outputs = _enum("output.points", list(problem.outputs))
-    flex_names = _enum("flexure.name", [f.name for f in scene.flexures])
+    flex_names = _enum_names(scene)
     rows = _flexure_rows(scene, problem, models, number)
     kernel_names = sorted({k for r in rows for k in (r["local"], r["poly"], r["gauss"]) if k})
     points = [
@@ -398,6 +576,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "tendon_routes": [c_comment(" -> ".join(t.route)) for t in scene.tendons],
         "outputs": [(ident, c_comment(point)) for ident, point in outputs],
         "output_json": [c_json_string(point) for _, point in outputs],
+        "output_repr": [c_json_string(repr(point)) for _, point in outputs],
         "flexure_enum": [(ident, c_comment(flexure)) for ident, flexure in flex_names],
         "flexure_slices": [
             (c_comment(name), c_json_string(name), slices[name].start, slices[name].stop)
@@ -413,8 +592,17 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "output_index": ints(p.outputs, int(p.noutputs)),
         "stiffness": [number(float(v)) for v in problem.stiffness],
         "claim_limits": [number(v) for v in _claim_limits(scene, models, problem.flexure_order)],
+        "prb_structure": _prb_structure(scene, models),
         "prb_moment_check": _prb_moment_check(scene, models),
         "near_critical": f"{NEAR_SINGULAR!r}",
+        "near_critical_percent": f"{NEAR_SINGULAR:.0%}",
+        "near_critical_factor": f"{1 / NEAR_SINGULAR:.3g}",
+        # the library's limit on every load value and tension (flexgen/scene.py: _number)
+        "max_magnitude": c_double(MAX_MAGNITUDE),
+        "units": _units(scene),
+        "q_meaning": _q_meaning(models),
+        "kinds": sorted({_kind(m) for m in models.values()}),
+        "texts": _warning_texts(scene, models, list(problem.flexure_order)),
         "warm_change": f"{WARM_CHANGE!r}",  # flexgen/warm.py: the studies' rule too
         "settings": _settings_rows(settings, c_double),
         "kernels": kernel_names,
@@ -433,14 +621,17 @@ TEMPLATES = {
 
 
 def controller_files(path: Path, prefix: str | None = None, single: bool = False) -> dict[str, str]:
-    """{file name: text} of the controller of the scene file ``path`` (see the module doc)."""
+    """{file name: text} of the controller of the scene file ``path`` (see the module doc).
+    ``prefix`` None: the scene file's stem (``default_prefix``)."""
+    path = Path(path)
+    stem = path if prefix is None else None  # the prefix is the file name's: messages say so
     options = Options(
-        Path(path).name,
-        check_prefix(prefix if prefix is not None else default_prefix(Path(path))),
+        path.name,
+        check_prefix(prefix if prefix is not None else default_prefix(path), stem),
         bool(single),
     )
-    context = controller_context(Path(path), options)
-    _check_no_clash(context)
+    context = controller_context(path, options)
+    _check_no_clash(context, stem)
     return {
         out.format(name=options.prefix): render(template, context)
         for out, template in TEMPLATES.items()

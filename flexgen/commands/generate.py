@@ -117,7 +117,7 @@ def run(args) -> int:
 
 
 def _run_scene(args) -> int:
-    from flexgen.codegen.controller import controller_files, default_prefix
+    from flexgen.codegen.controller import check_prefix, controller_files, default_prefix
     from flexgen.codegen.render import check_writable, stale_files, write_files
 
     given = [
@@ -129,12 +129,17 @@ def _run_scene(args) -> int:
         given.append("--range")
     if given:
         raise UsageError(f"{', '.join(given)}: not used with --scene (the scene chooses models)")
-    prefix = args.prefix if args.prefix is not None else default_prefix(args.scene)
+    # the prefix checked first (its error is the one line, before --out's), and without
+    # --prefix worded for the scene file's name, which it then comes from
+    if args.prefix is not None:
+        prefix = check_prefix(args.prefix)
+    else:
+        prefix = check_prefix(default_prefix(args.scene), args.scene)
     out = args.out if args.out is not None else Path(prefix)
     if not args.check:
         check_writable(out)
     start = time.perf_counter()
-    files = controller_files(args.scene, prefix, args.single)
+    files = controller_files(args.scene, args.prefix, args.single)
     if args.check:
         stale = stale_files(files, out)
         if stale:

@@ -3959,6 +3959,50 @@ static int two_link_finger_inputs_close(const two_link_finger_inputs *a, const t
            && two_link_finger_close(a->tension, b->tension, 0, 1, TWO_LINK_FINGER_NTENDONS);
 }
 
+/* 1 if the library accepts every input (flexgen/scene.py, _number, as flexgen.Solver.solve
+ * applies it: every load value finite and of magnitude at most MAX_MAGNITUDE; a tension zero or
+ * positive, at most MAX_MAGNITUDE), else 0: TWO_LINK_FINGER_BAD_INPUT. NaN fails every comparison. */
+static int two_link_finger_inputs_valid(const two_link_finger_inputs *in)
+{
+    const fg_real *load = &in->load[0][0];
+    int k;
+    for (k = 0; k < 3 * TWO_LINK_FINGER_NLOADS; ++k)
+        if (!(fabs(load[k]) <= TWO_LINK_FINGER_MAX_MAGNITUDE))
+            return 0;
+    for (k = 0; k < TWO_LINK_FINGER_NTENDONS; ++k)
+        if (!(in->tension[k] >= 0 && in->tension[k] <= TWO_LINK_FINGER_MAX_MAGNITUDE))
+            return 0;
+    return 1;
+}
+
+/* out without an answer (TWO_LINK_FINGER_NO_EQUILIBRIUM, TWO_LINK_FINGER_BAD_INPUT): the answer's fields NaN,
+ * no kernel, not stable, no flag, no note, not warm; the status's own fields are the caller's */
+static void two_link_finger_no_answer(two_link_finger_outputs *out)
+{
+    const fg_real nan = (fg_real)NAN;
+    int k;
+    for (k = 0; k < 3 * TWO_LINK_FINGER_NOUTPUTS; ++k) {
+        (&out->pose[0][0])[k] = nan;
+        (&out->ellipse[0][0])[k] = nan;
+    }
+    for (k = 0; k < 9 * TWO_LINK_FINGER_NOUTPUTS; ++k)
+        (&out->compliance[0][0][0])[k] = nan;
+    for (k = 0; k < TWO_LINK_FINGER_NDOF; ++k)
+        out->q[k] = nan;
+    for (k = 0; k < TWO_LINK_FINGER_NFLEXURES; ++k) {
+        out->bend[k] = nan;
+        out->kernel[k] = TWO_LINK_FINGER_KERNEL_NONE;
+        out->kernel_error[k] = nan;
+    }
+    out->energy = nan;
+    out->residual = nan;
+    out->stable = 0;
+    out->warm = 0;
+    out->flags = 0;
+    out->notes = 0;
+    out->critical_load_factor = 0;
+}
+
 int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_state *state, two_link_finger_outputs *out)
 {
     fg_problem p = two_link_finger_problem;
@@ -3973,6 +4017,15 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     (void)fg_estimate;   /* the error estimate is flexgen's (Python), not the controller's */
     (void)fg_work_size;   /* its sizes are TWO_LINK_FINGER_NWORK, _NIWORK */
     (void)fg_iwork_size;
+    if (!two_link_finger_inputs_valid(in)) {
+        two_link_finger_no_answer(out);
+        out->iterations = 0;
+        out->evaluations = 0;
+        out->failure = TWO_LINK_FINGER_FAIL_NONE;
+        out->failure_load_factor = 0;
+        state->solved = 0;
+        return TWO_LINK_FINGER_BAD_INPUT;
+    }
     p.load = &in->load[0][0];
     p.tension = in->tension;
     p.q0 = state->solved && two_link_finger_inputs_close(in, &state->last) ? state->q : NULL;
@@ -3994,8 +4047,19 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
     out->failure = a.failure;
     out->failure_load_factor = a.failure_load_factor;
     if (status != FG_SOLVED) {
+        two_link_finger_no_answer(out);
         state->solved = 0;
-        return status == FG_MODEL_ERROR ? TWO_LINK_FINGER_BAD_INPUT : TWO_LINK_FINGER_NO_EQUILIBRIUM;
+        if (status == FG_MODEL_ERROR)   /* not reached: the inputs were checked above */
+            return TWO_LINK_FINGER_BAD_INPUT;
+        /* what the load path met before it ended, as flexgen.solve notes it on a failed solve */
+        if (a.ncritical > 0) {
+            out->notes |= TWO_LINK_FINGER_NOTE_CRITICAL;
+            out->critical_load_factor = critical[0];
+        }
+        for (j = 0; j < TWO_LINK_FINGER_NFLEXURES; ++j)
+            if (switched[j])
+                out->notes |= TWO_LINK_FINGER_NOTE_GAUSS;
+        return TWO_LINK_FINGER_NO_EQUILIBRIUM;
     }
     /* a cold answer's critical events are its own; a warm answer continues the branch of the
      * answer it started from and keeps its note, but no load factor: that was a fraction of

@@ -11,14 +11,22 @@
  *     two_link_finger_inputs in;
  *     two_link_finger_state state;          keep it between cycles (it is the warm start)
  *     two_link_finger_outputs out;
- *     memset(&state, 0, sizeof state); all zero: the unloaded mechanism
+ *     state.solved = 0;              a cold first solve (nothing else in state needs clearing)
  *     two_link_finger_inputs_default(&in);  the scene's own loads and tensions
  *     in.load[TWO_LINK_FINGER_LOAD_...][1] = ...;   change what the controller changes
  *     if (two_link_finger_solve(&in, &state, &out) == TWO_LINK_FINGER_SOLVED && out.flags == 0)
  *         ... use out.pose, out.compliance
+ *     else
+ *         ... keep the last good answer (not solved: out's answer fields are NaN)
  *
- * Units: those of the scene file, which must be consistent (SI: m, N, N m, Pa). Forces and
- * moments act in the world (base) frame; angles are radians, counter-clockwise.
+ * Units: the scene file names none: its numbers are one consistent set, L its length unit and
+ * F its force unit (in SI: m and N).
+ * Inputs: forces (fx, fy) and tensions in F, moments in F*L. Outputs: positions (pose x, y) and
+ * kernel_error in L; angles (pose angle, bend, the ellipse's angle) in rad; energy in F*L;
+ * compliance[i][a][b] = d(pose a)/d(load b): L/F for a position against a force,
+ * 1/F for a position against the moment, rad/F for the angle against a force,
+ * rad/(F*L) for the angle against the moment; the ellipse's axes in L/F. Forces and moments
+ * act in the world (base) frame; angles are counter-clockwise.
  */
 #ifndef TWO_LINK_FINGER_H
 #define TWO_LINK_FINGER_H
@@ -36,6 +44,10 @@ extern "C" {
 #define TWO_LINK_FINGER_NIWORK 29
 #define TWO_LINK_FINGER_WARM_CHANGE 0.25      /* largest relative change of the inputs for a warm start */
 #define TWO_LINK_FINGER_NEAR_CRITICAL 0.05    /* margin to a critical load below which FLAG_NEAR_CRITICAL */
+/* the largest magnitude of a load value and of a tension that two_link_finger_solve accepts
+ * (TWO_LINK_FINGER_BAD_INPUT past it): flexgen/scene.py's MAX_MAGNITUDE, to which the scene file and
+ * flexgen.Solver.solve hold every load and tension */
+#define TWO_LINK_FINGER_MAX_MAGNITUDE 1e+100
 
 /* index of each load in two_link_finger_inputs.load, named after its point */
 enum {
@@ -55,16 +67,32 @@ enum {
 };
 
 /* the generalized coordinates of each flexure in two_link_finger_state.q and two_link_finger_outputs.q:
- *   "proximal": q[0] .. q[2]
- *   "distal": q[3] .. q[5]
+ *   "proximal": q[0] .. q[2] (scm, 3 modes)
+ *   "distal": q[3] .. q[5] (scm, 3 modes)
+ * scm: the Legendre curvature coefficients, dimensionless (kappa L = sum q_n P_n(2 s / L - 1));
+ *   the first is the tip's angle to the root (rad)
  */
 
-/* two_link_finger_solve's status */
+/* two_link_finger_solve's status. Every call sets every field of out:
+ * - TWO_LINK_FINGER_SOLVED: all of them, the answer; failure is TWO_LINK_FINGER_FAIL_NONE and
+ *   failure_load_factor 0.
+ * - TWO_LINK_FINGER_NO_EQUILIBRIUM: failure (why) and failure_load_factor (how far the load path
+ *   went); iterations and evaluations (spent, a rejected warm start's included); notes and
+ *   critical_load_factor (what the load path met before it ended: TWO_LINK_FINGER_NOTE_CRITICAL and
+ *   the first critical load factor, TWO_LINK_FINGER_NOTE_GAUSS); warm, stable and flags 0; the answer
+ *   fields (pose, compliance, ellipse, q, bend, kernel_error, energy, residual) NaN and kernel[]
+ *   TWO_LINK_FINGER_KERNEL_NONE: there is no answer.
+ * - TWO_LINK_FINGER_BAD_INPUT: nothing is solved: iterations, evaluations, warm, stable, flags and
+ *   notes 0, failure TWO_LINK_FINGER_FAIL_NONE, failure_load_factor and critical_load_factor 0; the
+ *   answer fields NaN and kernel[] TWO_LINK_FINGER_KERNEL_NONE.
+ * Both failures clear state->solved: the next call is cold. */
 enum {
-    TWO_LINK_FINGER_SOLVED = 0,          /* an equilibrium: out holds it (read out.flags too) */
-    TWO_LINK_FINGER_NO_EQUILIBRIUM = 1,  /* none was found (out.failure says why, at which load
-                                     * factor); out.pose and out.compliance are not set */
-    TWO_LINK_FINGER_BAD_INPUT = 2        /* an input is not finite (NaN or inf); out is not set */
+    TWO_LINK_FINGER_SOLVED = 0,          /* an equilibrium (read out.flags too) */
+    TWO_LINK_FINGER_NO_EQUILIBRIUM = 1,  /* none under these inputs: out.failure says why */
+    TWO_LINK_FINGER_BAD_INPUT = 2        /* an input the library refuses, checked before any work:
+                                     * a load value NaN, infinite or of magnitude above
+                                     * TWO_LINK_FINGER_MAX_MAGNITUDE; a tension negative (a tendon
+                                     * cannot push), NaN or above TWO_LINK_FINGER_MAX_MAGNITUDE */
 };
 
 /* why there is no equilibrium (two_link_finger_outputs.failure, with TWO_LINK_FINGER_NO_EQUILIBRIUM) */
@@ -83,9 +111,11 @@ enum {
                                           * the answer may be wrong by any amount */
     TWO_LINK_FINGER_FLAG_UNSTABLE = 2,        /* the equilibrium is not stable */
     TWO_LINK_FINGER_FLAG_NO_COMPLIANCE = 4,   /* the stiffness is singular: a compliance is not finite */
-    TWO_LINK_FINGER_FLAG_NO_CLAIM = 8,        /* a flexure is bent further than the model's accuracy
-                                          * is known (flexgen/validity.py), or a prb pin past
-                                          * its validity: no accuracy is claimed */
+    TWO_LINK_FINGER_FLAG_NO_CLAIM = 8,        /* no accuracy is claimed, where the library warns so
+                                          * (flexgen/validity.py), when:
+                                          * - a flexure is bent past 180 deg (to which the
+                                          *   error estimate's Gauss kernels are certified);
+                                          * (docs/controller.md: the reasons in every scene) */
     TWO_LINK_FINGER_FLAG_NEAR_CRITICAL = 16   /* a stable equilibrium within TWO_LINK_FINGER_NEAR_CRITICAL of a
                                           * critical load (the stiffness nearly singular): the
                                           * compliance amplifies any model error by about
@@ -122,7 +152,10 @@ typedef struct {
 
 typedef struct {
     double q[TWO_LINK_FINGER_NDOF];   /* the last answer's coordinates (when solved = 1) */
-    int solved;              /* 1: q is the equilibrium under last; 0 (all zero): unloaded */
+    int solved;              /* 1: q is the equilibrium under last (a warm start may follow);
+                              * 0: the next call is cold, from the unloaded state. Setting it
+                              * to 0 is all a cold solve needs, also before the first call:
+                              * a cold call writes every other field before it reads it */
     int critical;            /* 1: that equilibrium's branch was reached past a critical
                               * event on the load path of the last cold solve */
     two_link_finger_inputs last;      /* the inputs q answers */
@@ -145,16 +178,17 @@ typedef struct {
                                          * fem and prb, which have no kernel) */
     double energy;                 /* elastic energy in the flexures */
     double residual;               /* relative residual of the equilibrium equations */
-    int stable;                    /* 1: a stable equilibrium */
+    int stable;                    /* 1: a stable equilibrium (0 when not solved) */
     int iterations;                /* Newton iterations of this solve */
     int evaluations;               /* chain (kinematics and kernel) evaluations */
     int warm;                      /* 1: the warm start from state->q was accepted */
     int flags;                     /* TWO_LINK_FINGER_FLAG_* bits; 0: nothing to warn about */
     int notes;                     /* TWO_LINK_FINGER_NOTE_* bits */
-    double critical_load_factor;   /* a cold answer: its first critical load factor (fraction
-                                     * of these inputs), 0 if none; a warm answer: NaN */
-    int failure;                   /* TWO_LINK_FINGER_NO_EQUILIBRIUM: TWO_LINK_FINGER_FAIL_* */
-    double failure_load_factor;    /* TWO_LINK_FINGER_NO_EQUILIBRIUM: where (fraction of the load) */
+    double critical_load_factor;   /* a cold solve: the first critical load factor its path met
+                                     * (fraction of these inputs), 0 if none; a warm answer: NaN */
+    int failure;                   /* TWO_LINK_FINGER_FAIL_* (TWO_LINK_FINGER_FAIL_NONE unless NO_EQUILIBRIUM) */
+    double failure_load_factor;    /* NO_EQUILIBRIUM: how far the load path went (fraction of
+                                     * these inputs); else 0 */
 } two_link_finger_outputs;
 
 /* the scene's own loads and tensions */
@@ -165,8 +199,10 @@ void two_link_finger_inputs_default(two_link_finger_inputs *in);
  * fy, moments, tensions) and Newton converges there to a stable state close to it; else along the
  * load path from the unloaded state, as flexgen.solve does (buckling and snap-through
  * included). Updates state on TWO_LINK_FINGER_SOLVED, clears state->solved otherwise. Returns
- * TWO_LINK_FINGER_SOLVED, TWO_LINK_FINGER_NO_EQUILIBRIUM or TWO_LINK_FINGER_BAD_INPUT. Reentrant: no shared
- * state beyond its arguments. */
+ * TWO_LINK_FINGER_SOLVED, TWO_LINK_FINGER_NO_EQUILIBRIUM or TWO_LINK_FINGER_BAD_INPUT, and sets out as the
+ * status enum above says. Reentrant: no shared state beyond its arguments. Its time is not
+ * bounded by a deadline: a cold solve that fails may take thousands of times a cold solve's
+ * time (docs/controller.md, "Worst-case time"). */
 int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_state *state, two_link_finger_outputs *out);
 
 

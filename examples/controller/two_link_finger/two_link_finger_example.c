@@ -33,13 +33,68 @@ static void print_vector(const double *x, int n)
     printf("]");
 }
 
-static const char *const flag_text[] = {
-    "a flexure is bent past its kernel's certified range",
-    "the equilibrium is not stable",
-    "a compliance is undefined: the stiffness is singular",
-    "a flexure is bent further than the model's accuracy is known",
-    "near a critical load: the compliance amplifies any model error"
-};
+/* one string of a JSON list: text (a C string printed as it is), or head, a number, tail */
+static void item(int *count, const char *text)
+{
+    printf("%s\"%s\"", *count ? ", " : "", text);
+    ++*count;
+}
+
+static void item_degrees(int *count, const char *head, double angle, const char *tail)
+{
+    /* as flexgen/validity.py writes an angle: math.degrees(angle), "%.0f deg" */
+    printf("%s\"%s%.0f deg%s\"", *count ? ", " : "", head, angle * (180.0 / 3.141592653589793), tail);
+    ++*count;
+}
+
+static void item_named(int *count, const char *head, const char *name, const char *tail)
+{
+    printf("%s\"%s%s%s\"", *count ? ", " : "", head, name, tail);
+    ++*count;
+}
+
+/* the warnings the flags stand for, in the library's words and order (flexgen.result.UNSTABLE,
+ * the undefined compliances, then flexgen/validity.py's assess), from what out and in hold;
+ * the near-critical one without the library's numbers (the C computes no margin) */
+static void print_warnings(const two_link_finger_inputs *in, const two_link_finger_outputs *out)
+{
+    static const char *const outputs[] = {"'middle.pad'", "'fingertip.pad'"};
+    int n = 0, i, k;
+    (void)in;
+    (void)k;
+    printf("[");
+    if (out->flags & TWO_LINK_FINGER_FLAG_UNSTABLE)
+        item(&n, "the equilibrium is unstable: the stiffness matrix is not positive definite");
+    if (out->flags & TWO_LINK_FINGER_FLAG_NO_COMPLIANCE)
+        for (i = 0; i < TWO_LINK_FINGER_NOUTPUTS; ++i)
+            for (k = 0; k < 9; ++k)
+                if (!isfinite((&out->compliance[i][0][0])[k])) {
+                    item_named(&n, "compliance of ", outputs[i], " is undefined: the stiffness matrix is singular");
+                    break;
+                }
+    if (out->kernel[TWO_LINK_FINGER_FLEX_PROXIMAL] == TWO_LINK_FINGER_KERNEL_POLY_PAST)
+        item_degrees(&n, "flexure 'proximal' (scm3 auto): bend ", out->bend[TWO_LINK_FINGER_FLEX_PROXIMAL], ", past the set where the local kernel scm3_local9 certifies its error bound (smooth bends up to about 270 deg) and the range of the polynomial kernel scm3 (|phi| <= 90 deg along the flexure); the answer may be wrong by any amount");
+    if (out->kernel[TWO_LINK_FINGER_FLEX_PROXIMAL] == TWO_LINK_FINGER_KERNEL_GAUSS_PAST)
+        item_degrees(&n, "flexure 'proximal' (scm3 auto): bend ", out->bend[TWO_LINK_FINGER_FLEX_PROXIMAL], " is past the certified range of the Gauss kernel scm3_gauss25 (180 deg); its error bound does not hold");
+    if (out->kernel[TWO_LINK_FINGER_FLEX_DISTAL] == TWO_LINK_FINGER_KERNEL_POLY_PAST)
+        item_degrees(&n, "flexure 'distal' (scm3 auto): bend ", out->bend[TWO_LINK_FINGER_FLEX_DISTAL], ", past the set where the local kernel scm3_local9 certifies its error bound (smooth bends up to about 270 deg) and the range of the polynomial kernel scm3 (|phi| <= 90 deg along the flexure); the answer may be wrong by any amount");
+    if (out->kernel[TWO_LINK_FINGER_FLEX_DISTAL] == TWO_LINK_FINGER_KERNEL_GAUSS_PAST)
+        item_degrees(&n, "flexure 'distal' (scm3 auto): bend ", out->bend[TWO_LINK_FINGER_FLEX_DISTAL], " is past the certified range of the Gauss kernel scm3_gauss25 (180 deg); its error bound does not hold");
+    {
+        /* the flexure bent most, the first in body order */
+        static const int body_order[] = {0, 1};
+        static const char *const heads[] = {"flexure 'proximal' (scm3 auto): bent ", "flexure 'distal' (scm3 auto): bent "};
+        int most = body_order[0];
+        for (i = 1; i < TWO_LINK_FINGER_NFLEXURES; ++i)
+            if (out->bend[body_order[i]] > out->bend[most])
+                most = body_order[i];
+        if (out->bend[most] > 3.141592653589793)
+            item_degrees(&n, heads[most], out->bend[most], ", past the 180 deg to which the error estimate's Gauss kernels are certified; no accuracy is claimed");
+    }
+    if (out->flags & TWO_LINK_FINGER_FLAG_NEAR_CRITICAL)
+        item(&n, "near a critical load: the stiffness is less than 5% from singular, so the compliance amplifies any model error by more than 20x");
+    printf("]");
+}
 
 static const char *const note_text[] = {
     "the load path crossed a critical load (buckling or snap-through)",
@@ -58,7 +113,7 @@ static void print_bits(const char *const *text, int count, int bits)
     printf("]");
 }
 
-static void print_json(int status, const two_link_finger_outputs *out)
+static void print_json(int status, const two_link_finger_inputs *in, const two_link_finger_outputs *out)
 {
     static const char *const outputs[] = {"middle.pad", "fingertip.pad"};
     int i;
@@ -90,7 +145,7 @@ static void print_json(int status, const two_link_finger_outputs *out)
         printf("}}");
     }
     printf("\n  },\n  \"warnings\": ");
-    print_bits(flag_text, 5, out->flags);
+    print_warnings(in, out);
     printf(",\n  \"notes\": ");
     print_bits(note_text, 2, out->notes);
     printf("\n}\n");
@@ -135,7 +190,7 @@ int main(int argc, char **argv)
     memset(&out, 0, sizeof out);
     two_link_finger_inputs_default(&in);
     status = two_link_finger_solve(&in, &state, &out);
-    print_json(status, &out);
+    print_json(status, &in, &out);
     if (!(argc > 1 && strcmp(argv[1], "--no-timing") == 0))
         fprintf(stderr, "two_link_finger_solve: %.3f us cold, %.3f us warm (inputs alternating by 1 %%)\n",
                 time_solves(&in, 0), time_solves(&in, 1));
