@@ -20,8 +20,6 @@ _PACKAGE = Path(__file__).resolve().parent
 GENERATED = (
     _PACKAGE / "generated" if (_PACKAGE / "generated").is_dir() else _PACKAGE.parent / "generated"
 )
-# the flags the generated C compiles cleanly under (docs/kernels.md); the tests build with them
-C_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
 _NAME = re.compile(r"^scm(\d+)(?:_(gauss|local)(\d+))?$")
 
 

@@ -10,9 +10,10 @@ import ctypes
 import subprocess
 from pathlib import Path
 
-from flexgen.kernels import C_FLAGS, GENERATED
+from flexgen.kernels import GENERATED
 
-STRICT = list(C_FLAGS)
+# what the project promises of emitted and shipped C (README, docs/controller.md)
+STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2"]
 
 
 def compile_kernel(name: str, build_dir: Path) -> ctypes.CDLL:

@@ -6,9 +6,10 @@ import subprocess
 
 import numpy as np
 import pytest
+from cbuild import STRICT
 
 from flexgen.api import solve
-from flexgen.kernels import C_FLAGS, GENERATED
+from flexgen.kernels import GENERATED
 from flexgen.scene import scene_from_dict
 
 EXAMPLE = GENERATED.parent / "examples" / "controller" / "flexure_controller.c"
@@ -20,7 +21,7 @@ def controller(tmp_path_factory):
     subprocess.run(
         [
             "gcc",
-            *C_FLAGS,
+            *STRICT,
             f"-I{GENERATED / 'c'}",
             str(EXAMPLE),
             str(GENERATED / "c" / "scm3.c"),

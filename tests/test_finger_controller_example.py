@@ -12,6 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from cbuild import STRICT
 
 import flexgen
 from flexgen.codegen.controller import controller_files
@@ -20,7 +21,6 @@ from flexgen.kernels import GENERATED, load_numpy
 ROOT = GENERATED.parent
 FOLDER = ROOT / "examples" / "controller" / "two_link_finger"
 SCENE = ROOT / "examples" / "two_link_finger.toml"
-STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2"]
 
 LOOP = r"""
 #include <stdio.h>

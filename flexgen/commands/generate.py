@@ -8,10 +8,10 @@ import sys
 import time
 from pathlib import Path
 
-from flexgen.codegen.spec import DEFAULT_TOL, FAMILIES, KernelSpec
+from flexgen.codegen.spec import BACKENDS, DEFAULT_TOL, FAMILIES, KernelSpec
 from flexgen.commands.common import UsageError, integer
 
-LANGS = ("numpy", "c")
+LANGS = tuple(BACKENDS)  # each with its config (codegen/spec.py) and emitter (codegen/generate.py)
 
 
 def _langs(text: str) -> tuple[str, ...]:

@@ -1489,7 +1489,11 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
         fg_real rn, slope = 0.0, top = 0.0, *d = w->vec3, *qt = w->vec4, alpha = 1.0;
         fg_real floor_;
         int accepted = 0, indefinite = 0, step;
-        if (st->rel <= set->tol)
+        /* descent ends at a stable equilibrium only: beside a bifurcation the energy is so
+         * flat that the start b +- eps v of cross_bifurcation may already be an equilibrium to
+         * tol (the float twin's 2e-5: its descents both ended on the unstable branch, and the
+         * solve failed, wherever a load step landed just past the critical load) */
+        if (st->rel <= set->tol && (!descent || cholesky(w, st->K, w->la)))
             return 1;
         if (k == max_it)
             break;
