@@ -698,8 +698,8 @@ Contenders:
   (LDL^T Cholesky, backtracking on Pi or the residual, relative residual 1e-12 or a step below 1e-14),
   then G K^-1 G^T (`benchmarks/casadi/casadi_newton.c`).
 - **flexgen controller**: the C of `flexgen generate --scene SCENE --out DIR --prefix NAME`,
-  `NAME_solve` with a zeroed `NAME_state` (cold) or the kept one (warm)
-  (`benchmarks/casadi/controller_peer.c`).
+  `NAME_solve` with `state.solved = 0` (cold, as docs/controller.md asks for one: the CasADi
+  peer likewise clears only its q) or the state kept (warm) (`benchmarks/casadi/controller_peer.c`).
 - **flexgen controller, kernel local**: the same, from the scene with `[model] kernel = "local"`:
   every flexure evaluated by its local Gauss kernel (`scm3_local9`: 9 nodes, its error bound
   certified at each q), then the Gauss kernel; the default `"auto"` tries the same local kernel
