@@ -35,7 +35,7 @@ from __future__ import annotations
 import os
 import threading
 from collections import OrderedDict
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from typing import Any
 
@@ -64,16 +64,26 @@ def _count(value, key: str, maximum: int) -> int | None:
     return value
 
 
-def unused_count(model: str | None, modes: Any, elements: Any) -> tuple[str, str] | None:
+def unused_count(
+    model: str | None, modes: Any, elements: Any, kinds: Iterable[str] = ()
+) -> tuple[str, str] | None:
     """``(option, why)`` when ``modes`` or ``elements`` is given with a ``model`` kind that does
-    not read it (it would be dropped silently: ``cc`` is scm with one mode), else None. The
-    CLI words it with its flags (``--modes``), ``override`` with the keyword."""
-    if model is None:  # per-flexure kinds: the counts apply where the kind reads them
-        return None
-    if modes is not None and model != "scm":
-        return "modes", ("cc is scm with one mode" if model == "cc" else "only scm has modes")
-    if elements is not None and model != "fem":
-        return "elements", "only fem has elements"
+    not read it, or, with no ``model``, when none of the scene's flexure ``kinds`` reads it (it
+    would be dropped silently: ``cc`` is scm with one mode), else None. The CLI words it with
+    its flags (``--modes``), ``override`` with the keyword."""
+    used = {model} if model is not None else set(kinds)
+    for option, value, reader in (("modes", modes, "scm"), ("elements", elements, "fem")):
+        if value is None or reader in used:
+            continue
+        if model is None:
+            why = f"its flexures are {', '.join(sorted(used))}"
+            if option == "modes" and "cc" in used:
+                why += "; cc is scm with one mode"
+        elif option == "modes" and model == "cc":
+            why = "cc is scm with one mode"
+        else:
+            why = f"only {reader} has {option}"
+        return option, why
     return None
 
 
@@ -88,9 +98,10 @@ def override(
         )
     modes = _count(modes, "modes", MAX_MODES)
     elements = _count(elements, "elements", MAX_ELEMENTS)
-    unused = unused_count(model, modes, elements)
+    unused = unused_count(model, modes, elements, (f.model.kind for f in scene.flexures))
     if unused is not None:
-        raise SceneError(f"{unused[0]}: not used with model {model!r} ({unused[1]})")
+        with_what = f"with model {model!r}" if model is not None else "by this scene"
+        raise SceneError(f"{unused[0]}: not used {with_what} ({unused[1]})")
     changes: dict[str, Any] = {}
     if model is not None:
         changes["kind"] = model

@@ -19,6 +19,7 @@ import sys
 from flexgen.codegen.render import OutputError
 from flexgen.codegen.spec import SpecError
 from flexgen.commands.common import UsageError
+from flexgen.outfiles import UnusableTarget, WriteFailed
 
 # subcommand modules under flexgen/commands/, in the order `flexgen --help` lists them
 COMMANDS = ("generate", "solve", "plot", "select", "sweep", "bench", "stability")
@@ -85,6 +86,12 @@ def _main(argv) -> int:
     try:
         args = parser.parse_args(argv)
         return args.run(args)
+    except UnusableTarget as exc:  # an output path that is a folder, a FIFO: bad input
+        _error(f"error: cannot write {exc.path}: {exc.why}")
+        return 2
+    except WriteFailed as exc:  # a full disk, a size limit: not bad input
+        _error(f"cannot write {exc.path}: {exc.why}")
+        return 1
     except _user_errors() as exc:
         _error(f"error: {exc}")
         _json_failure(argv, args, str(exc))

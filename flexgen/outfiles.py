@@ -1,14 +1,17 @@
 """Output files written whole or not at all: the one writer of every file flexgen makes
 (`generate`, `bench` and `stability` pages, `plot`, `sweep --out/--plot`).
 
-Every target is first written to a hidden temporary file in its own folder (so that the rename
-onto it is atomic), and only when every one is complete are they renamed onto their targets. If
-anything fails, the temporary files, the targets this call created and the folders it created
-are removed, and WriteFailed names the target: a full disk never leaves a half-written or
-0-byte file behind, and a set of files (a controller's five) never ends up half old, half new.
-A written file gets the mode a file created with open() gets, 0666 less the umask (mkstemp's
-0600 would hide a generated header from the rest of a build team; a private umask keeps it
-private).
+Every target is checked first (one that exists must be a regular file: a rename onto a folder
+would fail after the targets before it were replaced), then written to a hidden temporary file
+in its own folder (so that the rename onto it is atomic), and only when every one is complete
+are they renamed onto their targets. If anything fails, the temporary files, the targets this
+call created and the folders it created are removed, and WriteFailed names the target: a full
+disk never leaves a half-written or 0-byte file behind, and a set of files (a controller's
+five) is replaced together or not at all (but for a rename failing between two others, which
+the checks leave to the system's own faults).
+A new file gets the mode a file created with open() gets, 0666 less the umask (mkstemp's 0600
+would hide a generated header from the rest of a build team; a private umask keeps it private);
+a file replaced keeps its mode.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from __future__ import annotations
 import errno
 import os
 import secrets
+import stat
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -31,6 +35,11 @@ class WriteFailed(OSError):
         self.why = error.strerror or str(error)
         super().__init__(error.errno, self.why, str(path))
         self.path = path
+
+
+class UnusableTarget(WriteFailed):
+    """A target that exists and is no regular file (a folder, a symbolic link, a FIFO): found
+    before anything is written, so it is the caller's bad output path, not a failed write."""
 
 
 def folder_problem(folder: Path) -> str | None:
@@ -50,17 +59,26 @@ def write_all(targets: Sequence[tuple[Path, Writer]]) -> None:
     """Each ``(target, writer)``: ``writer(temporary)`` fills a temporary file beside the target
     (hidden, with the target's suffix: writers that pick a format by it see the right one),
     then every temporary is renamed onto its target. All or nothing (the module's docstring);
-    WriteFailed on failure."""
+    WriteFailed on failure. A target that exists and is not a regular file (a folder, a
+    symbolic link, a FIFO) fails before anything is written (UnusableTarget): a rename onto it
+    would fail after the targets before it were replaced. A file that exists keeps its mode, as
+    open() keeps it."""
+    paths = [target for target, _ in targets]
+    if len(set(paths)) != len(paths):
+        raise ValueError(f"write_all: a target given twice: {paths}")
+    modes = {target: _replaceable(target) for target in paths}  # None: a new file
     made: list[Path] = []
     temps: dict[Path, Path] = {}  # target -> its temporary file
     renamed: list[Path] = []
-    new = {target for target, _ in targets if not target.exists()}
     try:
         for target, write in targets:
             with _naming(target):
                 made += _make_folders(target.parent)
                 temps[target] = _reserve(target)
                 write(temps[target])
+                mode = modes[target]
+                if mode is not None:
+                    os.chmod(temps[target], mode)
         for target, tmp in temps.items():
             with _naming(target):
                 os.replace(tmp, target)
@@ -69,7 +87,7 @@ def write_all(targets: Sequence[tuple[Path, Writer]]) -> None:
         for tmp in temps.values():
             tmp.unlink(missing_ok=True)
         for target in renamed:
-            if target in new:
+            if modes[target] is None:
                 target.unlink(missing_ok=True)
         _remove_folders(made)
         raise
@@ -97,6 +115,22 @@ def _naming(target: Path) -> Iterator[None]:
         yield
     except OSError as exc:  # a nested write's WriteFailed too: this call's target is the one
         raise WriteFailed(target, exc) from None
+
+
+def _replaceable(target: Path) -> int | None:
+    """The mode of ``target`` if it is a regular file (kept by the new one), None if it does not
+    exist; WriteFailed if it is something a file cannot replace."""
+    try:
+        info = os.lstat(target)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise WriteFailed(target, exc) from None
+    if stat.S_ISDIR(info.st_mode):
+        raise UnusableTarget(target, IsADirectoryError(errno.EISDIR, "is a folder"))
+    if not stat.S_ISREG(info.st_mode):
+        raise UnusableTarget(target, OSError(errno.EEXIST, "is not a regular file"))
+    return stat.S_IMODE(info.st_mode)
 
 
 def _make_folders(folder: Path) -> list[Path]:

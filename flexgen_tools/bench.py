@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from flexgen.outfiles import write_all
 from flexgen.scene import Scene, load_scene, scene_from_dict
 from flexgen_tools import repo_path
 from flexgen_tools.timing import (  # noqa: F401
@@ -1105,8 +1106,11 @@ def estimate_section(data: BenchData) -> list[str]:
 
 
 def write_outputs(data: BenchData, out: Path) -> tuple[Path, Path]:
-    out.mkdir(parents=True, exist_ok=True)
     png, md = out / "accuracy-vs-speed.png", out / "accuracy-vs-speed.md"
-    plot(data, png)
-    md.write_text(render_markdown(data))
+    text = render_markdown(data)
+
+    def write_page(tmp: Path) -> None:
+        tmp.write_text(text)
+
+    write_all([(png, lambda tmp: plot(data, tmp)), (md, write_page)])
     return png, md

@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from flexgen.outfiles import write_all
 from flexgen.scene import Scene, load_scene, scene_from_dict
 from flexgen.validity import assess
 from flexgen_tools.bench import (
@@ -631,8 +632,11 @@ def render_markdown(data: StabilityData) -> str:
 
 
 def write_outputs(data: StabilityData, out: Path) -> tuple[Path, Path]:
-    out.mkdir(parents=True, exist_ok=True)
     png, md = out / "stability-map.png", out / "stability.md"
-    plot(data, png)
-    md.write_text(render_markdown(data))
+    text = render_markdown(data)
+
+    def write_page(tmp: Path) -> None:
+        tmp.write_text(text)
+
+    write_all([(png, lambda tmp: plot(data, tmp)), (md, write_page)])
     return png, md

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from flexgen.codegen.render import OutputError, write_files
+from flexgen.codegen.render import write_files
 from flexgen.outfiles import WriteFailed, write_all, write_texts
 
 
@@ -49,8 +49,8 @@ def test_every_target_is_written_with_the_mode_open_gives(tmp_path):
 
 
 def test_generated_files_are_all_or_nothing(tmp_path, monkeypatch):
-    """`flexgen generate` writes a controller's files through write_files: one that fails is an
-    OutputError naming it, and the files already there keep their old text."""
+    """`flexgen generate` writes a controller's files through write_files: one that fails is a
+    WriteFailed naming it, and the files already there keep their old text."""
     (tmp_path / "a.h").write_text("old header")
     real_open = open
 
@@ -60,8 +60,52 @@ def test_generated_files_are_all_or_nothing(tmp_path, monkeypatch):
         return real_open(path, *args, **kwargs)
 
     monkeypatch.setattr("builtins.open", failing_open)
-    with pytest.raises(OutputError, match=r"cannot write .*b\.c: No space left on device"):
+    with pytest.raises(WriteFailed, match=r"No space left on device"):
         write_files({"a.h": "new header", "b.c": "code"}, tmp_path)
     monkeypatch.undo()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h"]
     assert (tmp_path / "a.h").read_text() == "old header"
+
+
+def test_a_target_that_is_a_folder_fails_before_anything_is_written(tmp_path):
+    """A rename onto a folder would fail after the targets before it were replaced: the targets
+    are checked first, so the existing a.h keeps its old text."""
+    (tmp_path / "a.h").write_text("old header")
+    (tmp_path / "b.mk").mkdir()
+    with pytest.raises(WriteFailed) as caught:
+        write_texts({tmp_path / "a.h": "new header", tmp_path / "b.mk": "rules"})
+    assert caught.value.path == tmp_path / "b.mk" and caught.value.why == "is a folder"
+    assert (tmp_path / "a.h").read_text() == "old header"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h", "b.mk"]
+
+
+def test_a_replaced_file_keeps_its_mode_and_a_target_twice_is_refused(tmp_path):
+    private = tmp_path / "private.h"
+    private.write_text("old")
+    private.chmod(0o600)
+    write_texts({private: "new"})
+    assert private.read_text() == "new" and stat.S_IMODE(private.stat().st_mode) == 0o600
+    with pytest.raises(ValueError, match="twice"):
+        write_all([(private, _full_disk), (private, _full_disk)])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["private.h"]
+
+
+def test_a_failed_write_is_exit_1_naming_the_file(tmp_path, monkeypatch, capsys):
+    """Not bad input (exit 2): the system's reason on one line, as plot and sweep say it."""
+    from flexgen.cli import main
+
+    real_open = open
+
+    def failing_open(path, *args, **kwargs):
+        if Path(path).name.startswith(".finger.c."):
+            raise OSError(27, "File too large")
+        return real_open(path, *args, **kwargs)
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml"
+    monkeypatch.setattr("builtins.open", failing_open)
+    code = main(["generate", "--scene", str(scene), "--prefix", "finger", "--out", str(tmp_path)])
+    monkeypatch.undo()
+    err = capsys.readouterr().err
+    assert code == 1
+    assert err == f"flexgen: cannot write {tmp_path / 'finger.c'}: File too large\n"
+    assert list(tmp_path.iterdir()) == []

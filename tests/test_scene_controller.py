@@ -463,7 +463,10 @@ BAD_SCENES = {
         '[output]\npoints = ["b.tip"]\n',
         "exact",
     ),
-    "no outputs": ('[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1.0\n', "output.points"),
+    "no outputs": (
+        '[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1.0\n[output]\npoints = []\n',
+        "output.points",
+    ),
     "clash": (
         '[[flexure]]\nname = "a_b"\nlength = 1.0\nEI = 1.0\n[[link]]\nname = "a"\n'
         'parent = "a_b"\npoints = { b_tip = [0.1, 0.0] }\n'
@@ -564,6 +567,29 @@ def test_names_are_escaped_in_comments_strings_and_json(tmp_path):
     assert got["scene"] == ref["scene"] == HOSTILE_NAME
     assert list(got["points"]) == list(ref["points"]) == ['pad.p"1', "pad.q%s"]
     assert list(got["q"]) == ["b*/x"]
+
+
+@NEEDS_GCC
+def test_a_scene_without_loads_reports_the_default_points(tmp_path):
+    """No [[load]] and no [output] (a tendon-only mechanism): the controller reports the points
+    flexgen solve reports, the tip of the flexure that carries no other, at the same pose."""
+    scene = tmp_path / "tendon.toml"
+    scene.write_text(
+        '[[flexure]]\nname = "a"\nlength = 1.0\nEI = 1.0\n'
+        '[[link]]\nname = "m"\nparent = "a"\npoints = { h = [0.0, 0.1] }\n'
+        '[[flexure]]\nname = "b"\nparent = "m"\nlength = 1.0\nEI = 1.0\n'
+        "[base]\npoints = { r = [0.0, 0.1] }\n"
+        '[[tendon]]\ntension = 0.5\nroute = ["base.r", "m.h"]\n'
+    )
+    out = tmp_path / "gen"
+    write_files(controller_files(scene, "tendon"), out)
+    exe = tmp_path / "tendon"
+    sources = [str(out / "tendon.c"), str(out / "tendon_example.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    got = json.loads(subprocess.check_output([str(exe), "--no-timing"], text=True))
+    ref = flexgen.solve(scene)
+    assert list(got["points"]) == list(ref.points) == ["b.tip"]
+    assert np.allclose(got["points"]["b.tip"]["pose"], ref.points["b.tip"].pose, atol=1e-12)
 
 
 def _makefile_of_the_comment(mk: str) -> str:

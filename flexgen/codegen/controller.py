@@ -224,11 +224,6 @@ def _prepared_scene(path: Path) -> Scene:
             'model.kind: "exact" (the reference elastica) has no C solver; choose "scm", "fem" '
             'or "prb" for a controller (`flexgen select` says which is accurate enough)'
         )
-    if not scene.outputs:
-        raise EmitError(
-            "output.points: a controller reports the points named there, and the scene names "
-            'none (add [output] points = ["<body>.<point>", ...])'
-        )
     tol = scene_tolerance(scene)
     if tol is not None:
         modes = select_models(scene, tol).modes

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import jinja2
 
-from flexgen.outfiles import WriteFailed, folder_problem, write_texts
+from flexgen.outfiles import UnusableTarget, folder_problem, write_texts
 
 _PACKAGE = Path(__file__).resolve().parents[1]
 # installed: the package's own copy (flexgen/templates); a source checkout: the top-level folder
@@ -55,11 +55,12 @@ def check_writable(out_dir: Path) -> None:
 def write_files(files: dict[str, str], out_dir: Path) -> list[str]:
     """Write every file (relative path -> text) under out_dir, all or nothing
     (flexgen/outfiles.py); returns the paths written. All texts are rendered before this is
-    called; a file that cannot be written is an OutputError naming it, and nothing is left
-    half-written."""
+    called; a target that is a folder or another non-file is an OutputError (bad --out, found
+    before anything is written), a file that cannot be written a WriteFailed naming it (an
+    OSError: a full disk is not bad input), and nothing is left half-written."""
     paths = {out_dir / rel: text for rel, text in sorted(files.items())}
     try:
         write_texts(paths)
-    except WriteFailed as exc:
+    except UnusableTarget as exc:
         raise OutputError(f"--out: cannot write {exc.path}: {exc.why}") from None
     return [str(path) for path in paths]

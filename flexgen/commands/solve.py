@@ -66,10 +66,13 @@ def solve_args(args):
 
     if getattr(args, "tolerance", None) is not None and (args.modes or args.elements):
         raise UsageError("--tol chooses the modes itself: give either --tol or --modes/--elements")
-    unused = unused_count(args.model, args.modes, args.elements)
+    scene = as_scene(args.scene)
+    kinds = (f.model.kind for f in scene.flexures)
+    unused = unused_count(args.model, args.modes, args.elements, kinds)
     if unused is not None:  # e.g. --model cc --modes 3 would solve one mode silently
-        raise UsageError(f"--{unused[0]}: not used with --model {args.model} ({unused[1]})")
-    scene = override(as_scene(args.scene), args.model, args.modes, args.elements)
+        with_what = f"with --model {args.model}" if args.model else "by this scene"
+        raise UsageError(f"--{unused[0]}: not used {with_what} ({unused[1]})")
+    scene = override(scene, args.model, args.modes, args.elements)
     options = {
         name: getattr(args, name) for name in OPTION_NAMES if getattr(args, name, None) is not None
     }
