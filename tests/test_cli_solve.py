@@ -233,6 +233,22 @@ BAD = {  # name: (replace this, with that, key the message must name)
 }
 
 
+@pytest.mark.parametrize(
+    ("kind", "option", "why"),
+    [("cc", "--modes", "cc is scm with one mode"), ("exact", "--modes", "its flexures are exact")],
+)
+def test_a_count_no_flexure_of_the_scene_reads_is_bad_input(tmp_path, capsys, kind, option, why):
+    """--modes without --model on a scene of cc (or exact) flexures would be dropped silently,
+    as --model cc --modes 3 would: exit 2, one line; the API's keyword likewise."""
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD.replace('name = "bad"', f'name = "bad"\n[model]\nkind = "{kind}"', 1))
+    code, out, err = run(capsys, "solve", str(path), option, "3")
+    _one_line_error(code, out, err, f"{option}: not used by this scene")
+    assert why in err
+    with pytest.raises(flexgen.SceneError, match="modes: not used by this scene"):
+        flexgen.solve(path, modes=3)
+
+
 def _bad_scene(tmp_path, name) -> Path:
     old, new, _key, *extra = BAD[name]
     assert old in GOOD

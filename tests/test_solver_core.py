@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 
 import flexgen
+from cbuild import STRICT
 from flexgen.chain import Chain
 from flexgen.models import exact
 from flexgen.models.fem import FEMModel
@@ -1110,11 +1111,7 @@ def test_c_source_compiles_strictly_without_writable_globals(opt, tmp_path):
     proc = subprocess.run(
         [
             "gcc",
-            "-std=c99",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-pedantic",
+            *[flag for flag in STRICT if not flag.startswith("-O")],
             opt,
             f"-I{SOURCE.parent}",
             "-c",
