@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cbuild import STRICT
 
 import flexgen
-from cbuild import STRICT
 from flexgen.chain import Chain
 from flexgen.models import exact
 from flexgen.models.fem import FEMModel
