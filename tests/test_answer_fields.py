@@ -244,7 +244,7 @@ def test_margin_above_agrees_with_the_margin():
     d = np.sqrt(np.asarray(solver.problem.stiffness, dtype=float))
     ws = solver.workspace
     rng = np.random.default_rng(11)
-    ptr = lambda a: core.ffi.cast("double *", a.ctypes.data)  # noqa: E731
+    ptr = core.double_ptr
     seen = set()
     for lowest in (-0.3, 0.0, 0.01, NEAR_SINGULAR * 0.99, NEAR_SINGULAR * 1.01, 0.2, 1.0):
         V, _ = np.linalg.qr(rng.normal(size=(n, n)))
