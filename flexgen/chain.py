@@ -135,10 +135,6 @@ class Chain:
         self.ndof = start
         self._order = self._body_order()
         self._children: dict[str, list[str]] | None = None
-        self._cache_key: bytes | None = None
-        self._cache: dict[str, PointKinematics] = {}
-        self._roots: dict[str, PointKinematics] = {}
-        self._points: dict[str, PointKinematics] = {}  # points at the cached q
         self._resolved: dict[str, tuple[str, tuple[float, float]]] = {}
         self._frame_of = {BASE: BASE}
         for body in self._order:
@@ -232,11 +228,14 @@ class Chain:
         return q
 
     def frames(self, q) -> dict[str, PointKinematics]:
-        """World pose, Jacobian and Hessian of every body frame (cached for the last ``q``)."""
-        q = self._check_q(q)
-        key = q.tobytes()
-        if key == self._cache_key:
-            return self._cache
+        """World pose, Jacobian and Hessian of every body frame at ``q`` (computed afresh: a
+        Chain keeps no state of an evaluation, so one Problem's chain may serve any caller)."""
+        return self._frames_and_roots(self._check_q(q))[0]
+
+    def _frames_and_roots(
+        self, q: np.ndarray
+    ) -> tuple[dict[str, PointKinematics], dict[str, PointKinematics]]:
+        """Every body frame and every flexure's root frame at ``q``."""
         n = self.ndof
         frames = {BASE: PointKinematics(np.zeros(3), np.zeros((3, n)), np.zeros((3, n, n)))}
         roots: dict[str, PointKinematics] = {}
@@ -255,9 +254,7 @@ class Chain:
             tk = self.models[body].tip(q[sl])
             tp = np.asarray(tk.pose, dtype=float)
             frames[body] = _compose(root, (tp[0], tp[1]), float(tp[2]), tk, sl)
-        self._cache_key, self._cache, self._roots = key, frames, roots
-        self._points = {}
-        return frames
+        return frames, roots
 
     def _resolve(self, ref: str) -> tuple[str, tuple[float, float]]:
         got = self._resolved.get(ref)
@@ -266,17 +263,15 @@ class Chain:
             got = self._resolved[ref] = (body, (float(xy[0]), float(xy[1])))
         return got
 
-    def point(self, ref: str, q) -> PointKinematics:
-        """World pose ``(x, y, body angle)``, J (3, ndof), H (3, ndof, ndof) of ``"<body>.<point>"``
-        (cached per ``q``: treat the arrays as read-only)."""
+    def _point_in(self, frames: dict[str, PointKinematics], ref: str) -> PointKinematics:
         body, xy = self._resolve(ref)
-        frame = self.frames(q)[body]
-        if xy == (0.0, 0.0):
-            return frame
-        pk = self._points.get(ref)
-        if pk is None:
-            pk = self._points[ref] = _compose(frame, xy)
-        return pk
+        frame = frames[body]
+        return frame if xy == (0.0, 0.0) else _compose(frame, xy)
+
+    def point(self, ref: str, q) -> PointKinematics:
+        """World pose ``(x, y, body angle)``, J (3, ndof), H (3, ndof, ndof) of
+        ``"<body>.<point>"`` at ``q``."""
+        return self._point_in(self.frames(q), ref)
 
     def pose(self, ref: str, q) -> np.ndarray:
         return self.point(ref, q).pose.copy()
@@ -306,7 +301,8 @@ class Chain:
 
     def tendon_length(self, route: Sequence[str], q) -> tuple[float, np.ndarray, np.ndarray]:
         """Length l of a route of straight segments, with its gradient and Hessian in q."""
-        pts = [self.point(ref, q) for ref in route]
+        frames = self.frames(q)
+        pts = [self._point_in(frames, ref) for ref in route]
         n = self.ndof
         length, grad, hess = 0.0, np.zeros(n), np.zeros((n, n))
         for k in range(len(pts) - 1):
@@ -346,10 +342,10 @@ class Chain:
     def shapes(self, q, num: int = 64) -> dict[str, np.ndarray]:
         """Each flexure's centreline in the world frame, (num, 2), root first."""
         q = self._check_q(q)
-        self.frames(q)
+        roots = self._frames_and_roots(q)[1]
         out = {}
         for name, sl in self.slices.items():
-            root = self._roots[name]
+            root = roots[name]
             local = np.asarray(self.models[name].shape(q[sl], num), dtype=float)
             out[name] = root.pose[:2] + local @ _rot(root.pose[2]).T
         return out
