@@ -537,6 +537,17 @@ def test_a_failed_write_is_the_only_line(tmp_path):
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["CMakeLists.txt"]
 
 
+def _example_json(scene: Path, prefix: str, folder: Path, flags: tuple[str, ...] = ()) -> dict:
+    """Emit scene's controller into folder, build its example strictly (and with flags), and
+    return the JSON it prints."""
+    out = folder / "gen"
+    write_files(controller_files(scene, prefix), out)
+    exe = folder / prefix
+    sources = [str(out / f"{prefix}.c"), str(out / f"{prefix}_example.c")]
+    subprocess.run(["gcc", *STRICT, *flags, *sources, "-lm", "-o", str(exe)], check=True)
+    return json.loads(subprocess.check_output([str(exe), "--no-timing"], text=True))
+
+
 HOSTILE_NAME = 'cantilever at 50% "mk2" */ v2 ??/ \\ /* end'
 
 
@@ -553,12 +564,7 @@ def test_names_are_escaped_in_comments_strings_and_json(tmp_path):
         '[[load]]\npoint = "pad.p\\"1"\nforce = [0.0, -1.0]\n'
         '[output]\npoints = ["pad.p\\"1", "pad.q%s"]\n'
     )
-    out = tmp_path / "gen"
-    write_files(controller_files(scene, "hostile"), out)
-    exe = tmp_path / "hostile"
-    sources = [str(out / "hostile.c"), str(out / "hostile_example.c")]
-    subprocess.run(["gcc", *STRICT, "-Wformat=2", *sources, "-lm", "-o", str(exe)], check=True)
-    got = json.loads(subprocess.check_output([str(exe), "--no-timing"], text=True))
+    got = _example_json(scene, "hostile", tmp_path, ("-Wformat=2",))
     ref = json.loads(
         subprocess.check_output(
             [sys.executable, "-m", "flexgen", "solve", str(scene), "--json"], text=True
@@ -581,12 +587,7 @@ def test_a_scene_without_loads_reports_the_default_points(tmp_path):
         "[base]\npoints = { r = [0.0, 0.1] }\n"
         '[[tendon]]\ntension = 0.5\nroute = ["base.r", "m.h"]\n'
     )
-    out = tmp_path / "gen"
-    write_files(controller_files(scene, "tendon"), out)
-    exe = tmp_path / "tendon"
-    sources = [str(out / "tendon.c"), str(out / "tendon_example.c")]
-    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
-    got = json.loads(subprocess.check_output([str(exe), "--no-timing"], text=True))
+    got = _example_json(scene, "tendon", tmp_path)
     ref = flexgen.solve(scene)
     assert list(got["points"]) == list(ref.points) == ["b.tip"]
     assert np.allclose(got["points"]["b.tip"]["pose"], ref.points["b.tip"].pose, atol=1e-12)
