@@ -23,7 +23,7 @@ import numpy as np
 
 from .result import PointResult, Result, ellipse
 from .scene import BASE, Scene
-from .scene_checks import scene_notes
+from .scene_checks import scene_notes, scene_warnings
 from .stress import FlexureStress, flexure_stresses, safety_warnings
 from .units import result_units
 
@@ -56,7 +56,7 @@ def to_result(scene: Scene, sol) -> Result:
     # a bifurcation crossed onto the stable branch is a note (a fact of the path); every other
     # message of the elastica solver (a stall, a loss of stability) is a warning
     notes = [w for w in sol.warnings if "followed the stable branch" in w] + scene_notes(scene)
-    warnings = [w for w in sol.warnings if w not in notes]
+    warnings = [w for w in sol.warnings if w not in notes] + scene_warnings(scene)
     critical = [] if sol.critical_load_factor is None else [float(sol.critical_load_factor)]
     if not sol.converged:
         # the SceneSolution holds the equilibrium at the last converged load factor; the Result

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .stress import FlexureStress
+from .stress import FlexureStress, safety_text
 
 
 def ellipse(C) -> dict[str, float]:
@@ -201,7 +201,11 @@ class Result:
         else:
             lines.append(f"NOT converged after {self.iterations} Newton iterations: {self.reason}")
         for name, spec in self.model.items():
-            detail = ", ".join(f"{k}={v}" for k, v in spec.items() if k != "kind")
+            detail = ", ".join(
+                f"{k}={v:.2g}" if isinstance(v, float) else f"{k}={v}"
+                for k, v in spec.items()
+                if k != "kind"
+            )
             qs = " ".join(f"{x:+.6g}" for x in self.q.get(name, []))
             lines.append(
                 f"  {name}: {spec.get('kind')}"
@@ -299,7 +303,9 @@ def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
     ]
     for name, st in flexures.items():
         sf = st.safety_factor
-        safety = "inf" if sf is not None and math.isinf(sf) else num(sf, ".3g")
+        safety = (
+            "—" if sf is None or math.isnan(sf) else "inf" if math.isinf(sf) else safety_text(sf)
+        )
         if st.limited_by is not None:
             safety += f" ({st.limited_by})"
         # the relative error estimate of the three maxima ("—": none, as the exact model's)

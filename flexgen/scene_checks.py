@@ -1,4 +1,6 @@
-"""Facts about a valid scene that are likely mistakes: put on every Result of the scene as notes.
+"""Facts about a valid scene that are likely mistakes, put on every Result of the scene: notes
+(``scene_notes``: a forgotten ``at``) and warnings (``scene_warnings``: a flexure too thick for
+the slender-beam model, which no error estimate covers).
 
 A link has no length of its own: its frame is its parent flexure's tip frame, and a child flexure
 starts where its ``at`` puts it in that frame. A flexure that leaves ``at`` out starts at the link's
@@ -38,3 +40,24 @@ def scene_notes(scene: Scene) -> list[str]:
                 f"along, give it at = [x, y, angle] in the frame of {link.name!r}"
             )
     return notes
+
+
+# below this length/thickness the model's slender beam (no shear, plane sections: the elastica
+# every model here approximates) is off by several percent, beyond any error estimate flexgen
+# states (shear adds about (E/G)(t/L)^2 to a cantilever's deflection: 8 % at L = 5 t)
+MIN_SLENDERNESS = 5.0
+
+
+def scene_warnings(scene: Scene) -> list[str]:
+    """One warning per flexure whose thickness (when given) is more than 1/MIN_SLENDERNESS of its
+    length: outside the beam model, and often a unit slip (a length in m in an mm scene)."""
+    out = []
+    for f in scene.flexures:
+        if f.thickness is not None and f.length < MIN_SLENDERNESS * f.thickness:
+            out.append(
+                f"flexure {f.name!r}: length {f.length:.4g} is only {f.length / f.thickness:.2g} "
+                f"times its thickness {f.thickness:.4g}: the model is a slender beam (no shear), "
+                f"off by several percent below {MIN_SLENDERNESS:g} thicknesses (check the units "
+                f"of both)"
+            )
+    return out

@@ -33,7 +33,7 @@ from .models.registry import build_models, model_info
 from .problem import Problem, Workspace, answer_views
 from .result import UNSTABLE, LazyResult, Result, point_result
 from .scene import MAX_MAGNITUDE, Scene, _fmt, _number
-from .scene_checks import scene_notes
+from .scene_checks import scene_notes, scene_warnings
 from .settings import DEFAULT, SolverSettings
 from .stress import flexure_stresses, has_strengths, safety_warnings
 from .units import result_units
@@ -160,6 +160,7 @@ class Solver:
         self._info = {name: model_info(m) for name, m in self.models.items()}
         self._units = result_units(scene)  # the JSON "units" object (None: plain numbers)
         self._scene_notes = scene_notes(scene)  # likely mistakes in the scene: on every Result
+        self._scene_warnings = scene_warnings(scene)
         self._scene_loads = self.problem.loads.copy()
         self._scene_tensions = self.problem.tensions.copy()
         self._changed_loads = self._changed_tensions = False
@@ -338,7 +339,7 @@ class Solver:
         if not solved:
             return self._failed(status, a.iterations, notes, critical, a.failure_load_factor, est)
         stable = bool(a.stable)
-        warnings: list[str] = [] if stable else [UNSTABLE]
+        warnings: list[str] = list(self._scene_warnings) + ([] if stable else [UNSTABLE])
         # the core counts the points whose compliance has a non-finite entry (the points are
         # built on access, so the warning is given now)
         if a.undefined_compliance:

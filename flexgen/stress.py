@@ -155,6 +155,22 @@ def safety_factor(flexure: Flexure, max_stress: float | None) -> tuple[float | N
     return (strength / max_stress if max_stress > 0.0 else float("inf")), limited_by
 
 
+def safety_text(factor: float) -> str:
+    """A safety factor in words: 3 significant digits, more where those would round it to 1
+    (1.0028 is "1.003", not "1": its side of 1 is the point)."""
+    for digits in range(3, 8):
+        text = f"{factor:.{digits}g}"
+        if float(text) != 1.0 or factor == 1.0:
+            return text
+    return text
+
+
+def _percent(fraction: float) -> str:
+    """A relative error as a percentage a reader sees is not zero: 39%, 0.61%, 0.0067%."""
+    pct = 100.0 * fraction
+    return f"{pct:.0f}%" if pct >= 10.0 else f"{pct:.2g}%"
+
+
 def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list[str]:
     """One warning per flexure whose safety factor is below 1, naming every strength its
     largest stress exceeds, or may be below 1: the largest stress its error estimate allows,
@@ -171,9 +187,10 @@ def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list
         if st.safety_factor >= 1.0 and st.safety_factor * (1.0 - est) >= 1.0:
             continue
         if st.safety_factor >= 1.0:
-            off = f"{est:.0%}" if math.isfinite(est) else "an unknown amount"
+            off = _percent(est) if math.isfinite(est) else "an unknown amount"
             out.append(
-                f"flexure {f.name!r}: safety factor {st.safety_factor:.3g} ({st.limited_by}) "
+                f"flexure {f.name!r}: safety factor {safety_text(st.safety_factor)} "
+                f"({st.limited_by}) "
                 f"may be below 1: its max stress {st.max_stress:.4g} may be off by {off} (its "
                 f"error estimate; more modes or elements resolve it)"
             )
@@ -186,7 +203,7 @@ def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list
         )
         out.append(
             f"flexure {f.name!r}: max stress {st.max_stress:.4g} at s/L = {st.at:.3g} exceeds "
-            f"its {exceeded} (safety factor {st.safety_factor:.3g})"
+            f"its {exceeded} (safety factor {safety_text(st.safety_factor)})"
         )
     return out
 

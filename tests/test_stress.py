@@ -199,6 +199,21 @@ def test_without_a_section_only_the_curvature_is_known():
     assert "—" in r.table()
 
 
+@pytest.mark.parametrize("model", ["scm", "exact"])
+def test_a_flexure_thicker_than_a_fifth_of_its_length_is_a_warning(model):
+    """Outside the slender-beam model (length below 5 thicknesses: shear adds several percent,
+    which no estimate covers), often a unit slip: a warning naming both values; the strip
+    itself (100 thicknesses) and one at 5.01 none."""
+    M = 0.1 * EI / L
+    for thickness, warned in ((L / 4.0, True), (L / 5.01, False), (THICK, False)):
+        section = {"EI": EI, "thickness": thickness}
+        r = flexgen.solve(strip({"force": [0.0, 0.0], "moment": M}, **section), model=model)
+        found = [w for w in r.warnings if "slender beam" in w]
+        assert bool(found) == warned, (thickness, r.warnings)
+        if warned:
+            assert f"thickness {thickness:.4g}" in found[0] and "only 4 times" in found[0]
+
+
 def test_thickness_with_EI_gives_the_strain_not_the_stress():
     M = 0.1
     r = flexgen.solve(strip({"force": [0.0, 0.0], "moment": M}, EI=EI, thickness=THICK))
