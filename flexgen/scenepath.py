@@ -21,6 +21,7 @@ name or index that does not exist, is a ``PathError`` naming the path and listin
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 from typing import Any
@@ -54,10 +55,16 @@ def thaw(d: Any) -> Any:
     return d
 
 
-def _names(names: Sequence[Any], limit: int = 12) -> str:
+def _names(names: Sequence[Any], limit: int = 20) -> str:
     shown = ", ".join(str(n) for n in names[:limit])
     more = f", ... ({len(names) - limit} more)" if len(names) > limit else ""
     return (shown + more) or "none"
+
+
+def _hint(seg: str, names: Sequence[Any]) -> str:
+    """ "did you mean 'x'? " for a name close to ``seg`` (a typo), else "" (as scene keys)."""
+    close = difflib.get_close_matches(seg, [str(n) for n in names if n is not None], n=1)
+    return f"did you mean {close[0]!r}? " if close else ""
 
 
 def _short(v: Any) -> str:
@@ -82,7 +89,9 @@ def _index(seg: str, items: Sequence[Any], path: str, what: str) -> int:
         names = [t.get("name") if isinstance(t, Mapping) else None for t in items]
         if seg in names:
             return names.index(seg)
-        raise PathError(f"{path}: unknown {what} {seg!r} (known: {_names(names)})")
+        raise PathError(
+            f"{path}: unknown {what} {seg!r} ({_hint(seg, names)}known: {_names(names)})"
+        )
     raise PathError(f"{path}: a {what} is given by its index (0 to {len(items) - 1}), got {seg!r}")
 
 
@@ -120,7 +129,10 @@ def _walk(
             allowed = tables.get(kind) if kind is not None else None
             if seg not in node and (allowed is None or seg not in allowed):
                 known = list(allowed if allowed is not None else node)
-                raise PathError(f"{path}: {where} has no key {seg!r} (known: {_names(known)})")
+                raise PathError(
+                    f"{path}: {where} has no key {seg!r} ({_hint(seg, known)}known: "
+                    f"{_names(known)})"
+                )
             key = seg
         else:
             raise PathError(f"{path}: {where} is a value ({_short(node)}), not a table or a list")

@@ -33,6 +33,7 @@ from .settings import SolverSettings
 from .solver import Solver, check_flag
 from .sweep_chunk import CASE_FIELDS, FLEXURE_FIELDS, POINT_FIELDS, Chunk, run_chunk, stress_columns
 from .sweep_plan import CHUNK_SIZE, Plan, plan
+from .units import result_units
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -277,7 +278,11 @@ def _table(scene: Scene, study: Plan, results: Iterable[Result]) -> pd.DataFrame
         for f in FLEXURE_FIELDS:
             cols[f"{name}.{f}"] = table[:, j]
             j += 1
-    return pd.DataFrame(cols)
+    df = pd.DataFrame(cols)
+    units = result_units(scene)
+    if units is not None:  # the numbers' units, as a Result's JSON gives them (kept by Parquet)
+        df.attrs["units"] = units
+    return df
 
 
 # -- progress ---------------------------------------------------------------------------------

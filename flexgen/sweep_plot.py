@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from .drawing import _save, _text, _with_unit
+from .units import key_dimension
 
 BAND = (5.0, 95.0)  # the percentile band of a Monte-Carlo histogram
 
@@ -76,10 +77,10 @@ def draw_study(
             ax.plot(x[unstable], y[unstable], "x", color="C3", label="unstable")
             for xf in x[~ok]:
                 ax.axvline(xf, color="0.7", lw=0.8)
-            ax.set_xlabel(_text(keys[0]))
+            ax.set_xlabel(_text(_key_label(keys[0], units)))
             ax.set_ylabel(_text(label))
         else:
-            _heatmap(fig, ax, df, keys[:2], y, ok, unstable, label)
+            _heatmap(fig, ax, df, keys[:2], y, ok, unstable, label, units)
         ax.grid(alpha=0.3)
     title = f"{len(df)} cases, {int((~ok).sum())} without an equilibrium"
     if unstable.any():
@@ -90,6 +91,12 @@ def draw_study(
     path = Path(path)
     _save(fig, path)
     return path
+
+
+def _key_label(key: str, units: Any) -> str:
+    """A varied key with its unit in the scene's units (none for plain numbers or a count)."""
+    dimension = key_dimension(key)
+    return _with_unit(key, units.label(dimension) if units is not None and dimension else "")
 
 
 def _histogram(ax: Any, y: np.ndarray, label: str) -> None:
@@ -105,7 +112,7 @@ def _histogram(ax: Any, y: np.ndarray, label: str) -> None:
     ax.legend(fontsize=8)
 
 
-def _heatmap(fig, ax, df, keys, y, ok, unstable, label) -> None:
+def _heatmap(fig, ax, df, keys, y, ok, unstable, label, units) -> None:
     """``y`` over the first two keys (the other keys at their first value)."""
     first = np.ones(len(df), bool)
     for k in df.columns[: df.columns.get_loc("converged")]:
@@ -128,8 +135,8 @@ def _heatmap(fig, ax, df, keys, y, ok, unstable, label) -> None:
     ax.scatter(xc[cross], yc[cross], marker="x", color="C3", label="unstable")
     if failed.any() or cross.any():
         ax.legend(fontsize=8)
-    ax.set_xlabel(_text(keys[1]))
-    ax.set_ylabel(_text(keys[0]))
+    ax.set_xlabel(_text(_key_label(keys[1], units)))
+    ax.set_ylabel(_text(_key_label(keys[0], units)))
 
 
 def _edges(v: np.ndarray) -> np.ndarray:

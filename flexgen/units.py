@@ -68,6 +68,28 @@ LOAD = {"moment": "moment"}  # and force = [fx, fy]: force
 TENDON = {"tension": "force"}
 UNITS_KEYS = ("length", "force")
 
+
+def key_dimension(path: str) -> str | None:
+    """The dimension of the value a study's dotted path names (``flexure.0.thickness``,
+    ``load.1.force.0``, ``link.pad.points.tip.1``, as ``flexgen sweep --vary`` takes them),
+    from the key table above; None for a count or a path the table does not cover."""
+    segs = path.split(".")
+    head, last = segs[0], segs[-1]
+    if head == "flexure" and len(segs) >= 3:
+        if segs[2] == "at" and len(segs) == 4 and segs[3] in ("0", "1", "2"):
+            return AT[int(segs[3])]
+        return MODEL.get(last) if segs[2] == "model" else FLEXURE.get(last)
+    if head == "model":
+        return MODEL.get(last)
+    if head == "load":
+        return "force" if "force" in segs else LOAD.get(last)
+    if head == "tendon":
+        return TENDON.get(last)
+    if "points" in segs:
+        return "length"
+    return None
+
+
 MAX_TEXT = 100  # characters of a unit string (longer is an error before pint sees it)
 # a leading decimal number (no nan/inf, no underscores), then the unit expression
 _QUANTITY = re.compile(r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*", re.S)
@@ -108,6 +130,8 @@ class Units:
             "curvature": f"1/{L}",
             "stiffness": f"{F}*{L}",
             "EI": f"{F}*{L}^2",
+            "bending stiffness": f"{F}*{L}^2",
+            "second moment of area": f"{L}^4",
         }
         if quantity == "stress":
             return _stress_name(self.length, self.force) or f"{F}/{L}^2"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import json
 import math
 import os
 import stat
@@ -239,6 +240,33 @@ def test_a_scene_without_a_section_has_empty_stress_columns():
     scene = flexgen.scene_from_dict(beam).with_value("load.0.force.1", -2.0)
     want = flexgen.solve(scene).flexures["beam"].max_stress
     assert want > 0 and df["beam.max_stress"].iloc[0] == pytest.approx(want, rel=1e-9)
+
+
+def test_a_typo_in_a_study_key_suggests_the_key():
+    """As a scene's own keys do: "did you mean", the key and flexure names listed."""
+    finger = ROOT / "examples" / "two_link_finger.toml"
+    with pytest.raises(SceneError, match=r"has no key 'thicknes' \(did you mean 'thickness'\?"):
+        flexgen.sweep(finger, {"flexure.proximal.thicknes": [2e-4]}, workers=1)
+    with pytest.raises(SceneError, match=r"unknown flexure 'proximl' \(did you mean 'proximal'\?"):
+        flexgen.sweep(finger, {"flexure.proximl.thickness": [2e-4]}, workers=1)
+
+
+def test_a_table_in_scene_units_says_them(tmp_path):
+    """A scene with units: the table's attrs carry the Result's "units" object (Parquet keeps
+    it); a scene without units gives none."""
+    pytest.importorskip("pyarrow")
+    beam = {
+        "units": {"length": "mm", "force": "N"},
+        "flexure": [{"name": "beam", "length": 20.0, "EI": 2000.0}],
+        "load": [{"point": "beam.tip", "force": [0.0, -1.0]}],
+    }
+    df = flexgen.sweep(beam, {"load.0.force.1": [-1.0, -2.0]}, workers=1)
+    assert df.attrs["units"] == json.loads(flexgen.solve(beam).to_json())["units"]
+    assert df.attrs["units"]["compliance"] == "mm/N"
+    df.to_parquet(tmp_path / "t.parquet")
+    assert pd.read_parquet(tmp_path / "t.parquet").attrs["units"] == df.attrs["units"]
+    del beam["units"]
+    assert "units" not in flexgen.sweep(beam, {"load.0.force.1": [-1.0]}, workers=1).attrs
 
 
 def test_a_scene_without_loads_reports_the_free_tips_as_a_solve_does():

@@ -327,3 +327,30 @@ def test_plot_axes_name_the_units(tmp_path):
             texts[name] = path.read_text()
     assert "x [mm]" in texts["mm"] and "y [mm]" in texts["mm"] and " N in every" in texts["mm"]
     assert "x [" not in texts["plain"] and "[m]" not in texts["plain"]
+
+
+@pytest.mark.parametrize(
+    ("path", "dimension"),
+    [
+        ("flexure.proximal.thickness", "length"),
+        ("flexure.0.EI", "bending stiffness"),
+        ("flexure.0.E", "stress"),
+        ("flexure.distal.model.fatigue_strength", "stress"),
+        ("flexure.0.at.2", "angle"),
+        ("flexure.0.at.0", "length"),
+        ("model.yield_strength", "stress"),
+        ("load.0.force.1", "force"),
+        ("load.0.moment", "moment"),
+        ("tendon.0.tension", "force"),
+        ("link.middle.points.pad.0", "length"),
+        ("base.points.r0.1", "length"),
+        ("flexure.0.modes", None),
+        ("model.tolerance", None),
+    ],
+)
+def test_a_study_key_has_the_dimension_of_its_scene_key(path, dimension):
+    """What a study's plot labels its axes with (flexgen.sweep_plot): the units table's own
+    dimension of that key in a scene (docs/scene.md, Units)."""
+    from flexgen.units import key_dimension
+
+    assert key_dimension(path) == dimension

@@ -27,7 +27,7 @@ def register(sub) -> None:
             "estimate and cost. Exit 1 if TOL is out of reach (the best estimate is printed)."
         ),
     )
-    p.add_argument("scene", type=Path, help="scene file (TOML)")
+    p.add_argument("scene", type=Path, metavar="SCENE", help="scene file (TOML)")
     p.add_argument(
         "--tol",
         type=tolerance,

@@ -89,9 +89,12 @@ def register(sub) -> None:
         help="solve a scene: loaded shape, stability, compliance ellipses",
         description=(
             "Solve a scene (flexures, rigid links, dead loads, tendons) by load continuation "
-            "from the "
-            "unloaded state, and report each output point's pose, 2x2 compliance and compliance "
-            "ellipse. Without --json: a table. Exit codes: 0 equilibrium found, 1 no equilibrium "
+            "from the unloaded state, and report each output point's pose, 2x2 compliance and "
+            "compliance ellipse with their error estimates, and each flexure's largest "
+            "curvature, strain and stress, where it is, their error estimate and the safety "
+            "factor against the scene's strengths (when the scene gives a section), in the "
+            "scene's units. Without --json: a table. Exit codes: 0 equilibrium found, 1 no "
+            "equilibrium "
             "(reason on stderr), 2 bad input (one line on stderr naming the key). With --json, stdout "
             'holds the JSON object in every case: "converged": false and "reason" when there is '
             "no answer."

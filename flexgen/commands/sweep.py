@@ -31,8 +31,9 @@ examples:
 
 KEY is a dotted path into the scene by names and indices: flexure.proximal.thickness,
 flexure.0.length, load.0.force.1 (the y force of the first [[load]]), load.0.moment,
-tendon.0.tension, model.modes, link.middle.points.pad.0. One row per case; columns in
-docs/sweep.md."""
+tendon.0.tension, model.modes, link.middle.points.pad.0. Values are plain numbers in the
+scene's units (a scene with units = {length = "mm"} takes thickness=0.2:0.4:3 in mm). One row
+per case; columns in docs/sweep.md; the table's units are the scene's."""
 
 
 def register(sub) -> None:
@@ -56,7 +57,8 @@ def register(sub) -> None:
         required=True,
         metavar="KEY=SPEC",
         help="a varied key: KEY=START:STOP:COUNT (COUNT values from START to STOP), or with "
-        "--samples KEY=normal:MEAN:SD or KEY=uniform:LOW:HIGH; repeat for more keys",
+        "--samples KEY=normal:MEAN:SD or KEY=uniform:LOW:HIGH; plain numbers in the scene's "
+        "units; repeat for more keys",
     )
     p.add_argument("--samples", type=integer(1), metavar="N", help="Monte-Carlo: N cases")
     p.add_argument("--seed", type=integer(0), metavar="S", help="Monte-Carlo: the random seed")
@@ -144,7 +146,10 @@ def _float(key: str, text: str) -> float:
     try:
         return float(text)
     except ValueError:
-        raise UsageError(f"--vary {key}: expected a number, got {text!r}") from None
+        raise UsageError(
+            f"--vary {key}: expected a plain number, read in the scene's units as its own plain "
+            f"numbers are, got {text!r}"
+        ) from None
 
 
 def run(args) -> int:
