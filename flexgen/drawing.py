@@ -487,7 +487,7 @@ def _loaded_flexures(ax, scene: Scene, g: Geometry, colour: Colouring | None) ->
     right, up = x <= middle[0], y <= middle[1]
     unit = f" {colour.unit}" if colour.unit else ""
     ax.annotate(
-        f"max {colour.symbol} = {value:.3g}{unit}\n({_text(name)}, s/L = {at:.2f})",
+        f"max {colour.symbol} = {value:.4g}{unit}\n({_text(name)}, s/L = {at:.2f})",
         (float(x), float(y)),
         xytext=(8 if right else -8, 8 if up else -8),
         textcoords="offset points",
