@@ -207,10 +207,13 @@ def _set_kernel_at_zero(flex: Any, i: int) -> np.ndarray | None:
     k = f.ndof
     out = np.zeros(3 + 3 * k + 3 * k * k)
     scratch = np.zeros(4 * (k + 1))
+    # named, so that it lives through the call: a temporary's memory could be freed and reused
+    # by another thread while the core reads it (cffi releases the GIL during the call)
+    q = np.zeros(k)
     length, f.length = f.length, 1.0  # the kernel itself, unscaled (tip0 is not set yet)
     ok = lib.fg_flexure_tip(
         flex + i,
-        double_ptr(np.zeros(k)),
+        double_ptr(q),
         double_ptr(out),
         double_ptr(out[3:]),
         double_ptr(out[3 + 3 * k :]),
