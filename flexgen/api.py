@@ -12,7 +12,7 @@ tolerance=None, **options)``:
 - ``models``: {flexure: FlexureModel} for some flexures (the others from the scene);
 - ``settings``: a ``SolverSettings``; ``options``: any of its fields by name (``tol``,
   ``max_steps``, ...), checked; ignored by the exact solver;
-- ``q0``: a warm start ({flexure: coordinates});
+- ``q0``: a warm start ({flexure: coordinates}; checked, and ignored by the exact solver);
 - ``tolerance`` (or ``[model] tolerance``): choose the fewest modes per flexure that meet it
   (``flexgen.select``);
 - ``estimate`` (default True): give every chain-model answer its error estimate
@@ -39,6 +39,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from .result import Result
 from .scene import (
     MAX_ELEMENTS,
@@ -59,9 +61,12 @@ from .validity import check, units_reason
 def _count(value, key: str, maximum: int) -> int | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= maximum:
+    # a NumPy integer too (np.arange, an array element): what with_value and sweep take
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
         raise SceneError(f"{key}: must be an integer in [1, {maximum}], got {_fmt(value)}")
-    return value
+    if not 1 <= value <= maximum:
+        raise SceneError(f"{key}: must be an integer in [1, {maximum}], got {_fmt(value)}")
+    return int(value)
 
 
 def unused_count(
@@ -247,11 +252,11 @@ def _solve_scene(
         solver = _solvers.get(_key(scene, settings))
         if solver is not None and solver.scene is scene and _same(solver.settings, settings):
             return _solve_prepared(scene, solver, q0, estimate), None
+    settings = make_settings(settings, **options)  # checked also where exact ignores them
     if uses_exact(scene):
         from . import exact_result
 
         return exact_result.solve(scene)
-    settings = make_settings(settings, **options)
     if tolerance is None and models is None:
         from .select import scene_tolerance
 
@@ -282,7 +287,21 @@ def solve(
     elements: int | None = None,
     **options: Any,
 ) -> Result:
-    """Solve a scene (Scene, dict or TOML path); see the module docstring."""
+    """Solve a scene: its equilibrium under the scene's loads and tendons, the output points'
+    poses and compliances, each flexure's stresses, warnings and notes, in the scene's units.
+
+    - ``scene``: a ``Scene``, a dict (``scene_from_dict``) or a path to a TOML file;
+    - ``model`` / ``modes`` / ``elements``: override every flexure's ``kind`` / ``modes`` /
+      ``elements`` (a count no flexure reads, such as ``modes`` with ``"cc"``, is a SceneError);
+    - keyword ``models``: {flexure: FlexureModel} for some flexures; ``settings``: a
+      ``SolverSettings``, or any of its fields by name (``tol``, ``max_steps``, ...); ``q0``: a
+      warm start {flexure: coordinates}; ``tolerance``: choose the fewest modes per flexure
+      that meet it (``flexgen.select``); ``estimate`` (default True): the answer's error
+      estimate (False skips it).
+
+    Returns a ``Result`` (``converged`` False with a ``reason`` when there is no equilibrium).
+    Bad input raises a one-line SceneError or ValueError naming the argument. More in the
+    module docstring and docs/solve.md."""
     if not options and model is None and modes is None and elements is None:
         # the loop path (the same Scene object, nothing overridden): its cached solver, if one
         # is kept, without the generic argument handling below (what it would do, in short)
@@ -317,7 +336,9 @@ def prepare(
 ) -> Solver:
     """A ``Solver`` for repeated solves of one scene (``flexgen.Solver``'s front door: the same
     scene arguments and overrides as ``solve``). ``Solver.solve(loads=..., tensions=...)``
-    skips the scene handling and the validity check: the core call and the Result only."""
+    skips the scene handling and the validity check: the core call and the Result only.
+    ``flexgen.Solver`` is this function; the type it returns, for annotations and isinstance,
+    is ``flexgen.solver.Solver``."""
     sc = override(as_scene(scene), model, modes, elements)
     if uses_exact(sc):
         raise SceneError("Solver: the exact model is a reference solver; use flexgen.solve")

@@ -263,7 +263,10 @@ def _check_same(scene: Scene, result: Result, exact_solution: Any = None) -> Non
             raise PlotError(
                 f"result: not an equilibrium of scene {scene.name!r} as given ({ref!r} is at "
                 f"({x:.6g}, {y:.6g}) in it, ({pose[0]:.6g}, {pose[1]:.6g}) solved here): it is "
-                "of a scene with other loads, tensions or geometry; pass the scene that was solved"
+                "of a scene with other loads, tensions or geometry; pass the scene that was "
+                "solved (a Solver's answer under other inputs: the scene with those inputs, "
+                "scene.with_value('load.0.force', [fx, fy]) or 'tendon.0.tension', which also "
+                "draws its load arrows to scale)"
             )
 
 

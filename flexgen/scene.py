@@ -1079,6 +1079,11 @@ def as_scene(scene: Scene | Mapping[str, Any] | str | os.PathLike) -> Scene:
         return scene
     if isinstance(scene, Mapping):
         return scene_from_dict(scene)
+    if isinstance(scene, str) and "\n" in scene:  # a file's text, not its name
+        raise SceneError(
+            "scene: got a string of several lines, which is no file name (TOML text? pass "
+            "tomllib.loads(text) as a dict, or the file's path)"
+        )
     if isinstance(scene, (str, os.PathLike)):
         return load_scene(scene)
     raise SceneError(f"scene: expected a Scene, a dict or a path, got {type(scene).__name__}")

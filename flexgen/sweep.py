@@ -98,6 +98,13 @@ def sweep(
         raise ValueError(f"workers: must be an integer >= 1, got {workers}")
     check_flag(estimate, "estimate")  # a string such as "no" would be truthy
     check_flag(stress, "stress")
+    if client is not None and not all(hasattr(client, m) for m in ("map", "gather")):
+        raise ValueError(
+            f"client: expected a dask.distributed.Client, got {type(client).__name__} (an "
+            f"address: Client({client!r}) connects to it)"
+            if isinstance(client, str)
+            else f"client: expected a dask.distributed.Client, got {type(client).__name__}"
+        )
     chunks = _chunks(sc, study, chunk_size, estimate, stress, settings)
     bar = _progress(progress, study.cases, interactive=client is not None)
     try:

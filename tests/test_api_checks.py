@@ -225,3 +225,31 @@ def test_a_prepared_solver_refuses_a_scene_tolerance_without_modes(tmp_path):
     with pytest.raises(flexgen.SceneError, match="^Solver: the scene asks for a tolerance"):
         flexgen.Solver(scene)
     assert flexgen.Solver(scene, modes=4).solve().model["b"]["modes"] == 4
+
+
+def test_numpy_integer_counts_are_counts(finger):
+    """What np.arange or an array element gives: the same model as the Python int."""
+    r = flexgen.solve(finger, modes=np.int64(4))
+    assert r.model["proximal"] == {"kind": "scm", "modes": 4}
+    assert r.q["proximal"] == flexgen.solve(finger, modes=4).q["proximal"]
+    s = flexgen.Solver(finger, model="fem", elements=np.int32(6))
+    assert len(s.solve().q["proximal"]) == 6
+    with pytest.raises(flexgen.SceneError, match=r"modes: must be an integer"):
+        flexgen.solve(finger, modes=np.float64(4.0))
+
+
+def test_a_files_text_for_a_scene_is_one_line_naming_it():
+    text = FINGER.read_text()
+    with pytest.raises(flexgen.SceneError) as caught:
+        flexgen.solve(text)
+    assert "\n" not in str(caught.value) and "several lines" in str(caught.value)
+
+
+def test_a_client_that_is_no_client_is_a_value_error_naming_it(finger):
+    with pytest.raises(ValueError, match=r"client: expected a dask.distributed.Client, got str"):
+        flexgen.sweep(finger, {"load.0.force.1": [-1.0]}, client="tcp://127.0.0.1:1")
+
+
+def test_the_exact_solver_checks_the_settings_it_ignores():
+    with pytest.raises(ValueError, match=r"settings.max_steps"):
+        flexgen.solve(EX / "rectangular_elastica.toml", model="exact", max_steps=-1)
