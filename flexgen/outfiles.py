@@ -46,8 +46,13 @@ def folder_problem(folder: Path) -> str | None:
     """Why files cannot be written into ``folder`` (created with its parents if missing), or
     None: the nearest existing ancestor must be a folder this user may write."""
     probe = Path(folder)
-    while not probe.exists() and probe != probe.parent:
-        probe = probe.parent
+    try:
+        while not probe.exists() and probe != probe.parent:
+            if probe.is_symlink():  # mkdir would meet it: "File exists" after all the work
+                return f"{probe} is a symbolic link to nothing"
+            probe = probe.parent
+    except OSError as exc:  # a name too long for the system, a loop of links
+        return f"{exc.strerror or exc}"
     if not probe.is_dir():
         return f"{probe} is not a folder"
     if not os.access(probe, os.W_OK | os.X_OK):
@@ -73,7 +78,7 @@ def write_all(targets: Sequence[tuple[Path, Writer]]) -> None:
     try:
         for target, write in targets:
             with _naming(target):
-                made += _make_folders(target.parent)
+                _make_folders(target.parent, made)
                 temps[target] = _reserve(target)
                 write(temps[target])
                 mode = modes[target]
@@ -133,17 +138,16 @@ def _replaceable(target: Path) -> int | None:
     return stat.S_IMODE(info.st_mode)
 
 
-def _make_folders(folder: Path) -> list[Path]:
-    """Create ``folder`` and its missing parents; the folders created, outermost first."""
+def _make_folders(folder: Path, made: list[Path]) -> None:
+    """Create ``folder`` and its missing parents, outermost first, each added to ``made`` as it
+    is made (so that a later one failing leaves the earlier ones to be removed)."""
     missing = []
     while not folder.exists() and folder != folder.parent:
         missing.append(folder)
         folder = folder.parent
-    made = []
     for f in reversed(missing):
         f.mkdir()
         made.append(f)
-    return made
 
 
 def _remove_folders(made: list[Path]) -> None:

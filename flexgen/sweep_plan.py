@@ -120,6 +120,8 @@ def draw(key: str, spec: Any, samples: int, rng: np.random.Generator) -> np.ndar
         return rng.normal(a, b, samples)
     if b < a:
         raise SceneError(f"{key}: uniform needs low <= high, got {a:g} > {b:g}")
+    if not np.isfinite(b - a):  # NumPy draws from low + (high - low) u
+        raise SceneError(f"{key}: uniform's range high - low overflows, got {a:g} to {b:g}")
     return rng.uniform(a, b, samples)
 
 

@@ -109,3 +109,25 @@ def test_a_failed_write_is_exit_1_naming_the_file(tmp_path, monkeypatch, capsys)
     assert code == 1
     assert err == f"flexgen: cannot write {tmp_path / 'finger.c'}: File too large\n"
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_folder_that_fails_deep_leaves_none_of_the_folders_made_before(tmp_path):
+    """mkdir of a/b/<a name too long> fails after a and a/b were made: both are removed."""
+    target = tmp_path / "a" / "b" / ("L" * 300) / "t.txt"
+    with pytest.raises(WriteFailed):
+        write_texts({target: "x"})
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_output_folder_that_is_a_dangling_link_is_refused_up_front(tmp_path):
+    """mkdir would meet the link only after the work ("File exists"): folder_problem says it
+    first, as it says a name too long for the system."""
+    from flexgen.outfiles import folder_problem
+
+    (tmp_path / "dang").symlink_to(tmp_path / "nowhere" / "zz")
+    assert (
+        folder_problem(tmp_path / "dang" / "sub")
+        == f"{tmp_path / 'dang'} is a symbolic link to nothing"
+    )
+    assert folder_problem(tmp_path / ("L" * 300)) == "File name too long"
+    assert folder_problem(tmp_path / "fresh" / "sub") is None

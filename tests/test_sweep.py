@@ -330,6 +330,11 @@ def test_stress_columns_are_the_results_flexures(finger):
         ({"tendon.0.tension": (0.0, 1.0, 2)}, {"samples": 5}, "with samples, expected"),
         ({"tendon.0.tension": ("gamma", 1.0, 0.1)}, {"samples": 5}, "with samples, expected"),
         (
+            {"load.0.force.1": ("uniform", -1e308, 1e308)},
+            {"samples": 3},
+            "load.0.force.1: uniform's range high - low overflows",
+        ),
+        (
             {"tendon.0.tension": (-1.0, 1.0, 3)},
             {},
             "tendon.0.tension: tendon[0].tension: must be zero",

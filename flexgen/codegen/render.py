@@ -35,7 +35,11 @@ def stale_files(files: dict[str, str], out_dir: Path) -> list[str]:
     stale = []
     for rel, text in sorted(files.items()):
         path = out_dir / rel
-        if not path.is_file() or path.read_text() != text:
+        try:
+            same = path.is_file() and path.read_text() == text
+        except OSError:  # unreadable, or a name too long: not the file expected
+            same = False
+        if not same:
             stale.append(rel)
     return stale
 
