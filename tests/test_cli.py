@@ -123,6 +123,23 @@ def test_an_unwritable_out_fails_before_the_run(tmp_path, command):
         assert len(result.stderr.strip().splitlines()) == 1 and "--out" in result.stderr
 
 
+@pytest.mark.parametrize(
+    "args",
+    [["stability", "--quick"], ["bench", "--quick"], ["generate", "--modes", "2"]],
+    ids=["stability", "bench", "generate"],
+)
+def test_an_empty_out_is_refused_not_taken_as_the_current_folder(tmp_path, args):
+    result = subprocess.run(
+        [sys.executable, "-m", "flexgen", *args, "--out", ""],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert result.returncode == 2 and "an empty path" in result.stderr, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_select_prints_the_answers_warnings_as_solve_does():
     """The selected answer's warnings (here the steel finger's safety factors) are printed as
     warnings, and a tolerance out of reach is a warning, not a note."""

@@ -6,9 +6,8 @@ imports flexgen_tools); it needs a source checkout (examples/)."""
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-from flexgen.commands.common import REPO, UsageError, integer
+from flexgen.commands.common import REPO, UsageError, integer, output_path
 
 
 def register(sub) -> None:
@@ -31,7 +30,9 @@ def register(sub) -> None:
         action="store_true",
         help="a few scenes and models (for the tests; well under a minute)",
     )
-    p.add_argument("--out", type=Path, default=REPO / "docs", help="output folder (default docs/)")
+    p.add_argument(
+        "--out", type=output_path, default=REPO / "docs", help="output folder (default docs/)"
+    )
     p.add_argument(
         "--random",
         type=integer(1),

@@ -13,6 +13,14 @@ class UsageError(Exception):
     """Bad command-line input: one line on stderr, exit code 2."""
 
 
+def output_path(text: str) -> Path:
+    """An --out / -o / --plot path: an empty one is refused (Path("") is the current folder,
+    which nobody means by it)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path (give a file or folder name)")
+    return Path(text)
+
+
 def integer(minimum: int | None = None, maximum: int | None = None):
     """argparse type: an integer (in [minimum, maximum] where given), with a one-line message
     otherwise."""

@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 from flexgen.codegen.spec import BACKENDS, DEFAULT_TOL, FAMILIES, KernelSpec
-from flexgen.commands.common import UsageError, integer
+from flexgen.commands.common import UsageError, integer, output_path
 
 LANGS = tuple(BACKENDS)  # each with its config (codegen/spec.py) and emitter (codegen/generate.py)
 
@@ -96,7 +96,7 @@ def register(sub) -> None:
     )
     gen.add_argument(
         "--out",
-        type=Path,
+        type=output_path,
         help="output folder (default: ./generated for kernels, ./NAME for --scene, under the "
         "current folder; the kernels shipped inside the package are never overwritten)",
     )

@@ -6,9 +6,8 @@ never imports flexgen_tools); it needs a source checkout (examples/)."""
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-from flexgen.commands.common import REPO, UsageError
+from flexgen.commands.common import REPO, UsageError, output_path
 
 
 def register(sub) -> None:
@@ -26,7 +25,9 @@ def register(sub) -> None:
         ),
     )
     p.add_argument("--quick", action="store_true", help="a small grid and a few models")
-    p.add_argument("--out", type=Path, default=REPO / "docs", help="output folder (default docs/)")
+    p.add_argument(
+        "--out", type=output_path, default=REPO / "docs", help="output folder (default docs/)"
+    )
     p.set_defaults(run=run)
 
 
