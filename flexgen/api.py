@@ -69,7 +69,7 @@ def _count(value, key: str, maximum: int) -> int | None:
     return int(value)
 
 
-def unused_count(
+def _unused_count(
     model: str | None, modes: Any, elements: Any, kinds: Iterable[str] = ()
 ) -> tuple[str, str] | None:
     """``(option, why)`` when ``modes`` or ``elements`` is given with a ``model`` kind that does
@@ -92,21 +92,36 @@ def unused_count(
     return None
 
 
+def unused_count_message(
+    model: str | None, modes: Any, elements: Any, kinds: Iterable[str], flag: str = ""
+) -> str | None:
+    """``_unused_count`` as the one-line refusal, its options spelled with ``flag`` ("--" on
+    the command line: ``--modes: not used with --model cc (...)``), or None."""
+    unused = _unused_count(model, modes, elements, kinds)
+    if unused is None:
+        return None
+    option, why = unused
+    if model is None:
+        with_what = "by this scene"
+    else:
+        with_what = f"with {flag}model {model}" if flag else f"with model {model!r}"
+    return f"{flag}{option}: not used {with_what} ({why})"
+
+
 def override(
     scene: Scene, model: str | None = None, modes: int | None = None, elements: int | None = None
 ) -> Scene:
     """``scene`` with every flexure's model kind, modes and elements replaced where given; a
-    count the model kind does not read is a SceneError (``unused_count``)."""
+    count the model kind does not read is a SceneError (``_unused_count``)."""
     if model is not None and (not isinstance(model, str) or model not in MODEL_KINDS):
         raise SceneError(
             f"model: unknown kind {_fmt(model)} (choose from {', '.join(MODEL_KINDS)})"
         )
     modes = _count(modes, "modes", MAX_MODES)
     elements = _count(elements, "elements", MAX_ELEMENTS)
-    unused = unused_count(model, modes, elements, (f.model.kind for f in scene.flexures))
-    if unused is not None:
-        with_what = f"with model {model!r}" if model is not None else "by this scene"
-        raise SceneError(f"{unused[0]}: not used {with_what} ({unused[1]})")
+    refusal = unused_count_message(model, modes, elements, (f.model.kind for f in scene.flexures))
+    if refusal is not None:
+        raise SceneError(refusal)
     changes: dict[str, Any] = {}
     if model is not None:
         changes["kind"] = model

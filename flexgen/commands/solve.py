@@ -60,7 +60,7 @@ OPTION_NAMES = ["tolerance"]
 def solve_args(args):
     """Load the scene, apply the command-line overrides and solve:
     ``(scene, Result, exact SceneSolution or None)``. Bad input raises SceneError/UsageError."""
-    from flexgen.api import as_scene, override, solve_scene, unused_count
+    from flexgen.api import as_scene, override, solve_scene, unused_count_message
     from flexgen.kernels import KernelNotFound
     from flexgen.models.registry import ModelError
 
@@ -68,10 +68,9 @@ def solve_args(args):
         raise UsageError("--tol chooses the modes itself: give either --tol or --modes/--elements")
     scene = as_scene(args.scene)
     kinds = (f.model.kind for f in scene.flexures)
-    unused = unused_count(args.model, args.modes, args.elements, kinds)
-    if unused is not None:  # e.g. --model cc --modes 3 would solve one mode silently
-        with_what = f"with --model {args.model}" if args.model else "by this scene"
-        raise UsageError(f"--{unused[0]}: not used {with_what} ({unused[1]})")
+    refusal = unused_count_message(args.model, args.modes, args.elements, kinds, flag="--")
+    if refusal is not None:  # e.g. --model cc --modes 3 would solve one mode silently
+        raise UsageError(refusal)
     scene = override(scene, args.model, args.modes, args.elements)
     options = {
         name: getattr(args, name) for name in OPTION_NAMES if getattr(args, name, None) is not None
