@@ -552,6 +552,42 @@ def time_once(exe: Path, mode: str, n: int) -> float:
     return float(out.stdout.split()[0])
 
 
+def instructions_once(exe: Path, mode: str, n: int) -> int:
+    """Machine instructions of `exe time MODE n` under callgrind (valgrind's instruction
+    counter: the same count for the same binary and inputs, whatever the machine's load)."""
+    out = subprocess.run(
+        [
+            "valgrind",
+            "--tool=callgrind",
+            "--callgrind-out-file=/dev/null",
+            str(exe),
+            "time",
+            mode,
+            str(n),
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    found = re.search(r"Collected : (\d+)", out.stderr)
+    if found is None:
+        raise RuntimeError(f"callgrind reported no instruction count for {exe.name}")
+    return int(found.group(1))
+
+
+def count_instructions(jobs: Sequence[tuple[Contender, str]]) -> dict[tuple[str, str, str], float]:
+    """Instructions per solve of each (contender, mode): the difference of two runs (N and 2N
+    timed solves, each after N/10 + 1 untimed ones: harness.c) over the solves it adds, so the
+    program's start and the first cold solve cancel."""
+    n = 1000
+    out = {}
+    for c, mode in jobs:
+        low, high = instructions_once(c.exe, mode, n), instructions_once(c.exe, mode, 2 * n)
+        extra = (2 * n + (2 * n) // 10) - (n + n // 10)
+        out[(c.scene, c.name, mode)] = (high - low) / extra
+    return out
+
+
 def time_contenders(
     jobs: Sequence[tuple[Contender, str]], rounds: int, target_ms: float
 ) -> dict[tuple[str, str, str], float]:
@@ -598,6 +634,7 @@ def write_page(
     contenders: Sequence[Contender],
     times: dict[tuple[str, str, str], float],
     instructions: dict[str, int],
+    per_solve: dict[tuple[str, str, str], float] | None,
     rounds: int,
     target_ms: float,
 ) -> list[str]:
@@ -630,12 +667,38 @@ def write_page(
         for c in contenders
     ]
     verdicts = targets(contenders, times)
+    if per_solve is None:
+        counted = [
+            "valgrind is not installed: no instruction counts (Debian: apt install valgrind)."
+        ]
+    else:
+
+        def kilo(c: Contender, mode: str) -> str:
+            return f"{per_solve[(c.scene, c.name, mode)] / 1e3:.1f}"
+
+        def kratio(c: Contender, mode: str) -> str:
+            if c.side == "CasADi":
+                return "—"
+            peer = casadi[c.scene]
+            return (
+                f"{per_solve[(c.scene, c.name, mode)] / per_solve[(c.scene, peer.name, mode)]:.2f}"
+            )
+
+        counted = [
+            "| scene | contender | cold (k instructions) | warm (k instructions) | ratio cold | ratio warm |",
+            "|---|---|---|---|---|---|",
+        ] + [
+            f"| {c.scene} | {c.name} | {kilo(c, 'cold')} | {kilo(c, 'warm')} | "
+            f"{kratio(c, 'cold')} | {kratio(c, 'warm')} |"
+            for c in contenders
+        ]
     text = PAGE.format(
         machine=machine_note(),
         rounds=rounds,
         flexure_ops=instructions.get("flexure", 0),
         finger_ops=instructions.get("finger", 0),
         table="\n".join(rows),
+        instruction_table="\n".join(counted),
         agreement="\n".join(agreement),
         targets="\n".join(f"- {v}" for v in verdicts),
         pose_tol=POSE_TOL,
@@ -645,7 +708,7 @@ def write_page(
         cflags=" ".join(CFLAGS),
     )
     out.write_text(text)
-    return rows + [""] + agreement + [""] + verdicts
+    return rows + [""] + counted + [""] + agreement + [""] + verdicts
 
 
 def targets(contenders: Sequence[Contender], times: dict[tuple[str, str, str], float]) -> list[str]:
@@ -726,6 +789,16 @@ Ratio: flexgen / the CasADi peer of the same scene.
 | scene | contender | cold (us) | warm (us) | cold iterations / calls | warm iterations / calls | ratio cold | ratio warm |
 |---|---|---|---|---|---|---|---|
 {table}
+
+## Instructions per solve
+
+The same programs under valgrind's instruction counter (callgrind): machine instructions per
+solve, the difference of a run of 2000 timed solves and one of 1000 over the solves it adds. A
+count does not move with the machine's load, so it tells a small change from noise where the
+times above cannot; it weighs every instruction alike (a division as an addition), so its ratios
+are close to, not equal to, the times'.
+
+{instruction_table}
 
 ## Issue 9's targets
 
@@ -844,8 +917,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 1
         jobs = [(c, mode) for c in contenders for mode in ("cold", "warm")]
         times = time_contenders(jobs, args.rounds, args.target_ms)
+        counts = count_instructions(jobs) if shutil.which("valgrind") else None
         for line in write_page(
-            args.out, contenders, times, instructions, args.rounds, args.target_ms
+            args.out, contenders, times, instructions, counts, args.rounds, args.target_ms
         ):
             print(line)
     finally:

@@ -898,6 +898,61 @@ def test_solved_zero_is_all_a_cold_solve_needs(tmp_path):
     assert subprocess.check_output([str(exe)], text=True).split() == ["1"]
 
 
+FIXED = r"""
+#include <stdio.h>
+#include "finger.h"
+int main(void)
+{
+    finger_inputs in;
+    static finger_state state;
+    finger_outputs out;
+    finger_inputs_default(&in);
+    printf("%d %d\n", finger_solve(&in, &state, &out), (int)FINGER_BAD_INPUT);
+    return 0;
+}
+"""
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize(
+    "edit",
+    [
+        None,
+        ("FG_FIXED_NLOADS 1", "FG_FIXED_NLOADS 2"),
+        ("FG_FIXED_FLEX_NDOF 3", "FG_FIXED_FLEX_NDOF 2"),
+    ],
+)
+def test_the_core_is_compiled_for_the_scene_sizes_and_refuses_others(tmp_path, edit):
+    """The controller fixes the scene's sizes at compile time (chain_solver.c, "sizes"): they
+    are the scene's (the finger: 2 flexures of 3 modes, 5 points, 1 load, 1 tendon, 2 outputs),
+    and a core compiled for other sizes refuses the problem (BAD_INPUT) instead of reading it
+    with the wrong ones."""
+    write_files(controller_files(ROOT / "examples" / "two_link_finger.toml", "finger"), tmp_path)
+    source = tmp_path / "finger.c"
+    text = source.read_text()
+    for line in (
+        "#define FG_FIXED_NDOF 6\n",
+        "#define FG_FIXED_NFLEX 2\n",
+        "#define FG_FIXED_NPOINTS 5\n",
+        "#define FG_FIXED_NLOADS 1\n",
+        "#define FG_FIXED_NTENDONS 1\n",
+        "#define FG_FIXED_NOUTPUTS 2\n",
+        "#define FG_FIXED_FLEX_NDOF 3 ",
+    ):
+        assert text.count(line) == 1, line
+    if edit is not None:
+        source.write_text(text.replace(*edit))
+    (tmp_path / "fixed.c").write_text(FIXED)
+    exe = tmp_path / "fixed"
+    subprocess.run(
+        ["gcc", *STRICT, str(source), str(tmp_path / "fixed.c"), "-lm", "-o", str(exe)], check=True
+    )
+    status, bad_input = subprocess.check_output([str(exe)], text=True).split()
+    assert (status == bad_input) == (edit is not None), status
+    if edit is None:
+        assert status == "0"
+
+
 # -- the example's warnings are the library's -----------------------------------------------------
 
 PRB_SCM = """name = "prb then scm"
@@ -1103,3 +1158,13 @@ def test_a_file_name_that_is_no_prefix_is_named_as_the_file_name(tmp_path):
         assert not (tmp_path / stem).exists()
     r = _emit(["--scene", "int.toml", "--prefix", "beam", "--out", "o"], tmp_path)
     assert r.returncode == 0, r.stderr
+
+
+def test_flexures_of_different_sizes_fix_no_flexure_size(tmp_path):
+    """FG_FIXED_FLEX_NDOF is defined only when every flexure has as many coordinates: a prb
+    flexure (1) before an scm one (3) leaves each flexure's read from its table."""
+    scene = tmp_path / "mixed.toml"
+    scene.write_text(PRB_SCM.format(fy=-0.5))
+    text = controller_files(scene, "mixed")["mixed.c"]
+    assert "#define FG_FIXED_NDOF 4\n" in text and "#define FG_FIXED_NFLEX 2\n" in text
+    assert "#define FG_FIXED_FLEX_NDOF" not in text

@@ -328,6 +328,12 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
     return rows
 
 
+def _same(values: Any) -> int | None:
+    """The one value all of ``values`` have, None if they differ or there are none."""
+    found = set(values)
+    return found.pop() if len(found) == 1 else None
+
+
 def _tip0(values: Any, number) -> list[str] | None:
     """fg_flexure.tip0 of a flexure (``Problem.tip0``: its kernel at q = 0) as C numbers, None
     for a model without a kernel."""
@@ -560,6 +566,8 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "nloads": int(p.nloads),
         "ntendons": int(p.ntendons),
         "noutputs": int(p.noutputs),
+        # every flexure's number of coordinates where they all have the same (else None)
+        "flex_ndof": _same(int(p.flex[i].ndof) for i in range(int(p.nflex))),
         "nroute": nroute,
         "nwork": max(int(lib.fg_work_size(p)), 1),
         "niwork": max(int(lib.fg_iwork_size(p)), 1),

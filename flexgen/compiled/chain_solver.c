@@ -78,6 +78,40 @@
 #define FG_TINY 1e-300
 #endif
 
+/* ---- sizes ------------------------------------------------------------------------------ */
+
+/* The problem's sizes, read through these macros. The library reads each from its fg_problem
+ * (and fg_ws.n, its ndof). A scene controller (flexgen generate --scene) knows its scene's sizes
+ * and defines FG_FIXED_SIZES and FG_FIXED_NDOF .. FG_FIXED_NOUTPUTS before this file (and
+ * FG_FIXED_FLEX_NDOF where every flexure has as many coordinates), so that the compiler unrolls
+ * and folds the loops over coordinates, flexures, points, loads and tendons: 19 % fewer
+ * instructions per solve for one 3-mode flexure (docs/controller.md, Speed). problem_well_formed
+ * reads the fields themselves and refuses a problem whose sizes are not the fixed ones. A fixed
+ * size still names its argument (cast to void): the functions that read a size only keep their
+ * parameters and locals used. */
+#ifdef FG_FIXED_SIZES
+#define FG_N(w) ((void)(w), FG_FIXED_NDOF)
+#define FG_NDOF(p) ((void)(p), FG_FIXED_NDOF)
+#define FG_NFLEX(p) ((void)(p), FG_FIXED_NFLEX)
+#define FG_NPOINTS(p) ((void)(p), FG_FIXED_NPOINTS)
+#define FG_NLOADS(p) ((void)(p), FG_FIXED_NLOADS)
+#define FG_NTENDONS(p) ((void)(p), FG_FIXED_NTENDONS)
+#define FG_NOUTPUTS(p) ((void)(p), FG_FIXED_NOUTPUTS)
+#else
+#define FG_N(w) ((w)->n)
+#define FG_NDOF(p) ((p)->ndof)
+#define FG_NFLEX(p) ((p)->nflex)
+#define FG_NPOINTS(p) ((p)->npoints)
+#define FG_NLOADS(p) ((p)->nloads)
+#define FG_NTENDONS(p) ((p)->ntendons)
+#define FG_NOUTPUTS(p) ((p)->noutputs)
+#endif
+#ifdef FG_FIXED_FLEX_NDOF
+#define FG_FLEX_NDOF(f) ((void)(f), FG_FIXED_FLEX_NDOF)
+#else
+#define FG_FLEX_NDOF(f) ((f)->ndof)
+#endif
+
 /* ---- workspace ------------------------------------------------------------------------- */
 
 #define FG_NSTATES 6        /* states held at once (the bifurcation crossing needs five) */
@@ -165,7 +199,7 @@ typedef struct {
 static int kmax(const fg_problem *p)
 {
     int i, m = 0;
-    for (i = 0; i < p->nflex; ++i)
+    for (i = 0; i < FG_NFLEX(p); ++i)
         if (p->flex[i].ndof > m)
             m = p->flex[i].ndof;
     return m;
@@ -180,15 +214,15 @@ static size_t tip_stride(const fg_problem *p)
 
 static size_t tip_size(const fg_problem *p)
 {
-    return (size_t)p->nflex * (3 + tip_stride(p));
+    return (size_t)FG_NFLEX(p) * (3 + tip_stride(p));
 }
 
 FG_API size_t fg_work_size(const fg_problem *p)
 {
-    size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
-    size_t state = 6 * n + 2 * n * n + (size_t)p->noutputs * (3 + 3 * n);
+    size_t n = (size_t)FG_NDOF(p), F = (size_t)FG_NFLEX(p), P = (size_t)FG_NPOINTS(p);
+    size_t state = 6 * n + 2 * n * n + (size_t)FG_NOUTPUTS(p) * (3 + 3 * n);
     return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
-        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 11 * n + (size_t)p->nloads
+        + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 11 * n + (size_t)FG_NLOADS(p)
         + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + n + 16;
 }
 
@@ -196,20 +230,20 @@ FG_API size_t fg_iwork_size(const fg_problem *p)
 {
     /* pivots, kernel-switch flags (2), the kernels of the last kinematics, rotated frames,
      * the elimination order (perm, blocks, a mark per flexure) */
-    return (size_t)p->ndof + 1 + 4 * (size_t)p->nflex + (size_t)p->ndof + 4 * (size_t)p->nflex;
+    return 2 * (size_t)FG_NDOF(p) + 1 + 8 * (size_t)FG_NFLEX(p);
 }
 
 static void plan_elimination(fg_ws *w);
 
 static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
 {
-    size_t n = (size_t)p->ndof, F = (size_t)p->nflex, P = (size_t)p->npoints;
+    size_t n = (size_t)FG_NDOF(p), F = (size_t)FG_NFLEX(p), P = (size_t)FG_NPOINTS(p);
     fg_real *x = work;
     int i;
     w->p = p;
     w->set = &p->settings;
     w->tstride = tip_stride(p);
-    w->n = p->ndof;
+    w->n = FG_NDOF(p);
     w->kin_ok = 0;
     w->poly_in_range = 0;
     w->la_factors_cur = 0;
@@ -250,7 +284,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->qplus = x; x += n;
     w->qminus = x; x += n;
     w->mr = x; x += n;
-    w->hf = x; x += (size_t)p->nloads;
+    w->hf = x; x += (size_t)FG_NLOADS(p);
     w->ew = x; x += n;
     w->eV = x; x += n * n;
     w->ework = x; x += 2 * n * n + FG_LWORK(n);
@@ -265,21 +299,21 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
         s->Q = x; x += n;
         s->S = x; x += n * n;
         s->K = x; x += n * n;
-        s->out = x; x += (size_t)p->noutputs * (3 + 3 * n);
+        s->out = x; x += (size_t)FG_NOUTPUTS(p) * (3 + 3 * n);
     }
     w->piv = iwork;
-    w->switched = iwork + p->ndof + 1;
-    w->saved_switched = w->switched + p->nflex;
-    w->kin_kernel = w->saved_switched + p->nflex;
-    w->rotated = w->kin_kernel + p->nflex;
-    w->perm = w->rotated + p->nflex;
-    w->blocks = w->perm + p->ndof;
+    w->switched = iwork + FG_NDOF(p) + 1;
+    w->saved_switched = w->switched + FG_NFLEX(p);
+    w->kin_kernel = w->saved_switched + FG_NFLEX(p);
+    w->rotated = w->kin_kernel + FG_NFLEX(p);
+    w->perm = w->rotated + FG_NFLEX(p);
+    w->blocks = w->perm + FG_NDOF(p);
     w->nelim = w->nblocks = 0;
-    if (p->ndof >= p->settings.elimination_min_size)
+    if (FG_NDOF(p) >= p->settings.elimination_min_size)
         plan_elimination(w);
-    for (i = 0; i < p->nflex; ++i) {    /* every frame's J: any column may hold garbage */
+    for (i = 0; i < FG_NFLEX(p); ++i) {    /* every frame's J: any column may hold garbage */
         w->fdata[FG_FDATA * (size_t)i + 10] = 0.0;
-        w->fdata[FG_FDATA * (size_t)i + 11] = (fg_real)p->ndof;
+        w->fdata[FG_FDATA * (size_t)i + 11] = (fg_real)FG_NDOF(p);
     }
 }
 
@@ -298,13 +332,13 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
 static void plan_elimination(fg_ws *w)
 {
     const fg_problem *p = w->p;
-    int F = p->nflex, i, r, a, ne = 0, nk = 0;
+    int F = FG_NFLEX(p), i, r, a, ne = 0, nk = 0;
     int *mark = w->blocks + 3 * F;   /* per flexure: 1 eliminable, 0 kept, 2 under a tendon */
     for (i = 0; i < F; ++i) {
         const fg_flexure *f = &p->flex[i];
-        mark[i] = f->kind == FG_MODEL_KERNEL && f->ndof > 1;
+        mark[i] = f->kind == FG_MODEL_KERNEL && FG_FLEX_NDOF(f) > 1;
     }
-    for (r = 0; r < p->ntendons; ++r) {
+    for (r = 0; r < FG_NTENDONS(p); ++r) {
         int e, end = p->route_start[r] + p->route_len[r];
         for (e = p->route_start[r]; e < end; ++e) {
             int fr = p->points[p->route[e]].frame;
@@ -325,14 +359,14 @@ static void plan_elimination(fg_ws *w)
     for (i = 0; i < F; ++i) {
         const fg_flexure *f = &p->flex[i];
         int first = mark[i] == 1 ? 1 : 0;   /* the kept coordinates: the angle, or all */
-        for (a = 0; a < (first ? 1 : f->ndof); ++a)
+        for (a = 0; a < (first ? 1 : FG_FLEX_NDOF(f)); ++a)
             w->perm[w->nelim + nk++] = f->offset + a;
         if (first) {
             int *blk = w->blocks + 3 * w->nblocks++;
             blk[0] = ne;
-            blk[1] = f->ndof - 1;
+            blk[1] = FG_FLEX_NDOF(f) - 1;
             blk[2] = nk;
-            for (a = 1; a < f->ndof; ++a)
+            for (a = 1; a < FG_FLEX_NDOF(f); ++a)
                 w->perm[ne++] = f->offset + a;
         }
     }
@@ -356,7 +390,7 @@ static fg_real *tip_block(const fg_ws *w, int i)
 static int flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                        fg_real *scratch, int *switched, int in_range, int *used, int *computed)
 {
-    int k = f->ndof, i, j;
+    int k = FG_FLEX_NDOF(f), i, j;
     *used = FG_KERNEL_NONE;
     if (f->kind == FG_MODEL_KERNEL) {
         fg_kernel kernel;
@@ -465,11 +499,11 @@ static void zero_columns(fg_real *J, int n, int from, int to)
 static int kinematics(fg_ws *w, const fg_real *q)
 {
     const fg_problem *p = w->p;
-    int n = w->n, i, a, j, computed = 0;
+    int n = FG_N(w), i, a, j, computed = 0;
     w->kin_ok = 0;
-    for (i = 0; i < p->nflex; ++i) {
+    for (i = 0; i < FG_NFLEX(p); ++i) {
         const fg_flexure *f = &p->flex[i];
-        int k = f->ndof, off = f->offset;
+        int k = FG_FLEX_NDOF(f), off = f->offset;
         fg_real *pose = w->fpose + 3 * i, *J = w->fJ + (size_t)3 * n * i;
         fg_real *d = w->fdata + FG_FDATA * i;
         fg_real *tp = w->tpose + 3 * i, *blk = tip_block(w, i);
@@ -568,7 +602,7 @@ static int kinematics(fg_ws *w, const fg_real *q)
         d[10] = lo;
         d[11] = hi;
     }
-    for (i = 0; i < p->npoints; ++i) {
+    for (i = 0; i < FG_NPOINTS(p); ++i) {
         const fg_point *pt = &p->points[i];
         fg_real *pose = w->ppose + 3 * i, *J = w->pJ + (size_t)3 * n * i;
         if (pt->frame < 0) {
@@ -647,10 +681,10 @@ static void add_coefficient(fg_ws *w, int point, fg_real c0, fg_real c1, fg_real
 static void hessian_sum(fg_ws *w, fg_real *G)
 {
     const fg_problem *p = w->p;
-    int n = w->n, i, a, b, j;
-    for (i = p->nflex - 1; i >= 0; --i) {
+    int n = FG_N(w), i, a, b, j;
+    for (i = FG_NFLEX(p) - 1; i >= 0; --i) {
         const fg_flexure *f = &p->flex[i];
-        int k = f->ndof, off = f->offset;
+        int k = FG_FLEX_NDOF(f), off = f->offset;
         fg_real *acc = w->acc + 4 * i, *d = w->fdata + FG_FDATA * i, *blk = tip_block(w, i);
         fg_real *tJ = blk, *tH = blk + 3 * k, *RJ = blk + 3 * k + 3 * k * k;
         const fg_real *ag = tJ + 2 * k;       /* this flexure's tip angle row */
@@ -723,7 +757,7 @@ static int finite_all(const fg_real *x, size_t m)
 
 static size_t out_size(const fg_ws *w)
 {
-    return (size_t)w->p->noutputs * (3 + 3 * (size_t)w->n);
+    return (size_t)FG_NOUTPUTS(w->p) * (3 + 3 * (size_t)FG_N(w));
 }
 
 /* K[j] = lam S[j], j < m; returns 0 if every S[j] is finite, else NaN: S[j] - S[j] is 0 for a
@@ -752,7 +786,7 @@ static fg_real scaled_row(fg_real *K, const fg_real *S, fg_real lam, int m)
 static void at_lambda(const fg_ws *w, fg_state *st, const fg_real *S, fg_real lam, int fresh)
 {
     const fg_problem *p = w->p;
-    int n = w->n, i, j;
+    int n = FG_N(w), i, j;
     fg_real rn = 0.0;
     int bad = 0;
     st->lam = lam;
@@ -859,7 +893,7 @@ static void restore_errors(fg_ws *w, const fg_errors *e)
 /* the state's values are finite (else the last error says so: FG_ERR_NONFINITE) */
 static int state_finite(fg_ws *w, const fg_state *st)
 {
-    if (!isfinite(st->Pi) || !finite_all(st->r, (size_t)w->n) || !st->kfinite) {
+    if (!isfinite(st->Pi) || !finite_all(st->r, (size_t)FG_N(w)) || !st->kfinite) {
         set_error(w, FG_ERR_NONFINITE, st->lam, 0.0);
         return 0;
     }
@@ -882,12 +916,12 @@ static int evaluate(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
 static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
 {
     const fg_problem *p = w->p;
-    int n = w->n, i, j, t, a, b;
+    int n = FG_N(w), i, j, t, a, b;
     if (st->q != q)
         memcpy(st->q, q, sizeof(fg_real) * (size_t)n);
     if (!kinematics(w, st->q))
         return 0;
-    for (i = 0; i < p->noutputs; ++i) {
+    for (i = 0; i < FG_NOUTPUTS(p); ++i) {
         int pt = p->outputs[i];
         fg_real *o = st->out + (size_t)i * (3 + 3 * (size_t)n);
         memcpy(o, w->ppose + 3 * pt, sizeof(fg_real) * 3);
@@ -907,10 +941,10 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
     else                          /* the upper triangle only */
         for (i = 0; i < n; ++i)
             memset(st->S + (size_t)i * (size_t)n + i, 0, sizeof(fg_real) * (size_t)(n - i));
-    memset(w->acc, 0, sizeof(fg_real) * 4 * (size_t)p->nflex);
-    memset(w->dk, 0, sizeof(fg_real) * (size_t)p->nflex);
+    memset(w->acc, 0, sizeof(fg_real) * 4 * (size_t)FG_NFLEX(p));
+    memset(w->dk, 0, sizeof(fg_real) * (size_t)FG_NFLEX(p));
     st->W = st->V = 0.0;
-    for (t = 0; t < p->nloads; ++t) {
+    for (t = 0; t < FG_NLOADS(p); ++t) {
         int pt = p->load_point[t];
         const fg_real *F = p->load + 3 * t;
         const fg_real *pose = w->ppose + 3 * pt, *J = w->pJ + (size_t)3 * n * pt;
@@ -922,7 +956,7 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
         }
         add_coefficient(w, pt, -F[0], -F[1], -F[2]);
     }
-    for (t = 0; t < p->ntendons; ++t) {
+    for (t = 0; t < FG_NTENDONS(p); ++t) {
         fg_real T = p->tension[t], l = 0.0;
         const int *route = p->route + p->route_start[t];
         fg_real *gl = w->vec1, *m = w->vec2, *mr = w->mr;
@@ -1074,7 +1108,7 @@ static int cholesky_eliminated(const fg_ws *w, const fg_real *A, fg_real *F)
 {
     const fg_problem *p = w->p;
     const int *perm = w->perm;
-    int n = w->n, ne = w->nelim, nk = n - ne, b, i, j, k;
+    int n = FG_N(w), ne = w->nelim, nk = n - ne, b, i, j, k;
     for (b = 0; b < w->nblocks; ++b) {        /* P A P^T where U can be non-zero */
         const int *blk = w->blocks + 3 * b;
         int s = blk[0], e = s + blk[1], kh = ne + blk[2];
@@ -1137,7 +1171,7 @@ static int cholesky_eliminated(const fg_ws *w, const fg_real *A, fg_real *F)
 /* y = U^-T P b (y is not b), in the factor's order */
 static void forward_eliminated(const fg_ws *w, const fg_real *F, const fg_real *b, fg_real *y)
 {
-    int n = w->n, ne = w->nelim, a, b_, i, k;
+    int n = FG_N(w), ne = w->nelim, a, b_, i, k;
     for (a = 0; a < n; ++a)
         y[a] = b[w->perm[a]];
     for (b_ = 0; b_ < w->nblocks; ++b_) {
@@ -1159,7 +1193,7 @@ static void forward_eliminated(const fg_ws *w, const fg_real *F, const fg_real *
 /* x = A^-1 b: forward_eliminated, the back substitution in the factor's order, x = P^T of it */
 static void solve_eliminated(const fg_ws *w, const fg_real *F, const fg_real *b, fg_real *x)
 {
-    int n = w->n, ne = w->nelim, a, b_, j, k;
+    int n = FG_N(w), ne = w->nelim, a, b_, j, k;
     fg_real *y = w->etmp;
     forward_eliminated(w, F, b, y);
     backward_dense(F + (size_t)ne * (size_t)n + (size_t)ne, n - ne, n, y + ne);
@@ -1236,12 +1270,12 @@ static int use_lapack(const fg_problem *p, int n)
 }
 #endif
 
-/* F = the Cholesky factor of A (n = w->n: in elimination order when w->nelim, else the
+/* F = the Cholesky factor of A (n = FG_N(w): in elimination order when w->nelim, else the
  * natural one); 0 if A is not positive definite */
 static int cholesky(const fg_ws *w, const fg_real *A, fg_real *F)
 {
     const fg_problem *p = w->p;
-    int n = w->n, i;
+    int n = FG_N(w), i;
     if (w->nelim > 0)
         return cholesky_eliminated(w, A, F);
     for (i = 0; i < n; ++i)
@@ -1267,8 +1301,8 @@ static void cholesky_solve(const fg_ws *w, const fg_real *F, const fg_real *b, f
         solve_eliminated(w, F, b, x);
         return;
     }
-    forward_dense(F, w->n, w->n, b, x);
-    backward_dense(F, w->n, w->n, x);
+    forward_dense(F, FG_N(w), FG_N(w), b, x);
+    backward_dense(F, FG_N(w), FG_N(w), x);
 }
 
 /* y = U^-T P b (y is not b; P: the elimination order, or none): the columns whose dot
@@ -1278,7 +1312,7 @@ static void cholesky_forward(const fg_ws *w, const fg_real *F, const fg_real *b,
     if (w->nelim > 0)
         forward_eliminated(w, F, b, y);
     else
-        forward_dense(F, w->n, w->n, b, y);
+        forward_dense(F, FG_N(w), FG_N(w), b, y);
 }
 
 static int lu_solve(const fg_problem *p, const fg_real *A, fg_real *F, int *piv, int n,
@@ -1402,7 +1436,7 @@ static void jacobi_builtin(const fg_real *A, int n, fg_real *ev, fg_real *V, fg_
 static void eigen(fg_ws *w, const fg_real *A)
 {
     const fg_problem *p = w->p;
-    int n = w->n;
+    int n = FG_N(w);
     (void)p;                  /* (single precision: no LAPACK) */
 #ifndef FG_SINGLE   /* LAPACK takes doubles */
     if (p->lapack.syev != NULL && n >= p->settings.lapack_min_size) {
@@ -1421,7 +1455,7 @@ static void eigen(fg_ws *w, const fg_real *A)
 static fg_real min_eig(fg_ws *w, const fg_real *A)
 {
     eigen(w, A);
-    return w->n > 0 ? w->ew[0] : 0.0;
+    return FG_N(w) > 0 ? w->ew[0] : 0.0;
 }
 
 /* ---- Newton with a line search: plain, or with descent to a stable state ---------------- */
@@ -1434,7 +1468,7 @@ enum { STEP_SINGULAR, STEP_LU, STEP_CHOLESKY };
 static int newton_step(fg_ws *w, const fg_state *st, int factored, fg_real *d)
 {
     const fg_problem *p = w->p;
-    int n = w->n;
+    int n = FG_N(w);
     if (factored || cholesky(w, st->K, w->la)) {
         cholesky_solve(w, w->la, st->r, d);
         return STEP_CHOLESKY;
@@ -1449,8 +1483,8 @@ static int newton_step(fg_ws *w, const fg_state *st, int factored, fg_real *d)
 static void step_linearized(fg_ws *w, fg_state *st, const fg_real *d, fg_real rel)
 {
     const fg_problem *p = w->p;
-    int n = w->n, i, j, a;
-    for (j = 0; j < p->noutputs; ++j) {
+    int n = FG_N(w), i, j, a;
+    for (j = 0; j < FG_NOUTPUTS(p); ++j) {
         fg_real *o = st->out + (size_t)j * (3 + 3 * (size_t)n);
         for (a = 0; a < 3; ++a)
             o[a] -= dot(o + 3 + (size_t)a * (size_t)n, d, n);
@@ -1480,7 +1514,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
                   int factored, int *iterations)
 {
     const fg_settings *set = w->set;
-    int n = w->n, k, i, tries, descent = extra != NULL;
+    int n = FG_N(w), k, i, tries, descent = extra != NULL;
     int lag = set->stagnation_lag, ring = lag + 1;
     fg_real *history = w->hist;      /* the relative residuals of the last lag + 1 iterations */
     w->la_factors_cur = 0;
@@ -1614,7 +1648,7 @@ static int newton(fg_ws *w, fg_state **cur, fg_state **spare, fg_state **extra, 
 /* q is the q of the last kinematics (which succeeded): their kernel choices (kin_kernel) hold */
 static int at_kinematics(const fg_ws *w, const fg_real *q)
 {
-    return w->kin_ok && (q == w->kq || memcmp(q, w->kq, sizeof(fg_real) * (size_t)w->n) == 0);
+    return w->kin_ok && (q == w->kq || memcmp(q, w->kq, sizeof(fg_real) * (size_t)FG_N(w)) == 0);
 }
 
 /* which of its first kernels evaluates kernel flexure i at q (all coordinates): FG_KERNEL_LOCAL
@@ -1641,7 +1675,7 @@ static int in_kernel_range(const fg_ws *w, const fg_real *q)
 {
     const fg_problem *p = w->p;
     int i, known = at_kinematics(w, q);
-    for (i = 0; i < p->nflex; ++i) {
+    for (i = 0; i < FG_NFLEX(p); ++i) {
         const fg_flexure *f = &p->flex[i];
         if (f->kind != FG_MODEL_KERNEL)
             continue;
@@ -1664,7 +1698,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, fg_real *factor,
 {
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
-    int n = w->n, i, j, a;
+    int n = FG_N(w), i, j, a;
     fg_real *F = NULL;             /* cur->K's Cholesky factor, when known */
     /* polish: plain Newton steps while they lower the relative residual below polish_target
      * (K^-1 r by Cholesky where K is positive definite, else by LU: the two agree to rounding) */
@@ -1708,7 +1742,7 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, fg_real *factor,
     memcpy(out->q, cur->q, sizeof(fg_real) * (size_t)n);
     if (out->stiffness != NULL)
         sym_copy(out->stiffness, cur->K, n);
-    for (j = 0; j < p->noutputs; ++j) {
+    for (j = 0; j < FG_NOUTPUTS(p); ++j) {
         const fg_real *J = cur->out + (size_t)j * (3 + 3 * (size_t)n) + 3;
         /* stable (K = U^T U): C = Y^T Y with Y = U^-T J^T, half a solve per column and
          * symmetric by construction; else C = J X, X = K^-1 J^T by LU, symmetrized */
@@ -1757,10 +1791,10 @@ static int finish(fg_ws *w, fg_state *cur, fg_state *spare, fg_real *factor,
 static int linear_path(const fg_problem *p)
 {
     int i;
-    for (i = 0; i < p->nloads; ++i)
+    for (i = 0; i < FG_NLOADS(p); ++i)
         if (p->load[3 * i] != 0.0 || p->load[3 * i + 1] != 0.0)
             return 0;
-    for (i = 0; i < p->ntendons; ++i)
+    for (i = 0; i < FG_NTENDONS(p); ++i)
         if (p->tension[i] != 0.0)
             return 0;
     return 1;
@@ -1826,7 +1860,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
 {
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
-    int n = w->n, i, j, ok = 0, linear;
+    int n = FG_N(w), i, j, ok = 0, linear;
     int max_it = set->max_iterations < set->direct_max_iterations ? set->max_iterations
                                                                    : set->direct_max_iterations;
     fg_real *t0 = w->t0, *t1 = w->t1;     /* path tangents dq/dlam at the two ends */
@@ -1834,7 +1868,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     fg_errors saved;
 
     save_errors(w, &saved);
-    memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)p->nflex);
+    memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)FG_NFLEX(p));
     for (i = 0; i < n; ++i)                       /* K(q0, 0) is diagonal (the caller) */
         t0[i] = st0->Q[i] / st0->K[(size_t)i * (size_t)n + i];
     memcpy(c->q, st0->q, sizeof(fg_real) * (size_t)n);
@@ -1889,7 +1923,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     ok = 1;
 done:
     /* the trial steps and samples are no part of the path: the flags and errors as before */
-    memcpy(w->switched, w->saved_switched, sizeof(int) * (size_t)p->nflex);
+    memcpy(w->switched, w->saved_switched, sizeof(int) * (size_t)FG_NFLEX(p));
     restore_errors(w, &saved);
     return ok;
 }
@@ -1942,7 +1976,7 @@ static fg_state *descend(fg_ws *w, const fg_real *q, fg_real lam, const fg_state
  * the load part of K. Its sign does not matter. */
 static int is_bifurcation(fg_ws *w, const fg_state *b)
 {
-    int n = w->n, i;
+    int n = FG_N(w), i;
     fg_real kg = 0.0, scale;
     min_eig(w, b->K);
     for (i = 0; i < n; ++i) {     /* S's upper triangle: the strict part counts twice */
@@ -1961,16 +1995,16 @@ static void mean_output(fg_ws *w, const fg_state *s, fg_real *y, fg_real *angle)
 {
     const fg_problem *p = w->p;
     int j;
-    size_t stride = 3 + 3 * (size_t)w->n;
+    size_t stride = 3 + 3 * (size_t)FG_N(w);
     *y = *angle = 0.0;
-    if (p->noutputs == 0)
+    if (FG_NOUTPUTS(p) == 0)
         return;
-    for (j = 0; j < p->noutputs; ++j) {
+    for (j = 0; j < FG_NOUTPUTS(p); ++j) {
         *y += s->out[stride * (size_t)j + 1];
         *angle += s->out[stride * (size_t)j + 2];
     }
-    *y /= p->noutputs;
-    *angle /= p->noutputs;
+    *y /= FG_NOUTPUTS(p);
+    *angle /= FG_NOUTPUTS(p);
 }
 
 /* The path went from the stable *a through a bifurcation to the unstable *b: the critical load
@@ -1983,7 +2017,7 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
                                    fg_answer *out)
 {
     const fg_settings *set = w->set;
-    int n = w->n, i, it, side = 0, why;
+    int n = FG_N(w), i, it, side = 0, why;
     fg_state *lo = a, *hi = b, *s1, *s2, *choice;
     fg_real mu_lo = min_eig(w, a->K), mu_hi = min_eig(w, b->K);
     fg_real e_lo = mu_lo, e_hi = mu_hi;       /* the eigenvalues themselves (no Illinois halving) */
@@ -2090,7 +2124,7 @@ static fg_state *cross_bifurcation(fg_ws *w, fg_state *a, fg_state *b, int *iter
 static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answer *out)
 {
     const fg_settings *set = w->set;
-    int n = w->n, i, steps = 0;
+    int n = FG_N(w), i, steps = 0;
     fg_real lam = 0.0, dlam = set->initial_step;
     while (lam < 1.0) {
         fg_real lam_n = lam + dlam < 1.0 ? lam + dlam : 1.0;
@@ -2190,11 +2224,21 @@ static int problem_well_formed(const fg_problem *p)
                                 || p->route_len == NULL || p->route == NULL))
         || p->settings.stagnation_lag < 1 || p->settings.stagnation_lag > FG_MAX_LAG)
         return 0;
+#ifdef FG_FIXED_SIZES
+    if (p->ndof != FG_FIXED_NDOF || p->nflex != FG_FIXED_NFLEX || p->npoints != FG_FIXED_NPOINTS
+        || p->nloads != FG_FIXED_NLOADS || p->ntendons != FG_FIXED_NTENDONS
+        || p->noutputs != FG_FIXED_NOUTPUTS)
+        return 0;     /* the sizes this build was compiled for (FG_N ..) */
+#endif
     for (i = 0; i < p->nflex; ++i) {
         const fg_flexure *f = &p->flex[i];
         if (f->ndof < 1 || f->offset < 0 || f->offset + f->ndof > p->ndof || f->parent < -1
             || f->parent >= i)
             return 0;
+#ifdef FG_FIXED_FLEX_NDOF
+        if (f->ndof != FG_FIXED_FLEX_NDOF)
+            return 0;
+#endif
         if (f->kind == FG_MODEL_KERNEL) {
             if ((f->poly == NULL && f->gauss == NULL) || (f->poly != NULL && f->in_range == NULL))
                 return 0;
@@ -2248,7 +2292,7 @@ static int diagonal_positive(const fg_real *K, int n)
 
 static void clear_switched(fg_ws *w)
 {
-    memset(w->switched, 0, sizeof(int) * (size_t)w->p->nflex);
+    memset(w->switched, 0, sizeof(int) * (size_t)FG_NFLEX(w->p));
 }
 
 /* the compliance ellipse of a 2 x 2 compliance (chain_solver.h) */
@@ -2347,7 +2391,7 @@ static int bend_monotone(const fg_real *q, int k, fg_real h, fg_real *b)
  * bit for bit. scratch: 4 (k + 1). */
 static fg_real flexure_bend(const fg_flexure *f, const fg_real *q, int samples, fg_real *scratch)
 {
-    int k = f->ndof, i;
+    int k = FG_FLEX_NDOF(f), i;
     fg_real most = 0.0;
     if (f->kind == FG_MODEL_KERNEL) {
         fg_real *P = scratch, *b = scratch + (k + 1);
@@ -2379,14 +2423,14 @@ static void prepare(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
 {
     int i;
     bind(w, p, work, iwork);
-    for (i = 0; i < p->nloads; ++i)
+    for (i = 0; i < FG_NLOADS(p); ++i)
         w->hf[i] = hypot(p->load[3 * i], p->load[3 * i + 1]);
-    for (i = 0; i < p->nflex; ++i)
+    for (i = 0; i < FG_NFLEX(p); ++i)
         w->rotated[i] = 0;
-    for (i = 0; i < p->nflex; ++i)
+    for (i = 0; i < FG_NFLEX(p); ++i)
         if (p->flex[i].parent >= 0)
             w->rotated[p->flex[i].parent] = 1;
-    for (i = 0; i < p->npoints; ++i)
+    for (i = 0; i < FG_NPOINTS(p); ++i)
         if (p->points[i].frame >= 0 && (p->points[i].x != 0.0 || p->points[i].y != 0.0))
             w->rotated[p->points[i].frame] = 1;
 }
@@ -2400,7 +2444,7 @@ static void describe_answer(fg_ws *w, fg_answer *out)
     int i;
     const fg_real *q = out->q;
     int known = out->kernel != NULL && at_kinematics(w, q);
-    for (i = 0; i < p->nflex; ++i) {
+    for (i = 0; i < FG_NFLEX(p); ++i) {
         const fg_flexure *f = &p->flex[i];
         const fg_real *qf = q + f->offset;
         if (out->bend != NULL)
@@ -2432,7 +2476,7 @@ static int screen_calm(fg_ws *w, const fg_answer *out)
     if (p->bend_limit == NULL || out->bend == NULL || out->kernel == NULL
         || out->stiffness == NULL)
         return 0;
-    for (i = 0; i < p->nflex; ++i) {
+    for (i = 0; i < FG_NFLEX(p); ++i) {
         int k = out->kernel[i];
         if (!(out->bend[i] <= p->bend_limit[i]))   /* also a NaN */
             return 0;
@@ -2570,7 +2614,7 @@ static void scale_by(fg_real *A, const fg_real *K, const fg_real *v, int n)
 FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, int *iwork)
 {
     fg_ws ws, *w = &ws;
-    int n = p->ndof, i;
+    int n = FG_NDOF(p), i;
     fg_real *A;
     for (i = 0; i < n; ++i)
         if (!(p->stiffness[i] > 0.0))
@@ -2602,7 +2646,7 @@ FG_API fg_real fg_margin(const fg_problem *p, const fg_real *K, fg_real *work, i
 static int margin_above(fg_ws *w, const fg_real *K, fg_real margin)
 {
     const fg_problem *p = w->p;
-    int n = p->ndof, i;
+    int n = FG_NDOF(p), i;
     fg_real *A;
     for (i = 0; i < n; ++i)
         if (!(p->stiffness[i] > 0.0))
@@ -2660,8 +2704,8 @@ static int estimate_differences(fg_ws *w, const fg_state *st, const fg_real *d,
                                 const fg_real *scale, fg_real *out)
 {
     const fg_problem *p = w->p;
-    int n = w->n, j, a;
-    for (j = 0; j < p->noutputs; ++j) {
+    int n = FG_N(w), j, a;
+    for (j = 0; j < FG_NOUTPUTS(p); ++j) {
         const fg_real *o = st->out + (size_t)j * (3 + 3 * (size_t)n), *J = o + 3;
         const fg_real *P = pose + 3 * j, *C = compliance + 9 * j;
         fg_real R[3], Cr[4], dpos, dth, nr, nd;
@@ -2801,7 +2845,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
 
     if (p == NULL || !well_formed(p, out))
         return FG_MODEL_ERROR;
-    n = p->ndof;
+    n = FG_NDOF(p);
     prepare(w, p, work, iwork);
     st0 = &w->st[0];
     cur = &w->st[1];
@@ -2864,14 +2908,14 @@ answer:
     describe_answer(w, out);
     out->calm = status == FG_SOLVED && screen_calm(w, out);
     if (out->switched != NULL)
-        for (j = 0; j < p->nflex; ++j)
+        for (j = 0; j < FG_NFLEX(p); ++j)
             out->switched[j] = w->switched[j];
     goto report;
 failed:
     status = FG_NO_EQUILIBRIUM;
     out->iterations = iterations;
     if (out->switched != NULL)
-        for (j = 0; j < p->nflex; ++j)
+        for (j = 0; j < FG_NFLEX(p); ++j)
             out->switched[j] = w->switched[j];
 report:
     out->last_error = w->err;
