@@ -770,7 +770,10 @@ Contenders:
   the two evaluate the same kernel.
 - **flexgen core (fg_solve)**: the solver core on the `fg_problem` that `flexgen.Solver` fills for
   the scene, written out as C constants; warm through `fg_problem.q0`
-  (`benchmarks/casadi/fg_core_peer.c`).
+  (`benchmarks/casadi/fg_core_peer.c`), with the library's settings: its warm start is accepted
+  only where the direct solve's three path samples put it on the load path from the unloaded
+  state (`warm_on_path`, docs/solver-core.md), 3 more evaluations than the controller's, which
+  follows the previous answer's branch on purpose (docs/controller.md, "Warm and cold").
 
 Every program: `gcc {cflags}` (no -ffast-math, no -march, no LTO), each source its own translation
 unit, `benchmarks/casadi/harness.c` as `main`. The programs run interleaved, {rounds} rounds (forward

@@ -300,6 +300,12 @@ def solve(
     model: str | None = None,
     modes: int | None = None,
     elements: int | None = None,
+    *,
+    models: Mapping[str, Any] | None = None,
+    settings: SolverSettings | None = None,
+    q0: Mapping[str, Any] | None = None,
+    tolerance: float | None = None,
+    estimate: bool = True,
     **options: Any,
 ) -> Result:
     """Solve a scene: its equilibrium under the scene's loads and tendons, the output points'
@@ -317,7 +323,8 @@ def solve(
     Returns a ``Result`` (``converged`` False with a ``reason`` when there is no equilibrium).
     Bad input raises a one-line SceneError or ValueError naming the argument. More in the
     module docstring and docs/solve.md."""
-    if not options and model is None and modes is None and elements is None:
+    plain = models is None and settings is None and q0 is None and tolerance is None and estimate
+    if plain and not options and model is None and modes is None and elements is None:
         # the loop path (the same Scene object, nothing overridden): its cached solver, if one
         # is kept, without the generic argument handling below (what it would do, in short)
         solver = _solvers.get((id(scene), None))  # _key(scene, DEFAULT)
@@ -330,14 +337,16 @@ def solve(
             if not result.converged:
                 _units_hint(scene, result)
             return result
-    if options.get("tolerance") is not None and (modes is not None or elements is not None):
+    if tolerance is not None and (modes is not None or elements is not None):
         # the tolerance would choose the modes and drop these silently (as --tol with --modes)
         given = "modes" if modes is not None else "elements"
         raise ValueError(
             f"tolerance: chooses the modes itself: give either tolerance or {given}, not both"
         )
     sc = override(as_scene(scene), model, modes, elements)
-    return solve_scene(sc, **options)[0]
+    return solve_scene(
+        sc, models, settings, q0=q0, tolerance=tolerance, estimate=estimate, **options
+    )[0]
 
 
 def prepare(

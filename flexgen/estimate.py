@@ -12,6 +12,9 @@ equilibrium (its pose linearized along the last step, its compliance at the last
                  of the flexures between the base and p, ``select.length_scales``)
     compliance:  ||C_p - C_p,rich||_2 / ||C_p,rich||_2                    (2x2, spectral norm)
 
+Where the two models' load paths may part (the answer's path snapped through, or the estimate is
+above ``PATH_CHECK``), the richer model is solved along its own load path instead, and the
+answer warns where it may be on the wrong side of a snap-through (``Estimator._branch_warning``).
 Where Newton from the answer does not converge (a coarse answer far from the richer
 equilibrium: cc and prb under large loads), or meets an indefinite stiffness or a state it
 cannot evaluate, the richer model is solved instead (``fg_solve`` warm-started from the answer:
@@ -87,6 +90,17 @@ MAX_SCM = 8  # the richest smooth curvature kernel shipped
 # each time, 5 to 9 times the answer's own solve, with 1 max_dq); Newton from there lands on the
 # equilibrium the solve finds (the honesty suite of tests/test_estimate.py holds it to that)
 REACH = 2.0
+# Newton from the answer finds the richer equilibrium nearest the answer, which is the one on the
+# richer model's own load path only where the two paths cannot part. Where they can, the richer
+# model is solved along its own load path (from the unloaded state) instead:
+# - the answer's path snapped through a limit point: a model whose limit load is lower than the
+#   richer model's lands on the far branch, where the richer model also has an equilibrium that
+#   Newton finds (fem16 just past its own limit, 0.3 % below the elastica's, was off by 2 rad
+#   with an estimate of 4e-3);
+# - the estimate (its total) is above PATH_CHECK: an answer that far from the richer equilibrium
+#   may be on another branch of it (cc near a snap-through: off by 0.85 to 2.1 of L, estimated at
+#   0.019 to 0.21). Such answers are coarse anyway: the richer model's solve is their cost.
+PATH_CHECK = 1e-2
 # What no comparison of two double-precision answers resolves, added to every estimate (pose,
 # compliance) so that none claims an exact answer: an unloaded branch's pose is exact in every
 # model, and its estimate was 0 where the answer is off by rounding (measured up to 1.3e-15 of
@@ -328,16 +342,22 @@ class Estimator:
         if solver.workspace is not self._ws:  # the pointers name this solver's answer
             raise ValueError("Estimator.estimate: not the solver it was prepared for")
         status = _fg_estimate(*self._args)
-        if status != _ESTIMATED and status != _UNDEFINED:
+        n = self.n
+        snap = _last_snap(solver.workspace)
+        warning = None
+        if status == _ESTIMATED and (self.out[2 * n] > PATH_CHECK or snap is not None):
+            status = self._solve_richer(solver, cold=True)  # the paths may part (PATH_CHECK)
+            if status == _ESTIMATED:
+                warning = self._branch_warning(snap, _last_snap(self.workspace))
+        elif status != _ESTIMATED and status != _UNDEFINED:
             # not within Newton's reach, or no stable state or no evaluation there: what the
             # richer model's own solve finds decides
             status = self._solve_richer(solver)
-        n = self.n
         if status == _ESTIMATED:  # the estimates (pose, compliance) per point, then the total
             d = self.out.tolist()
             # tuple.__new__ with every field given: 60 % of Estimate(...)'s cost
             return _new_tuple(
-                Estimate, (d[0 : 2 * n : 2], d[1 : 2 * n : 2], None, d[2 * n], d[2 * n + 1 :])
+                Estimate, (d[0 : 2 * n : 2], d[1 : 2 * n : 2], warning, d[2 * n], d[2 * n + 1 :])
             )
         why = _WHY.get(status, "found no equilibrium")
         return estimate_of(
@@ -367,13 +387,34 @@ class Estimator:
             out[name] = self.factor * d + ROUNDING_CURVATURE
         return out
 
-    def _solve_richer(self, solver: Any) -> int:
+    def _branch_warning(self, snap: float | None, rich_snap: float | None) -> str | None:
+        """The warning when the richer model's load path snapped through (at load factor
+        ``rich_snap``) and the answer's did not (``snap`` None: the two models disagree on
+        whether the load is past a limit point), or did too but the applied load is within the
+        estimated error of its limit load (factor x the two limit loads' difference): either
+        way the structure itself may not snap through yet, and the estimate, taken on the far
+        branch, would not see it. None when the richer model did not snap (its equilibrium, on
+        the near branch, already makes the estimate large) or both are clearly past the limit."""
+        if rich_snap is None:
+            return None
+        if snap is not None and snap + self.factor * abs(snap - rich_snap) < 1.0:
+            return None
+        mine = "no limit point" if snap is None else f"a limit point at load factor {snap:.6g}"
+        return (
+            f"near a snap-through: this model's load path passes {mine}, the richer model's "
+            f"({self.rich_label}) one at {rich_snap:.6g}; the structure may not snap through "
+            f"yet, and this answer may be on the wrong branch"
+        )
+
+    def _solve_richer(self, solver: Any, cold: bool = False) -> int:
         """The richer model solved (warm-started from the answer: Newton, else its own load
-        path), then ``fg_estimate`` at its equilibrium (the identity map: the step is ~0)."""
+        path; ``cold``: along its own load path from the unloaded state), then ``fg_estimate``
+        at its equilibrium (the identity map: the step is ~0)."""
         lib = core.lib
         rp, rw = self.problem, self.workspace
-        np.matmul(self.T, solver.workspace.q, out=rw.q0[: rw.q.size])
-        rp.struct.q0 = rw.q0_ptr
+        if not cold:
+            np.matmul(self.T, solver.workspace.q, out=rw.q0[: rw.q.size])
+            rp.struct.q0 = rw.q0_ptr
         status = lib.fg_solve(rp.struct, rw.work_ptr, rw.iwork_ptr, rw.answer)
         rp.struct.q0 = core.ffi.NULL
         if status != core.SOLVED:
@@ -384,7 +425,22 @@ class Estimator:
         return _NO_EQUILIBRIUM if status == lib.FG_ESTIMATE_FAR else int(status)
 
 
+def _last_snap(ws: Any) -> float | None:
+    """The load factor of the last snap-through (a limit point) on the load path of the answer
+    in the workspace ``ws``; 1.0 when more critical events happened than were stored (one of
+    them may be a snap-through); None when the path passed no limit point."""
+    a = ws.answer
+    if not a.ncritical:
+        return None
+    stored = min(a.ncritical, a.max_critical)
+    if a.ncritical > stored:
+        return 1.0
+    snaps = ws.critical[:stored][ws.critical_kind[:stored] == _SNAP_THROUGH]
+    return float(snaps.max()) if snaps.size else None
+
+
 _fg_estimate = core.lib.fg_estimate
+_SNAP_THROUGH: int = core.SNAP_THROUGH
 _new_tuple = tuple.__new__
 _SOLVED: int = core.SOLVED
 _ESTIMATED: int = core.lib.FG_ESTIMATED

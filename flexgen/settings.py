@@ -60,6 +60,11 @@ class SolverSettings:
     # many tol, when the convergence seen predicts its end below tol and polish_target; the
     # compliance is then off by about that residual (0: every step evaluated)
     linearized_step: float = 30.0
+    # a warm start (q0) accepted only on the load path from the unloaded state (the direct
+    # solve's path samples: the answer a cold solve gives, where several stable equilibria hold
+    # the load); 0: wherever Newton from q0 converges nearby (it follows q0's branch, as the
+    # emitted controller does on purpose)
+    warm_on_path: int = 1
 
     def __post_init__(self):
         for f in fields(self):
@@ -144,6 +149,7 @@ _ZERO_OK = {
     "elimination_min_size",
     "direct_max_iterations",
     "max_iterations",
+    "warm_on_path",
 }
 
 # float fields: (lower test, upper test, the range in words)

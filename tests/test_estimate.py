@@ -340,3 +340,40 @@ def test_a_stress_too_low_by_its_estimate_is_a_warning():
     assert st.safety_factor > 1.0 + st.error_estimate  # the old rule, sf > 1 + e, was silent
     assert any("may be below 1" in w for w in r.warnings), r.warnings
     assert flexgen.solve(d, model="exact").flexures["beam"].safety_factor < 1.0
+
+
+# A tip force and moment under which the elastica snaps through (found by review: load
+# directions whose exact limit load factors are 0.616, 0.704 and 0.429)
+SNAP_LOADS = [
+    ((-1.559870958419619, -4.94192796617544), 3.4345704050800596),
+    ((-2.58080752, -3.8763156), 2.4859341973061895),
+    ((-3.4710961074051943, 5.1812687665653385), -3.5980517189971497),
+]
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"model": "cc"},
+        {"model": "fem", "elements": 4},
+        {"model": "fem", "elements": 8},
+        {"model": "fem", "elements": 16},
+    ],
+)
+def test_estimates_hold_or_warn_just_below_a_snap_through(kw):
+    """Just below the elastica's limit load a coarser model may have passed its own (lower)
+    limit and answer on the far branch, where the richer model also has an equilibrium that
+    Newton from the answer finds: the estimate must then come from the richer model's own load
+    path. Each answer's pose error against the exact elastica (loaded along its path) is within
+    its estimate, or the answer warns (the load within the estimated error of a snap-through)."""
+    for (fx, fy), m in SNAP_LOADS:
+        limit = flexgen.solve(cantilever(fx, fy, m), model="exact").critical_load_factors[0]
+        for fraction in (0.9, 0.99, 0.998, 0.9995):
+            lam = fraction * limit
+            scene = cantilever(lam * fx, lam * fy, lam * m)
+            exact = flexgen.solve(scene, model="exact").points["beam.tip"].pose
+            got = flexgen.solve(scene, **kw)
+            point = got.points["beam.tip"]
+            turn = abs(math.remainder(point.pose[2] - exact[2], 2 * math.pi))
+            error = max(math.hypot(point.pose[0] - exact[0], point.pose[1] - exact[1]), turn)
+            assert error <= point.error_estimate["pose"] or got.warnings, (kw, lam, error)

@@ -547,8 +547,39 @@ def test_warm_start_gives_the_same_equilibrium(name, warm, label):
             rtol=0,
             atol=1e-9 * max(f.length for f in scene.flexures),
         )
-    if warm == label:  # from the answer itself: Newton at the full load, no path
+    if warm == label and name != "rectangular_elastica":
+        # from the answer itself, whose load path is simple: Newton at the full load, no path
         assert hot.iterations <= cold.iterations and hot.critical_load_factors == []
+    if name == "rectangular_elastica":
+        # a buckled answer is past a bifurcation, off the direct solve's path samples: the warm
+        # start is refused and the cold solve answers, its critical load with it; without the
+        # samples (warm_on_path = 0) Newton from the answer keeps it, no path followed
+        assert hot.critical_load_factors == cold.critical_load_factors != []
+        kept = solve(scene, label, q0=q0, warm_on_path=0)
+        assert kept.iterations <= cold.iterations and kept.critical_load_factors == []
+
+
+def test_a_warm_start_near_another_stable_equilibrium_gives_the_load_paths():
+    """Where several stable equilibria hold the load, a warm start from a previous answer at
+    other loads may lie nearer another one than the load path from the unloaded state reaches
+    (found by review in a sweep: the thin finger's rows from F = -0.556 N on sat on another
+    branch than flexgen.solve's, 140 mm away). A warm start is accepted only on the load path
+    (the direct solve's path samples): without them (direct_samples = 0) the same warm start
+    lands on the other branch, so this test can tell."""
+    scene = example("two_link_finger").with_values(
+        {"flexure.proximal.length": 0.0225, "flexure.proximal.thickness": 0.0002}
+    )
+    before, after = [[0.0, -0.4444444444444444, 0.0]], [[0.0, -0.5555555555555556, 0.0]]
+    prev = flexgen.Solver(scene)
+    prev.run(loads=before)
+    q0 = {name: prev.workspace.q[sl].copy() for name, sl in prev.problem.chain.slices.items()}
+    cold = flexgen.Solver(scene).solve(loads=after)
+    unchecked = flexgen.Solver(scene, direct_samples=0).solve(loads=after, q0=q0)
+    warm = flexgen.Solver(scene).solve(loads=after, q0=q0)
+    pad = "fingertip.pad"
+    assert unchecked.stable and abs(unchecked.points[pad].pose[2] - cold.points[pad].pose[2]) > 1
+    assert warm.converged and warm.stable
+    assert np.allclose(warm.points[pad].pose, cold.points[pad].pose, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize(

@@ -491,15 +491,23 @@ def test_no_warm_start_from_an_answer_past_a_critical_load(elastica):
     first, second = (single(elastica, row, vary) for _, row in df.iterrows())
     assert first.critical_load_factors
     assert df["iterations"].iloc[1] == second.iterations
-    # what a warm start from the first answer would have been: a few Newton steps
-    solver = flexgen.Solver(elastica.with_values({"load.0.force.0": -3.0, "load.0.force.1": 0.0}))
+    # what a warm start from the first answer would have been, had it been taken without the
+    # path samples that refuse it too (warm_on_path = 0): a few Newton steps
+    solver = flexgen.Solver(
+        elastica.with_values({"load.0.force.0": -3.0, "load.0.force.1": 0.0}), warm_on_path=0
+    )
     warm = solver.solve(loads=[[-3.1, 0.0, 0.0]], q0=first.q)
     assert warm.iterations < second.iterations
 
 
 def test_design_changes_warm_start_only_when_small(elastica):
     # length 1.0 to 1.1 (10 %): warm, fewer iterations than the single solve; 1.1 to 2.0: cold
-    vary = {"flexure.beam.length": [1.0, 1.1, 2.0], "load.0.force.1": [0.01]}
+    # (a lateral load alone: a load path the warm start's path samples accept)
+    vary = {
+        "flexure.beam.length": [1.0, 1.1, 2.0],
+        "load.0.force.0": [0.0],
+        "load.0.force.1": [1.0],
+    }
     df = flexgen.sweep(elastica, vary, workers=1)
     results = [single(elastica, row, vary) for _, row in df.iterrows()]
     for (_, row), result in zip(df.iterrows(), results):
@@ -839,3 +847,17 @@ def test_a_flexures_model_key_in_both_spellings_is_one_value(finger):
             {"flexure.proximal.modes": [2, 3], "flexure.proximal.model.modes": [2, 3]},
             workers=1,
         )
+
+
+def test_rows_where_the_load_path_jumps_between_neighbours_are_the_solves():
+    """A thin finger whose load path from the unloaded state reaches another branch from
+    F = -0.556 N on, while the neighbour's branch (F = -0.444 N) still holds the load: found by
+    review, those rows sat on the neighbour's branch, 140 mm from flexgen.solve's answer. The
+    warm start's path samples (settings.warm_on_path) send them cold."""
+    scene = flexgen.load_scene(ROOT / "examples" / "two_link_finger.toml").with_values(
+        {"flexure.proximal.length": 0.0225, "flexure.proximal.thickness": 0.0002}
+    )
+    vary = {"load.0.force.1": list(np.linspace(0.0, -1.0, 10))}
+    df = flexgen.sweep(scene, vary, workers=1)
+    for _, row in df.iterrows():
+        assert_row_is_solve(row, single(scene, row, vary))

@@ -62,7 +62,11 @@ SINGLE = replace(
     # every Newton step evaluated: at this tol a linearized end's stiffness and Jacobians would
     # leave the compliance too far off
     linearized_step=0.0,
+    warm_on_path=0,
 )
+# The controller's warm start follows the mechanism's history on purpose (docs/controller.md,
+# "Warm and cold"): Newton from the last answer, without the library's path samples
+CONTROLLER = replace(DEFAULT, warm_on_path=0)
 
 C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # names C99 reserves or the emitted code uses itself, which a prefix must not take
@@ -529,7 +533,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
     scene = _prepared_scene(path)
     models = build_models(scene)
     problem = Problem(scene, models, DEFAULT)
-    settings = SINGLE if options.single else DEFAULT
+    settings = SINGLE if options.single else CONTROLLER
     p = problem.struct
     number = c_float if options.single else c_double
     loads = _enum("load.point", [ld.point for ld in scene.loads])

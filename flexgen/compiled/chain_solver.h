@@ -169,6 +169,11 @@ typedef struct {
                                      * from a residual of at most this many tol, when the
                                      * convergence seen predicts its end below tol and
                                      * polish_target (0: every step evaluated) */
+    int warm_on_path;               /* a warm start (fg_problem.q0) is accepted only where its
+                                     * equilibrium passes the direct solve's path samples from
+                                     * the unloaded state (the answer a cold solve gives); 0:
+                                     * wherever Newton from q0 converges to a stable one within
+                                     * max_dq (it follows q0's branch) */
 } fg_settings;
 
 typedef struct {

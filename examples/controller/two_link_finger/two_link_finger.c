@@ -263,6 +263,11 @@ typedef struct {
                                      * from a residual of at most this many tol, when the
                                      * convergence seen predicts its end below tol and
                                      * polish_target (0: every step evaluated) */
+    int warm_on_path;               /* a warm start (fg_problem.q0) is accepted only where its
+                                     * equilibrium passes the direct solve's path samples from
+                                     * the unloaded state (the answer a cold solve gives); 0:
+                                     * wherever Newton from q0 converges to a stable one within
+                                     * max_dq (it follows q0's branch) */
 } fg_settings;
 
 typedef struct {
@@ -2187,6 +2192,51 @@ static int end_factor_of(fg_ws *w, const fg_state *st)
     return cholesky(w, st->K, w->lb);
 }
 
+/* 1 if the equilibrium *c at the full load (w->lb: the Cholesky factor of c->K) is on the load
+ * path from the unloaded state *st0 (K(q0, 0) diagonal, positive definite), as far as
+ * direct_samples points of the cubic Hermite path between the two (its end tangents dq/dlam
+ * the path's: K^-1 Q at each end) tell: at each, K positive definite and a Newton correction
+ * of at most direct_correction max_dq. in_range: every sample also in its first kernel's
+ * range (the direct solve: a path that switches kernels is the continuation's, which reports
+ * the switches); else a sample evaluates whatever kernel covers it. The samples' evaluations
+ * leave the flags and errors as the caller saved them (the caller restores them). */
+static int on_load_path(fg_ws *w, const fg_state *st0, const fg_state *c, fg_state *smp,
+                        int in_range)
+{
+    const fg_settings *set = w->set;
+    int n = FG_N(w), i, j, linear = linear_path(w->p);
+    fg_real *t0 = w->t0, *t1 = w->t1;     /* path tangents dq/dlam at the two ends */
+    for (i = 0; i < n; ++i)                       /* K(q0, 0) is diagonal (the caller) */
+        t0[i] = st0->Q[i] / st0->K[(size_t)i * (size_t)n + i];
+    cholesky_solve(w, w->lb, c->Q, t1);
+    for (j = 1; j <= set->direct_samples; ++j) {
+        fg_real t = (fg_real)j / (set->direct_samples + 1), *qt = w->vec4, *corr = w->vec3;
+        fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
+        fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
+        for (i = 0; i < n; ++i)
+            qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
+        if (in_range && !in_kernel_range(w, qt))
+            return 0;
+        if (linear) {             /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0) */
+            for (i = 0; i < n; ++i) {
+                fg_real k = st0->K[(size_t)i * (size_t)n + i];
+                corr[i] = (k * qt[i] - t * st0->Q[i]) / k;
+            }
+        } else {
+            int evaluated;
+            w->poly_in_range = in_range;  /* in range (above): in_range is not asked again */
+            evaluated = evaluate(w, qt, t, smp);
+            w->poly_in_range = 0;
+            if (!evaluated || !cholesky(w, smp->K, w->la))
+                return 0;
+            cholesky_solve(w, w->la, smp->r, corr);
+        }
+        if (!(norm_inf(corr, n) <= set->direct_correction * set->max_dq))
+            return 0;
+    }
+    return 1;
+}
+
 /* The full load in one Newton solve from the unloaded state *st0: 1 with the equilibrium in
  * *cur if every check passes, else 0 (the continuation runs). The caller checked that st0->K,
  * K at lam = 0 (the elastic stiffness: diagonal), is positive definite. w->lb receives the
@@ -2231,17 +2281,14 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
 {
     const fg_problem *p = w->p;
     const fg_settings *set = w->set;
-    int n = FG_N(w), i, j, ok = 0, linear;
+    int n = FG_N(w), ok = 0;
     int max_it = set->max_iterations < set->direct_max_iterations ? set->max_iterations
                                                                    : set->direct_max_iterations;
-    fg_real *t0 = w->t0, *t1 = w->t1;     /* path tangents dq/dlam at the two ends */
     fg_state *c = *cur;
     fg_errors saved;
 
     save_errors(w, &saved);
     memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)FG_NFLEX(p));
-    for (i = 0; i < n; ++i)                       /* K(q0, 0) is diagonal (the caller) */
-        t0[i] = st0->Q[i] / st0->K[(size_t)i * (size_t)n + i];
     memcpy(c->q, st0->q, sizeof(fg_real) * (size_t)n);
     memcpy(c->gU, st0->gU, sizeof(fg_real) * (size_t)n);
     memcpy(c->QL, st0->QL, sizeof(fg_real) * (size_t)n);
@@ -2263,35 +2310,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     c = *cur;
     if (!in_kernel_range(w, c->q) || !end_factor_of(w, c))
         goto done;
-    cholesky_solve(w, w->lb, c->Q, t1);
-    /* the cubic Hermite path between the ends: stable and close to equilibrium where sampled */
-    linear = linear_path(p);
-    for (j = 1; j <= set->direct_samples; ++j) {
-        fg_real t = (fg_real)j / (set->direct_samples + 1), *qt = w->vec4, *corr = w->vec3;
-        fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
-        fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
-        for (i = 0; i < n; ++i)
-            qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
-        if (!in_kernel_range(w, qt))
-            goto done;
-        if (linear) {             /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0) */
-            for (i = 0; i < n; ++i) {
-                fg_real k = st0->K[(size_t)i * (size_t)n + i];
-                corr[i] = (k * qt[i] - t * st0->Q[i]) / k;
-            }
-        } else {
-            int evaluated;
-            w->poly_in_range = 1;     /* in range (above): in_range is not asked again */
-            evaluated = evaluate(w, qt, t, smp);
-            w->poly_in_range = 0;
-            if (!evaluated || !cholesky(w, smp->K, w->la))
-                goto done;
-            cholesky_solve(w, w->la, smp->r, corr);
-        }
-        if (!(norm_inf(corr, n) <= set->direct_correction * set->max_dq))
-            goto done;
-    }
-    ok = 1;
+    ok = on_load_path(w, st0, c, smp, 1);
 done:
     /* the trial steps and samples are no part of the path: the flags and errors as before */
     memcpy(w->switched, w->saved_switched, sizeof(int) * (size_t)FG_NFLEX(p));
@@ -3233,8 +3252,11 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
     clear_switched(w);
     if (p->q0 != NULL) {
         /* warm start: Newton at the full load from q0, accepted if it converges to a stable
-         * equilibrium within max_dq of q0; else (its iterations counted) the solve from the
-         * unloaded state, the model error cleared */
+         * equilibrium within max_dq of q0 and, with settings.warm_on_path, that equilibrium
+         * is on the load path from the unloaded state (on_load_path, the direct solve's check:
+         * where several stable equilibria hold the load, q0 may lie nearer another than the
+         * one the load path reaches, as a previous answer at other loads can); else (its
+         * iterations counted) the solve from the unloaded state, the model error cleared */
         int warm = evaluate(w, p->q0, 1.0, cur)
                    && newton(w, &cur, &spare, NULL, p->settings.max_iterations, 0, &iterations)
                    && end_factor_of(w, cur);
@@ -3242,6 +3264,16 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
             for (i = 0; i < n; ++i)
                 w->vec4[i] = cur->q[i] - p->q0[i];
             warm = norm_inf(w->vec4, n) <= p->settings.max_dq;
+        }
+        if (warm && p->settings.warm_on_path) {
+            fg_errors saved;      /* the samples are no part of the answer: flags as before */
+            save_errors(w, &saved);
+            memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)FG_NFLEX(p));
+            memset(w->vec1, 0, sizeof(fg_real) * (size_t)n);
+            warm = evaluate(w, w->vec1, 0.0, st0) && diagonal_positive(st0->K, n)
+                   && on_load_path(w, st0, cur, smp, 0);
+            memcpy(w->switched, w->saved_switched, sizeof(int) * (size_t)FG_NFLEX(p));
+            restore_errors(w, &saved);
         }
         if (warm) {
             factor = w->lb;
@@ -3977,7 +4009,8 @@ static const fg_problem two_link_finger_problem = {
         .elimination_min_size = 12,
         .bend_samples = 65,
         .circle_tol = 1e-14,
-        .linearized_step = 30.0
+        .linearized_step = 30.0,
+        .warm_on_path = 0
     },
     .lapack = {NULL, NULL, NULL, NULL, NULL},   /* the built-in factorizations */
     .q0 = NULL,
