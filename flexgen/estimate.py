@@ -13,7 +13,7 @@ equilibrium (its pose linearized along the last step, its compliance at the last
     compliance:  ||C_p - C_p,rich||_2 / ||C_p,rich||_2                    (2x2, spectral norm)
 
 Where the two models' load paths may part (the answer's path snapped through, or the estimate is
-above ``PATH_CHECK``), the richer model is solved along its own load path instead, and the
+above ``PATH_CHECK`` for a pose), the richer model is solved along its own load path instead, and the
 answer warns where it may be on the wrong side of a snap-through (``Estimator._branch_warning``).
 Where Newton from the answer does not converge (a coarse answer far from the richer
 equilibrium: cc and prb under large loads), or meets an indefinite stiffness or a state it
@@ -97,7 +97,7 @@ REACH = 2.0
 #   richer model's lands on the far branch, where the richer model also has an equilibrium that
 #   Newton finds (fem16 just past its own limit, 0.3 % below the elastica's, was off by 2 rad
 #   with an estimate of 4e-3);
-# - the estimate (its total) is above PATH_CHECK: an answer that far from the richer equilibrium
+# - a pose estimate is above PATH_CHECK: an answer that far from the richer equilibrium
 #   may be on another branch of it (cc near a snap-through: off by 0.85 to 2.1 of L, estimated at
 #   0.019 to 0.21). Such answers are coarse anyway: the richer model's solve is their cost.
 PATH_CHECK = 1e-2
@@ -343,18 +343,24 @@ class Estimator:
             raise ValueError("Estimator.estimate: not the solver it was prepared for")
         status = _fg_estimate(*self._args)
         n = self.n
-        snap = _last_snap(solver.workspace)
         warning = None
-        if status == _ESTIMATED and (self.out[2 * n] > PATH_CHECK or snap is not None):
-            status = self._solve_richer(solver, cold=True)  # the paths may part (PATH_CHECK)
-            if status == _ESTIMATED:
-                warning = self._branch_warning(snap, _last_snap(self.workspace))
-        elif status != _ESTIMATED and status != _UNDEFINED:
+        if status == _ESTIMATED:
+            d = self.out.tolist()  # per point (pose, compliance), the total, the richer q
+            # the paths may part (PATH_CHECK): a snap-through on the answer's path, or a pose
+            # estimate above PATH_CHECK (the compliance's does not count: a coarse model's
+            # compliance may be far off on the right branch, cc's under an end moment)
+            snap = _last_snap(solver.workspace) if solver.workspace.answer.ncritical else None
+            if snap is not None or max(d[0 : 2 * n : 2], default=0.0) > PATH_CHECK:
+                status = self._solve_richer(solver, cold=True)
+                if status == _ESTIMATED:
+                    d = self.out.tolist()
+                    warning = self._branch_warning(snap, _last_snap(self.workspace))
+        elif status != _UNDEFINED:
             # not within Newton's reach, or no stable state or no evaluation there: what the
             # richer model's own solve finds decides
             status = self._solve_richer(solver)
-        if status == _ESTIMATED:  # the estimates (pose, compliance) per point, then the total
             d = self.out.tolist()
+        if status == _ESTIMATED:  # the estimates (pose, compliance) per point, then the total
             # tuple.__new__ with every field given: 60 % of Estimate(...)'s cost
             return _new_tuple(
                 Estimate, (d[0 : 2 * n : 2], d[1 : 2 * n : 2], warning, d[2 * n], d[2 * n + 1 :])

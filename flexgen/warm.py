@@ -12,6 +12,12 @@ cannot happen by a small step:
 - the earlier answer's load path crossed no critical load (a bifurcation or a snap-through):
   past one, the side it took is a fact of that path, not of the neighbour's.
 
+Neither rule sees a load path that jumps between two close inputs (a branch the neighbour's
+answer still holds, while the load path from the unloaded state reaches another): the core's
+``settings.warm_on_path`` accepts a warm answer only on that load path (the direct solve's path
+samples), which the library's solves keep on and the controller turns off (it follows its
+mechanism's history on purpose).
+
 Studies (flexgen/sweep_chunk.py) apply both, and the first also to each varied design value (a
 thickness, a length: a tenfold stiffer flexure moves the equilibrium as a tenfold load does);
 the emitted C controller applies the first to its inputs (``NAME_WARM_CHANGE``,
