@@ -41,6 +41,10 @@ DESIGNS = {
     "flexure.proximal.length": (0.015, 0.025, 20),
     "load.0.force.1": (0.0, -1.0, 10),
 }
+MONTE_CARLO = {
+    "flexure.proximal.thickness": ("normal", 0.25e-3, 0.01e-3),
+    "flexure.distal.length": ("uniform", 0.014, 0.016),
+}
 
 
 def timed(fn) -> tuple[float, object]:
@@ -52,7 +56,6 @@ def timed(fn) -> tuple[float, object]:
 def main() -> int:
     import pandas  # noqa: F401  (imported before timing: a cost of the session, not the study)
 
-    sweep_module = sys.modules["flexgen.sweep"]
     scene = flexgen.load_scene(FINGER)
     rows: list[tuple[str, float, int]] = []
 
@@ -89,9 +92,16 @@ def main() -> int:
     study("20 x 20 designs x 10 loads, 1 core", DESIGNS, workers=1)
     study("20 x 20 designs x 10 loads, 1 core, stress=False", DESIGNS, workers=1, stress=False)
     study("20 x 20 designs x 10 loads, default workers (the probe decides)", DESIGNS)
-    sweep_module.START_UP = sweep_module.START_UP_AGAIN = 0.0  # force the worker processes
     study("20 x 20 designs x 10 loads, 2 processes, first pool of the session", DESIGNS, workers=2)
     study("20 x 20 designs x 10 loads, 2 processes, pool kept", DESIGNS, workers=2)
+    # every sample a design of its own: the scene and its Solver prepared per case
+    study(
+        "Monte-Carlo, 2000 samples of thickness and length, 1 core",
+        MONTE_CARLO,
+        workers=1,
+        samples=2000,
+        seed=1,
+    )
 
     print(
         f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"

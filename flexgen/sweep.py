@@ -17,6 +17,7 @@ fixed by the study alone.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 import uuid
@@ -68,9 +69,9 @@ def sweep(
       mean, sd)}`` or ``("uniform", low, high)``, drawn from ``numpy.random.default_rng(seed)``.
       A path as ``Scene.with_value`` reads it (``tendon.0.tension``, ``flexure.proximal.
       thickness``).
-    - ``workers``: processes on this machine (None: every core; 1: this process only). A
-      study that a probe finds shorter than twice the workers' start-up (``START_UP``) runs in
-      this process anyway.
+    - ``workers``: processes on this machine (None: every core, unless a probe finds the
+      study shorter than twice the workers' start-up, ``START_UP``: then this process; 1: this
+      process only; N >= 2: N processes, as asked).
     - ``client``: a ``dask.distributed.Client``: the chunks run as its tasks instead.
     - ``progress``: True a bar on a terminal, else a plain line on stderr at most every
       ``PLAIN_EVERY`` seconds (as cases finish in this process, as chunks finish on worker
@@ -111,7 +112,7 @@ def sweep(
         if client is not None:
             results = _on_dask(client, chunks, bar)
         else:
-            results = _local(chunks, workers or os.cpu_count() or 1, progress, bar)
+            results = _local(chunks, workers or os.cpu_count() or 1, progress, bar, workers is None)
     finally:
         bar.close()
     return _table(sc, study, results)
@@ -165,12 +166,17 @@ def _chunks(
 Result = tuple[np.ndarray, list[str]]
 
 
-def _local(chunks: list[Chunk], workers: int, progress: bool | None, bar: Any) -> list[Result]:
-    """In this process, or, when the probe says the study is long enough, in worker processes
-    (started by a fork server where there is one, else spawned: both safe with threads, and
-    the workers import flexgen once)."""
+def _local(
+    chunks: list[Chunk], workers: int, progress: bool | None, bar: Any, probe: bool
+) -> list[Result]:
+    """In this process, or in worker processes (started by a fork server where there is one,
+    else spawned: both safe with threads, and the workers import flexgen once): asked for
+    (``probe`` False, workers >= 2), or, with ``probe``, where the probe says the study is long
+    enough. Interrupted (Ctrl-C), the workers are stopped before the interrupt goes on: they
+    ignore it themselves, and would otherwise go on with every queued chunk while the process
+    waits for them at exit."""
     start_up = START_UP_AGAIN if _pool_workers == min(workers, len(chunks)) else START_UP
-    if workers == 1 or len(chunks) == 1 or _serial_time(chunks) < 2 * start_up:
+    if workers == 1 or len(chunks) == 1 or (probe and _serial_time(chunks) < 2 * start_up):
         # in this process the progress is reported per case: a chunk of slow cases would
         # otherwise be minutes of silence
         return [run_chunk(chunk, bar.update) for chunk in chunks]
@@ -178,11 +184,15 @@ def _local(chunks: list[Chunk], workers: int, progress: bool | None, bar: Any) -
         bar.enable()
     done: dict[int, Result] = {}
     pool = _pool(min(workers, len(chunks)))
-    futures = {pool.submit(run_chunk, c): i for i, c in enumerate(chunks)}
-    for future in as_completed(futures):
-        i = futures[future]
-        done[i] = future.result()
-        bar.update(len(chunks[i].values))
+    try:
+        futures = {pool.submit(run_chunk, c): i for i, c in enumerate(chunks)}
+        for future in as_completed(futures):
+            i = futures[future]
+            done[i] = future.result()
+            bar.update(len(chunks[i].values))
+    except BaseException:  # KeyboardInterrupt above all: the workers stop with the study
+        _stop_pool()
+        raise
     return [done[i] for i in range(len(chunks))]
 
 
@@ -197,9 +207,33 @@ def _pool(workers: int) -> ProcessPoolExecutor:
     if _pool_executor is None or _pool_workers != workers:
         if _pool_executor is not None:
             _pool_executor.shutdown()
-        _pool_executor = ProcessPoolExecutor(workers, mp_context=_context())
+        _pool_executor = ProcessPoolExecutor(
+            workers, mp_context=_context(), initializer=_leave_interrupts_to_the_parent
+        )
         _pool_workers = workers
     return _pool_executor
+
+
+def _leave_interrupts_to_the_parent() -> None:
+    """A worker ignores Ctrl-C (a terminal sends it to the whole process group): a worker
+    interrupted mid-chunk would report the interrupt as that chunk's error and go on with the
+    next; the parent stops the workers instead (``_stop_pool``)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _stop_pool() -> None:
+    """Terminate the worker processes and forget the pool: its queued chunks are dropped and
+    nothing waits for them at exit. (``ProcessPoolExecutor`` has no public way to end running
+    workers before Python 3.14's ``terminate_workers``; its ``_processes`` map is where every
+    version keeps them.)"""
+    global _pool_executor, _pool_workers
+    pool, _pool_executor, _pool_workers = _pool_executor, None, 0
+    if pool is None:
+        return
+    processes = getattr(pool, "_processes", None) or {}
+    for process in list(processes.values()):
+        process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _context() -> Any:

@@ -861,3 +861,64 @@ def test_rows_where_the_load_path_jumps_between_neighbours_are_the_solves():
     df = flexgen.sweep(scene, vary, workers=1)
     for _, row in df.iterrows():
         assert_row_is_solve(row, single(scene, row, vary))
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT: POSIX")
+def test_ctrl_c_stops_a_sweep_on_worker_processes(tmp_path):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) on a study running on
+    worker processes: one line, exit 130, no output file, no process left. Found by review:
+    the workers took the interrupt as a chunk's error and went on with every queued chunk while
+    the parent waited for them at exit (a second Ctrl-C then hung it for good)."""
+    import signal
+    import subprocess
+    import time
+
+    text = (ROOT / "examples" / "two_link_finger.toml").read_text()
+    scene = tmp_path / "finger_poly.toml"  # the poly kernel: most cases fail, slowly
+    scene.write_text(text.replace("[model]\n", '[model]\nkernel = "poly"\n', 1))
+    out = tmp_path / "study.parquet"
+    cmd = [sys.executable, "-m", "flexgen", "sweep", str(scene), "--workers", "2",
+           "--vary", "tendon.0.tension=20:60:100", "--vary", "load.0.force.1=0:-2:1000",
+           "--out", str(out)]  # fmt: skip
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+    time.sleep(4.0)  # the workers started and busy (the whole study takes minutes)
+    assert proc.poll() is None, proc.communicate()
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail("the sweep went on after Ctrl-C")
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "flexgen: interrupted"
+    assert "Traceback" not in err and not out.exists()
+    for _ in range(100):  # no process of the group is left (the fork server exits with it)
+        try:
+            os.killpg(proc.pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail("a worker process outlived the interrupted sweep by 10 s")
+
+
+def test_workers_asked_for_are_used_without_the_probe(monkeypatch):
+    """workers=N (N >= 2) runs N processes as asked; only the default probes whether the study
+    is worth them (found by review: --workers 2 was silently one process)."""
+    import importlib
+
+    sweep_module = importlib.import_module("flexgen.sweep")  # flexgen.sweep is the function
+
+    def no_probe(chunks, probes=5):
+        raise AssertionError("the probe ran for workers=2")
+
+    monkeypatch.setattr(sweep_module, "_serial_time", no_probe)
+    scene = flexgen.load_scene(FINGER)
+    vary = {"load.0.force.1": [-0.1, -0.2, -0.3, -0.4]}
+    df = flexgen.sweep(scene, vary, workers=2, chunk_size=2)
+    assert sweep_module._pool_workers == 2
+    serial = flexgen.sweep(scene, vary, workers=1, chunk_size=2)
+    assert df.equals(serial)

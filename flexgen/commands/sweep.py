@@ -84,7 +84,8 @@ def register(sub) -> None:
         "--workers",
         type=integer(1),
         metavar="N",
-        help="processes on this machine (default: every core; small studies run in one)",
+        help="processes on this machine: N as asked, 1 this process only (default: every core, "
+        "or this process when a probe finds the study shorter than starting the workers)",
     )
     p.add_argument(
         "--no-estimate",
