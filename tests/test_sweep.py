@@ -760,7 +760,7 @@ def test_cli_help_shows_an_example(capsys):
     assert "--vary tendon.0.tension=0:10:11" in text and "normal:0.25e-3:0.01e-3" in text
 
 
-@pytest.mark.parametrize("address", ["notanaddress", "tcp://host:notaport", "tcp://host"])
+@pytest.mark.parametrize("address", ["notanaddress", "tcp://host:notaport", "tcp://host", ""])
 def test_cli_malformed_scheduler_address_is_exit_2(tmp_path, capsys, address):
     pytest.importorskip("distributed")
     out = tmp_path / "s.csv"

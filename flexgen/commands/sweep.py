@@ -178,7 +178,7 @@ def run(args) -> int:
     scene = load_scene(args.scene)
     plan(scene, vary, args.samples, args.seed)  # bad keys and values: exit 2 before a client
     try:
-        client = _client(args.scheduler) if args.scheduler else None
+        client = None if args.scheduler is None else _client(args.scheduler)
     except SchedulerError as exc:
         print(f"flexgen: {printable(str(exc))}", file=sys.stderr)
         return 1
