@@ -12,9 +12,10 @@ equilibrium (its pose linearized along the last step, its compliance at the last
                  of the flexures between the base and p, ``select.length_scales``)
     compliance:  ||C_p - C_p,rich||_2 / ||C_p,rich||_2                    (2x2, spectral norm)
 
-Where the two models' load paths may part (the answer's path snapped through, or the estimate is
-above ``PATH_CHECK`` for a pose), the richer model is solved along its own load path instead, and the
-answer warns where it may be on the wrong side of a snap-through (``Estimator._branch_warning``).
+Where the two models' load paths may part (the answer's path snapped through, or a point's pose
+estimate is above ``PATH_CHECK``), the richer model is solved along its own load path instead,
+and the answer warns where it may be on the wrong side of a snap-through
+(``Estimator._branch_warning``).
 Where Newton from the answer does not converge (a coarse answer far from the richer
 equilibrium: cc and prb under large loads), or meets an indefinite stiffness or a state it
 cannot evaluate, the richer model is solved instead (``fg_solve`` warm-started from the answer:
