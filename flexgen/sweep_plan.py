@@ -90,8 +90,18 @@ def grid_values(key: str, spec: Any) -> np.ndarray:
     if len(spec) and isinstance(spec[0], str):
         if spec[0] in DISTRIBUTIONS:
             raise SceneError(f"{key}: a {spec[0]} distribution needs samples=N (Monte-Carlo)")
-        raise SceneError(f"{key}: unknown distribution {spec[0]!r} (use normal or uniform)")
-    if isinstance(spec, tuple) and len(spec) == 3:
+        raise SceneError(
+            f"{key}: {spec[0]!r} is neither a number (values are numbers in the scene's units) "
+            f"nor a distribution (normal or uniform, with samples=N)"
+        )
+    if isinstance(spec, tuple) and len(spec) != 3:
+        # a tuple is (start, stop, count): (0, 1) is a count forgotten more often than a
+        # choice of two values, which a list gives
+        raise SceneError(
+            f"{key}: a tuple is (start, stop, count), got {len(spec)} items "
+            f"({_fmt(spec)}); give a list for the values themselves"
+        )
+    if isinstance(spec, tuple):
         start = _number(spec[0], key, "start")
         stop = _number(spec[1], key, "stop")
         count = spec[2]

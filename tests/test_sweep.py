@@ -345,6 +345,10 @@ def test_stress_columns_are_the_results_flexures(finger):
             "flexure.proximal.thickness: flexure[0].thickness: must be a positive",
         ),
         ({"load.0.point": (0.0, 1.0, 2)}, {}, "load.0.point: load[0].point: must be a string"),
+        # a tuple is (start, stop, count): a forgotten count is not read as two values
+        ({"load.0.force.1": (0.0, -1.0)}, {}, "load.0.force.1: a tuple is (start, stop, count)"),
+        # a value with a unit: values are numbers in the scene's units
+        ({"load.0.force.1": ["1 N", "2 N"]}, {}, "'1 N' is neither a number (values are numbers"),
         ({}, {}, "vary: expected"),
         (
             {"flexure.proximal.thickness": [2e-4], "flexure.0.thickness": [3e-4]},
