@@ -43,6 +43,8 @@ if TYPE_CHECKING:
 # flexgen and LAPACK: ~0.8 s measured on 2 cores; later studies reuse the pool: ~0.05 s), so a
 # study goes to them only when a probe (one preparation and a few solves of the scene, timed
 # here) says it takes longer than twice that start-up on one core.
+# the scene keys that are counts: their columns are integers
+COUNT_KEYS = frozenset({"modes", "elements"})
 START_UP = 0.8  # seconds, the first pool of a session
 START_UP_AGAIN = 0.05  # seconds, a pool kept from an earlier study
 PLAIN_EVERY = 2.0  # seconds between plain progress lines (stderr not a terminal)
@@ -306,6 +308,9 @@ def _table(scene: Scene, study: Plan, results: Iterable[Result]) -> pd.DataFrame
     points = list(scene.output_points())
     flexures = [f.name for f in scene.flexures]
     cols: dict[str, Any] = {k: study.values[:, i] for i, k in enumerate(study.keys)}
+    for k in study.keys:  # the counts a scene gives as integers (modes, elements) stay integers
+        if k.rsplit(".", 1)[-1] in COUNT_KEYS and np.all(cols[k] == np.round(cols[k])):
+            cols[k] = cols[k].astype(np.int64)
     cols["converged"] = table[:, 0] == 1.0
     cols["stable"] = table[:, 1] == 1.0
     cols["iterations"] = table[:, 2].astype(np.int64)

@@ -926,3 +926,12 @@ def test_workers_asked_for_are_used_without_the_probe(monkeypatch):
     assert sweep_module._pool_workers == 2
     serial = flexgen.sweep(scene, vary, workers=1, chunk_size=2)
     assert df.equals(serial)
+
+
+def test_count_keys_are_integer_columns():
+    """A study over a count (modes, elements) lists it as integers, as the scene gives it (the
+    table showed 2.0, 3.0: review)."""
+    scene = flexgen.load_scene(ROOT / "examples" / "cantilever_tip_load.toml")
+    df = flexgen.sweep(scene, {"model.modes": [2, 3, 4]}, workers=1)
+    assert df["model.modes"].dtype == np.int64 and df["model.modes"].tolist() == [2, 3, 4]
+    assert df["converged"].all()
