@@ -349,6 +349,19 @@ def solve(
     )[0]
 
 
+class CheckedSolver(Solver):
+    """``flexgen.Solver``'s solver: its answers warn as ``flexgen.solve``'s do. ``solve`` runs
+    the validity check, only where the core's screen (``validity.calm``: ``fg_answer.calm``)
+    finds that a warning may apply (the usual answer: one flag read, about 0.5 us on the
+    finger). The internal solvers of selection, studies and benchmarks are plain ``Solver``s."""
+
+    def solve(self, *args: Any, **kwargs: Any) -> Result:
+        result = super().solve(*args, **kwargs)
+        if result.converged and not validity_calm(self, result):
+            check(self.scene, result, self.models)
+        return result
+
+
 def prepare(
     scene: Scene | Mapping[str, Any] | str | os.PathLike,
     model: str | None = None,
@@ -360,7 +373,8 @@ def prepare(
 ) -> Solver:
     """A ``Solver`` for repeated solves of one scene (``flexgen.Solver``'s front door: the same
     scene arguments and overrides as ``solve``). ``Solver.solve(loads=..., tensions=...)``
-    skips the scene handling and the validity check: the core call and the Result only.
+    skips the scene handling: the core call, the Result and, where the core's screen finds a
+    warning may apply, ``flexgen.solve``'s validity check (``CheckedSolver``).
     ``flexgen.Solver`` is this function; the type it returns, for annotations and isinstance,
     is ``flexgen.solver.Solver``."""
     sc = override(as_scene(scene), model, modes, elements)
@@ -376,4 +390,4 @@ def prepare(
         )
     if models is not None:  # flexgen.solve's check: a bad model would fail deep in the build
         _check_inputs(sc, models, None)
-    return Solver(sc, models, make_settings(settings, **options))
+    return CheckedSolver(sc, models, make_settings(settings, **options))

@@ -197,7 +197,8 @@ class Solver:
         ``[[load]]`` of the scene, in its order, world frame; None: the scene's) and
         ``tensions`` (one per ``[[tendon]]``; None: the scene's). ``q0`` ({flexure:
         coordinates}, e.g. the previous answer's ``q``) is a warm start: Newton at the full load
-        from q0, accepted if it converges to a stable equilibrium within ``max_dq`` of it, else
+        from q0, accepted if it converges to a stable equilibrium within ``max_dq`` of it that
+        is on the load path from the unloaded state (``settings.warm_on_path``), else
         the solve starts from the unloaded state (a flexure's coordinates are padded with zeros
         or cut to its model's count, so an answer of another mode count also serves; a flexure
         left out starts at zero; an unknown flexure is a ValueError). ``estimate=True`` adds the error estimate

@@ -15,6 +15,7 @@ import flexgen
 from flexgen import api, validity
 from flexgen.api import override
 from flexgen.scene import scene_from_dict
+from flexgen.solver import Solver
 
 FINGER = Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml"
 P_EULER = math.pi**2 / 4  # of a cantilever with EI = L = 1
@@ -81,7 +82,7 @@ def test_the_cached_solve_is_the_first_solve(case):
 def test_calm_only_when_check_adds_nothing(case):
     make, expected = CASES[case]
     scene = make()
-    solver = flexgen.Solver(scene)
+    solver = Solver(scene)  # the plain solver: calm and check called here, as flexgen.solve does
     result = solver.solve(estimate=True)
     if not result.converged:
         pytest.skip("check assesses converged answers only")
@@ -120,3 +121,23 @@ def test_a_kept_answer_is_not_changed_by_the_next_solve():
     assert [p.error_estimate for p in first.points.values()] == [
         p.error_estimate for p in fresh.points.values()
     ]
+
+
+@pytest.mark.parametrize("fy", [-0.5, -20.0, -30.0])
+def test_a_prepared_solvers_answers_warn_as_flexgen_solves(fy):
+    """flexgen.Solver runs flexgen.solve's validity check (where the core's screen finds a
+    warning may apply): a prb flexure past its 64 deg warns from either (it did not from a
+    prepared Solver), an answer within it from neither."""
+    scene = {
+        "name": "prb",
+        "model": {"kind": "prb"},
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "beam.tip", "force": [0.0, -1.0]}],
+    }
+    solver = flexgen.Solver(scene)
+    solver.solve()  # an earlier answer: the screen is the core's from then on
+    prepared = solver.solve(loads=[[0.0, fy, 0.0]])
+    scene["load"][0]["force"] = [0.0, fy]
+    direct = flexgen.solve(scene)
+    assert prepared.warnings == direct.warnings
+    assert bool(direct.warnings) == (fy < -6.0)
