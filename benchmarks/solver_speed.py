@@ -16,7 +16,7 @@ lasting at least ``BATCH_S`` each (the median per call over the batches):
   call (its prepared solver comes from the API's cache; the Result, its error estimate and the
   validity check included); exact: ``flexgen.solve`` of the scene with kind "exact" (``models.exact``, Python
   and SciPy), median of single calls, and nothing else;
-- *Solver.solve()*: a prepared ``flexgen.Solver``: the core call and the Result;
+- *Solver.solve()*: a prepared ``flexgen.Solver``: the core call, the Result and the validity screen;
 - *core call*: the bare ``core.lib.fg_solve`` on that solver's problem and workspace;
 
 plus flexgen.solve / core call, the Result's overhead (Solver.solve() - core call), the Newton
@@ -312,7 +312,7 @@ def render_markdown(
         "from the API's cache (the Result, its error estimate and the validity check included); "
         "exact is "
         '`flexgen.solve` with kind "exact" (`models.exact`, Python and SciPy; median of single '
-        "calls). *Solver.solve()*: a prepared `flexgen.Solver` (the core call and the Result). "
+        "calls). *Solver.solve()*: a prepared `flexgen.Solver` (the core call, the Result and the validity screen). "
         "*core call*: the bare `core.lib.fg_solve(problem, work, iwork, answer)` on that "
         "solver's problem and workspace. The three are timed in alternating batches of calls "
         f"lasting at least {BATCH_S * 1e3:g} ms each (median per call). *API / core*: "

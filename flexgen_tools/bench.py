@@ -11,7 +11,8 @@ with every model and compares each answer with the exact elastica (``models.exac
 * time per solve (equilibrium + compliance of the output points) of the one solver, the C core,
   three ways (``flexgen_tools.timing``): (a) ``flexgen.solve(scene)`` through the public API (the
   same Scene object every call, so its prepared solver comes from the cache; error estimate and
-  validity check included), (b) a prepared ``flexgen.Solver``'s ``solve()`` (the core call and the Result), (c)
+  validity check included), (b) a prepared ``flexgen.Solver``'s ``solve()`` (the core call, the Result and the validity
+  screen), (c)
   the bare core call ``core.lib.fg_solve`` on that solver's problem and workspace. (a)/(c) is
   what the Python API costs on top of the computation, (b)-(c) the overhead of the Result;
   ``exact`` is ``solve_exact`` (Python and SciPy) in every column;
@@ -904,7 +905,7 @@ def render_markdown(data: BenchData) -> str:
         "the API's cache; the Result, its error estimate (Newton on the richer model, fg_estimate: "
         "`flexgen/estimate.py`) and the validity check included;",
         "  - *Solver.solve()*: a prepared `flexgen.Solver` (problem and workspace built once), "
-        "as a controller loop calls it: the core call and the Result;",
+        "as a controller loop calls it: the core call, the Result and the core's validity screen;",
         "  - *core call*: the bare `core.lib.fg_solve(problem, work, iwork, answer)` on that "
         "solver's problem and workspace (the cffi call included).",
         "  Each is the median over batches of calls lasting about 2 ms. `exact` is "

@@ -4,8 +4,9 @@
                                          from its cache, the core call, the Result, its error
                                          estimate, the validity check (the same Scene object
                                          every call)
-    prepared  solver.solve()             a prepared ``flexgen.Solver``: the core call and the
-                                         Result (what a controller loop calls)
+    prepared  solver.solve()             a prepared ``flexgen.Solver``: the core call, the
+                                         Result and the core's validity screen (what a
+                                         controller loop calls)
     core      core.lib.fg_solve(...)     the bare core call on the solver's problem and workspace
 
 (api) / (core) is what the Python API costs on top of the computation; (prepared) - (core) is
