@@ -14,7 +14,7 @@ lint:
 	$(PYTHON) -m ruff format --check .
 	$(PYTHON) -m mypy
 
-# the suite on two worker processes (pytest-xdist): 5 to 7 minutes on 2 cores, 9 serially
+# the suite on two worker processes (pytest-xdist): 4 to 7 minutes on 2 cores, 9 serially
 test:
 	$(PYTHON) -m pytest -q -n 2
 
