@@ -192,7 +192,7 @@ typedef struct {
     int *piv;
     int *switched;          /* per flexure: an "auto" flexure used its Gauss kernel since the
                              * flags were last cleared (fg_answer.switched) */
-    int *saved_switched;    /* per flexure: the flags before the direct attempt */
+    int *saved_switched;    /* per flexure: the flags before a trial (save_trial) */
     fg_state st[FG_NSTATES];
 } fg_ws;
 
@@ -864,8 +864,12 @@ typedef struct {
     fg_real err_lam, err_rel;
 } fg_errors;
 
-static void save_errors(const fg_ws *w, fg_errors *e)
+/* A trial that is no part of the answer's path (the direct attempt, the warm start's path
+ * samples) leaves the last errors and the kernel-switch flags as they were: save_trial before
+ * it, restore_trial after (the flags in fg_ws.saved_switched, one trial at a time). */
+static void save_trial(fg_ws *w, fg_errors *e)
 {
+    memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)FG_NFLEX(w->p));
     e->err = w->err;
     e->err_flex = w->err_flex;
     e->err_route = w->err_route;
@@ -877,8 +881,9 @@ static void save_errors(const fg_ws *w, fg_errors *e)
     e->merr_route = w->merr_route;
 }
 
-static void restore_errors(fg_ws *w, const fg_errors *e)
+static void restore_trial(fg_ws *w, const fg_errors *e)
 {
+    memcpy(w->switched, w->saved_switched, sizeof(int) * (size_t)FG_NFLEX(w->p));
     w->err = e->err;
     w->err_flex = e->err_flex;
     w->err_route = e->err_route;
@@ -1903,7 +1908,6 @@ static int on_load_path(fg_ws *w, const fg_state *st0, const fg_state *c, fg_sta
 static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state **spare,
                         fg_state *smp, int *iterations)
 {
-    const fg_problem *p = w->p;
     const fg_settings *set = w->set;
     int n = FG_N(w), ok = 0;
     int max_it = set->max_iterations < set->direct_max_iterations ? set->max_iterations
@@ -1911,8 +1915,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     fg_state *c = *cur;
     fg_errors saved;
 
-    save_errors(w, &saved);
-    memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)FG_NFLEX(p));
+    save_trial(w, &saved);
     memcpy(c->q, st0->q, sizeof(fg_real) * (size_t)n);
     memcpy(c->gU, st0->gU, sizeof(fg_real) * (size_t)n);
     memcpy(c->QL, st0->QL, sizeof(fg_real) * (size_t)n);
@@ -1937,8 +1940,7 @@ static int direct_solve(fg_ws *w, const fg_state *st0, fg_state **cur, fg_state 
     ok = on_load_path(w, st0, c, smp, 1);
 done:
     /* the trial steps and samples are no part of the path: the flags and errors as before */
-    memcpy(w->switched, w->saved_switched, sizeof(int) * (size_t)FG_NFLEX(p));
-    restore_errors(w, &saved);
+    restore_trial(w, &saved);
     return ok;
 }
 
@@ -2891,13 +2893,11 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
         }
         if (warm && p->settings.warm_on_path) {
             fg_errors saved;      /* the samples are no part of the answer: flags as before */
-            save_errors(w, &saved);
-            memcpy(w->saved_switched, w->switched, sizeof(int) * (size_t)FG_NFLEX(p));
+            save_trial(w, &saved);
             memset(w->vec1, 0, sizeof(fg_real) * (size_t)n);
             warm = evaluate(w, w->vec1, 0.0, st0) && diagonal_positive(st0->K, n)
                    && on_load_path(w, st0, cur, smp, 0);
-            memcpy(w->switched, w->saved_switched, sizeof(int) * (size_t)FG_NFLEX(p));
-            restore_errors(w, &saved);
+            restore_trial(w, &saved);
         }
         if (warm) {
             factor = w->lb;
