@@ -62,9 +62,11 @@ def _count(value, key: str, maximum: int) -> int | None:
     if value is None:
         return None
     # a NumPy integer too (np.arange, an array element): what with_value and sweep take
-    if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
-        raise SceneError(f"{key}: must be an integer in [1, {maximum}], got {_fmt(value)}")
-    if not 1 <= value <= maximum:
+    if (
+        isinstance(value, bool | np.bool_)
+        or not isinstance(value, int | np.integer)
+        or not 1 <= value <= maximum
+    ):
         raise SceneError(f"{key}: must be an integer in [1, {maximum}], got {_fmt(value)}")
     return int(value)
 
@@ -167,11 +169,24 @@ def _same(a: SolverSettings, b: SolverSettings) -> bool:
     return a is b or a == b
 
 
+class CheckedSolver(Solver):
+    """``flexgen.Solver``'s solver: its answers warn as ``flexgen.solve``'s do. ``solve`` runs
+    the validity check, only where the core's screen (``validity.calm``: ``fg_answer.calm``)
+    finds that a warning may apply (the usual answer: one flag read, about 0.5 us on the
+    finger). The internal solvers of selection, studies and benchmarks are plain ``Solver``s."""
+
+    def solve(self, *args: Any, **kwargs: Any) -> Result:
+        result = super().solve(*args, **kwargs)
+        if result.converged and not validity_calm(self, result):
+            check(self.scene, result, self.models)
+        return result
+
+
 def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:
     key = _key(scene, settings)
     solver = _solvers.get(key)
     if solver is None or solver.scene is not scene or not _same(solver.settings, settings):
-        solver = Solver(scene, settings=settings)
+        solver = CheckedSolver(scene, settings=settings)
         _solvers[key] = solver
         if len(_solvers) > CACHE_SIZE:
             _solvers.popitem(last=False)
@@ -230,18 +245,11 @@ def _units_hint(scene: Scene, result: Result) -> None:
         result.reason = f"{result.reason or 'not converged'}; {hint}"
 
 
-def _solve_prepared(
-    scene: Scene, solver: Solver, q0: Mapping[str, Any] | None, estimate: bool
-) -> Result:
-    """A solve by a cached prepared solver, assessed and checked. ``validity.calm`` reads the
-    answer's bends and kernels in the workspace (hence inside the lock) and spares the Result's
-    dicts and ``check``'s work when no validity warning can apply (the usual answer)."""
+def _solve_prepared(solver: Solver, q0: Mapping[str, Any] | None, estimate: bool) -> Result:
+    """A solve by a cached prepared solver (a ``CheckedSolver``), assessed and checked, in the
+    lock: ``validity.calm`` reads the answer's bends and kernels in the shared workspace."""
     with _lock:
-        result = solver.solve(q0=q0, estimate=estimate)
-        calm = result.converged and validity_calm(solver, result)
-    if not calm:
-        check(scene, result, solver.models)
-    return result
+        return solver.solve(q0=q0, estimate=estimate)
 
 
 def _solve_scene(
@@ -266,7 +274,7 @@ def _solve_scene(
         settings = DEFAULT if settings is None else settings
         solver = _solvers.get(_key(scene, settings))
         if solver is not None and solver.scene is scene and _same(solver.settings, settings):
-            return _solve_prepared(scene, solver, q0, estimate), None
+            return _solve_prepared(solver, q0, estimate), None
     settings = make_settings(settings, **options)  # checked also where exact ignores them
     if uses_exact(scene):
         from . import exact_result
@@ -285,13 +293,10 @@ def _solve_scene(
         check(scene, result)
         return result, None
     if models is not None:
-        solver = Solver(scene, models, settings)
-        result = solver.solve(q0=q0, estimate=estimate)
+        result = CheckedSolver(scene, models, settings).solve(q0=q0, estimate=estimate)
     else:
         with _lock:
-            solver = _cached_solver(scene, settings)
-            result = solver.solve(q0=q0, estimate=estimate)
-    check(scene, result, solver.models)
+            result = _cached_solver(scene, settings).solve(q0=q0, estimate=estimate)
     return result, None
 
 
@@ -333,7 +338,7 @@ def solve(
             and solver.scene is scene  # so scene is that Scene (as_scene and override: itself)
             and _same(solver.settings, DEFAULT)
         ):
-            result = _solve_prepared(scene, solver, None, True)
+            result = _solve_prepared(solver, None, True)
             if not result.converged:
                 _units_hint(scene, result)
             return result
@@ -347,19 +352,6 @@ def solve(
     return solve_scene(
         sc, models, settings, q0=q0, tolerance=tolerance, estimate=estimate, **options
     )[0]
-
-
-class CheckedSolver(Solver):
-    """``flexgen.Solver``'s solver: its answers warn as ``flexgen.solve``'s do. ``solve`` runs
-    the validity check, only where the core's screen (``validity.calm``: ``fg_answer.calm``)
-    finds that a warning may apply (the usual answer: one flag read, about 0.5 us on the
-    finger). The internal solvers of selection, studies and benchmarks are plain ``Solver``s."""
-
-    def solve(self, *args: Any, **kwargs: Any) -> Result:
-        result = super().solve(*args, **kwargs)
-        if result.converged and not validity_calm(self, result):
-            check(self.scene, result, self.models)
-        return result
 
 
 def prepare(

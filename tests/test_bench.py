@@ -197,12 +197,12 @@ def test_with_model_keeps_the_api_cache(monkeypatch):
 
     built = []
 
-    class Counting(api.Solver):
+    class Counting(api.CheckedSolver):  # the cache's solvers
         def __init__(self, *args, **kwargs):
             built.append(args[0])
             super().__init__(*args, **kwargs)
 
-    monkeypatch.setattr(api, "Solver", Counting)
+    monkeypatch.setattr(api, "CheckedSolver", Counting)
     scene = dict(bench.example_scenes())[bench.SMOOTH_SCENE]
     sc = bench.model_def("fem8").scene(scene)
     assert all(f.model.kind == "fem" and f.model.elements == 8 for f in sc.flexures)
