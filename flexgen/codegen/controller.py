@@ -45,11 +45,14 @@ class Options:
     single: bool = False  # --float: the single-precision twin
 
 
-# The single-precision twin's settings: the tolerances of DEFAULT that are relative to double
+# The controller's warm start follows the mechanism's history on purpose (docs/controller.md,
+# "Warm and cold"): Newton from the last answer, without the library's path samples
+CONTROLLER = replace(DEFAULT, warm_on_path=0)
+# The single-precision twin's settings: the tolerances of CONTROLLER that are relative to double
 # rounding (1e-12 .. 1e-14) raised to what float arithmetic (eps 1.2e-7) can meet; the rest as
-# DEFAULT. Its accuracy is measured, not derived: tests/test_scene_controller.py.
+# CONTROLLER. Its accuracy is measured, not derived: tests/test_scene_controller.py.
 SINGLE = replace(
-    DEFAULT,
+    CONTROLLER,
     tol=2e-5,
     polish_target=1e-6,
     eigenvalue_floor=1e-5,
@@ -62,11 +65,7 @@ SINGLE = replace(
     # every Newton step evaluated: at this tol a linearized end's stiffness and Jacobians would
     # leave the compliance too far off
     linearized_step=0.0,
-    warm_on_path=0,
 )
-# The controller's warm start follows the mechanism's history on purpose (docs/controller.md,
-# "Warm and cold"): Newton from the last answer, without the library's path samples
-CONTROLLER = replace(DEFAULT, warm_on_path=0)
 
 C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # names C99 reserves or the emitted code uses itself, which a prefix must not take
