@@ -388,15 +388,6 @@ static void peer_settings(fg_settings *s)
     return [C_DIR / "harness.c", C_DIR / "fg_core_peer.c", *core_sources, *kernels]
 
 
-def with_local_kernel(toml: str) -> str:
-    """The scene's TOML with ``kernel = "local"`` in its [model] table (added if it has none)."""
-    lines = toml.splitlines()
-    if "[model]" not in lines:
-        return toml + '\n[model]\nkernel = "local"\n'
-    at = lines.index("[model]") + 1
-    return "\n".join([*lines[:at], 'kernel = "local"', *lines[at:]]) + "\n"
-
-
 def has_scene_controller() -> bool:
     """Does this checkout's ``flexgen generate`` take --scene (issue 9's controller)?"""
     out = subprocess.run(
@@ -763,17 +754,17 @@ Contenders:
 - **flexgen controller**: the C of `flexgen generate --scene SCENE --out DIR --prefix NAME`,
   `NAME_solve` with `state.solved = 0` (cold, as docs/controller.md asks for one: the CasADi
   peer likewise clears only its q) or the state kept (warm) (`benchmarks/casadi/controller_peer.c`).
-- **flexgen controller, kernel local**: the same, from the scene with `[model] kernel = "local"`:
-  every flexure evaluated by its local Gauss kernel (`scm3_local9`: 9 nodes, its error bound
-  certified at each q), then the Gauss kernel; the default `"auto"` tries the same local kernel
-  first and the certified polynomial kernel (`scm3`) before the Gauss kernel, so on these scenes
-  the two evaluate the same kernel.
+  Its warm start is accepted only where the direct solve's three path samples put it on the load
+  path from the unloaded state, as the library's (docs/controller.md, "Warm and cold"): a warm
+  answer is the cold one.
+- **flexgen controller, warm follows history**: the same C compiled with
+  `-DNAME_WARM_FOLLOWS_HISTORY`: the warm start accepted without the path samples (3 chain
+  evaluations fewer), the answer on the previous answer's branch (where several stable
+  equilibria hold the inputs, not always the cold one; the CasADi peer's warm Newton is of this
+  kind). Cold solves are the same as the default's.
 - **flexgen core (fg_solve)**: the solver core on the `fg_problem` that `flexgen.Solver` fills for
-  the scene, written out as C constants; warm through `fg_problem.q0`
-  (`benchmarks/casadi/fg_core_peer.c`), with the library's settings: its warm start is accepted
-  only where the direct solve's three path samples put it on the load path from the unloaded
-  state (`warm_on_path`, docs/solver-core.md), 3 more evaluations than the controller's, which
-  follows the previous answer's branch on purpose (docs/controller.md, "Warm and cold").
+  the scene, written out as C constants, with the library's settings; warm through
+  `fg_problem.q0` (`benchmarks/casadi/fg_core_peer.c`).
 
 Every program: `gcc {cflags}` (no -ffast-math, no -march, no LTO), each source its own translation
 unit, `benchmarks/casadi/harness.c` as `main`. The programs run interleaved, {rounds} rounds (forward
@@ -862,13 +853,11 @@ def build_contenders(tmp: Path) -> tuple[list[Contender], dict[str, int]]:
             ]
             exe = compile_program(srcs, [d, C_DIR], d / "peer", defines)
             contenders.append(Contender("flexgen controller", scene, "flexgen", exe))
-            d = tmp / f"controller_local_{scene}"
-            d.mkdir()
-            local = d / f"{scene}.toml"
-            local.write_text(with_local_kernel(path.read_text()))
-            srcs = write_controller_sources(local, scene, d)
-            exe = compile_program(srcs, [d, C_DIR], d / "peer", defines)
-            contenders.append(Contender("flexgen controller, kernel local", scene, "flexgen", exe))
+            history = [*defines, f"{scene.upper()}_WARM_FOLLOWS_HISTORY"]
+            exe = compile_program(srcs, [d, C_DIR], d / "peer_history", history)
+            contenders.append(
+                Contender("flexgen controller, warm follows history", scene, "flexgen", exe)
+            )
         d = tmp / f"core_{scene}"
         d.mkdir()
         srcs = write_core_sources(path, d)

@@ -45,9 +45,14 @@ class Options:
     single: bool = False  # --float: the single-precision twin
 
 
-# The controller's warm start follows the mechanism's history on purpose (docs/controller.md,
-# "Warm and cold"): Newton from the last answer, without the library's path samples
-CONTROLLER = replace(DEFAULT, warm_on_path=0)
+# The controller's settings are the library's: its warm start, like flexgen.Solver's, is
+# accepted only on the load path from the unloaded state (warm_on_path), so a warm answer is
+# the cold one. warm_on_path is emitted as the macro NAME_WARM_ON_PATH, 0 where the controller is
+# compiled with NAME_WARM_FOLLOWS_HISTORY: Newton from the last answer is then accepted without
+# the path samples, and the answer follows the mechanism's own history (docs/controller.md, "Warm
+# and cold"). Found by review: following history by default, a warm answer sat on the other
+# side of a buckled column than flexgen.solve's, with no flag
+CONTROLLER = DEFAULT
 # The single-precision twin's settings: the tolerances of CONTROLLER that are relative to double
 # rounding (1e-12 .. 1e-14) raised to what float arithmetic (eps 1.2e-7) can meet; the rest as
 # CONTROLLER. Its accuracy is measured, not derived: tests/test_scene_controller.py.
@@ -59,7 +64,7 @@ SINGLE = replace(
     roundoff_tol=1e-5,
     bifurcation_threshold=1e-3,
     bracket_tol=1e-5,
-    tie_tol=1e-4,
+    tie_tol=1e-2,
     circle_tol=1e-6,
     descent_eps=1e-2,
     # every Newton step evaluated: at this tol a linearized end's stiffness and Jacobians would
@@ -515,10 +520,13 @@ def _enum_names(scene: Scene) -> list[tuple[str, str]]:
     return _enum("flexure.name", [f.name for f in scene.flexures])
 
 
-def _settings_rows(settings: SolverSettings, number) -> list[tuple[str, str]]:
+def _settings_rows(settings: SolverSettings, number, upper: str) -> list[tuple[str, str]]:
     rows = []
     for f in fields(settings):
         value = getattr(settings, f.name)
+        if f.name == "warm_on_path":  # the controller's compile-time choice (CONTROLLER)
+            rows.append((f.name, f"{upper}_WARM_ON_PATH"))
+            continue
         rows.append((f.name, str(value) if isinstance(value, int) else number(value)))
     return rows
 
@@ -610,7 +618,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "kinds": sorted({_kind(m) for m in models.values()}),
         "texts": _warning_texts(scene, models, list(problem.flexure_order)),
         "warm_change": f"{WARM_CHANGE!r}",  # flexgen/warm.py: the studies' rule too
-        "settings": _settings_rows(settings, c_double),
+        "settings": _settings_rows(settings, c_double, options.prefix.upper()),
         "kernels": kernel_names,
         "kernel_blocks": [_kernel_block(k, options.single) for k in kernel_names],
         "core": _core_text(),

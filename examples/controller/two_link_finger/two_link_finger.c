@@ -3959,6 +3959,18 @@ static const fg_real two_link_finger_local_bound[2] = {SCM3_LOCAL9_ERROR_BOUND, 
 /* bend beyond which no accuracy is claimed (flexgen/validity.py), per flexure in body order */
 static const fg_real two_link_finger_claim_limit[2] = {3.141592653589793, 3.141592653589793};
 
+/* A warm start (from state->q) is accepted only on the load path from the unloaded state, as
+ * flexgen.Solver's: a warm answer is the cold one. Compiled with -DTWO_LINK_FINGER_WARM_FOLLOWS_HISTORY,
+ * it is accepted wherever Newton from the last answer converges nearby to a stable state: cheaper
+ * (no path samples), and the answer follows the mechanism's own history, which may differ from
+ * the cold answer where several stable equilibria hold the inputs (docs/controller.md, "Warm
+ * and cold") */
+#ifdef TWO_LINK_FINGER_WARM_FOLLOWS_HISTORY
+#define TWO_LINK_FINGER_WARM_ON_PATH 0
+#else
+#define TWO_LINK_FINGER_WARM_ON_PATH 1
+#endif
+
 /* the solver settings: flexgen.SolverSettings' defaults (flexgen/settings.py), field by field */
 static const fg_problem two_link_finger_problem = {
     .ndof = 6, .nflex = 2, .npoints = 5, .nloads = 1, .ntendons = 1, .noutputs = 2,
@@ -4010,7 +4022,7 @@ static const fg_problem two_link_finger_problem = {
         .bend_samples = 65,
         .circle_tol = 1e-14,
         .linearized_step = 30.0,
-        .warm_on_path = 0
+        .warm_on_path = TWO_LINK_FINGER_WARM_ON_PATH
     },
     .lapack = {NULL, NULL, NULL, NULL, NULL},   /* the built-in factorizations */
     .q0 = NULL,

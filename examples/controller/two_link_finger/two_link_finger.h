@@ -196,9 +196,11 @@ void two_link_finger_inputs_default(two_link_finger_inputs *in);
 
 /* The equilibrium under in (and its compliance), from state->q when it holds the answer to
  * inputs that differ from in by at most TWO_LINK_FINGER_WARM_CHANGE (relative, per group: fx,
- * fy, moments, tensions) and Newton converges there to a stable state close to it; else along the
- * load path from the unloaded state, as flexgen.solve does (buckling and snap-through
- * included). Updates state on TWO_LINK_FINGER_SOLVED, clears state->solved otherwise. Returns
+ * fy, moments, tensions) and Newton converges there to a stable state close to it on the load
+ * path from the unloaded state (a warm answer is the cold one; compiled with
+ * -DTWO_LINK_FINGER_WARM_FOLLOWS_HISTORY, on the previous answer's branch instead, which may be another
+ * stable equilibrium than the cold answer's); else along the load path from the unloaded state,
+ * as flexgen.solve does (buckling and snap-through included). Updates state on TWO_LINK_FINGER_SOLVED, clears state->solved otherwise. Returns
  * TWO_LINK_FINGER_SOLVED, TWO_LINK_FINGER_NO_EQUILIBRIUM or TWO_LINK_FINGER_BAD_INPUT, and sets out as the
  * status enum above says. Reentrant: no shared state beyond its arguments. Its time is not
  * bounded by a deadline: a cold solve that fails may take thousands of times a cold solve's
