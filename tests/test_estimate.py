@@ -146,11 +146,12 @@ def test_the_estimate_is_honest_against_the_exact_elastica():
     assert rates["worst_curvature_ratio"] <= 10.0, rates["worst_curvature"]
 
 
-@pytest.mark.parametrize("kw", [{"model": "fem", "elements": 4}, {"model": "cc"}, {}])
+@pytest.mark.parametrize("kw", [{"model": "fem", "elements": 8}, {"model": "cc"}, {}])
 def test_an_unloaded_branch_is_estimated_at_rounding_not_zero(kw):
     """A tree's unloaded branch is placed exactly by every model, to rounding: its pose
-    estimate is the rounding floor (fem has no kernel bound to lift it: it was 0 while the
-    answer was 1e-15 off), and the true error against the exact elastica is within it."""
+    estimate is the rounding floor (fem checked by fem 2n has no kernel bound to lift it: it
+    was 0 while the answer was 1e-15 off), and the true error against the exact elastica is
+    within it."""
     from flexgen.select import error_components, length_scales, outputs_of
     from flexgen_tools.estimate_honesty import _tree
 
@@ -162,7 +163,7 @@ def test_an_unloaded_branch_is_estimated_at_rounding_not_zero(kw):
     e = r.points["lb.pad"].error_estimate
     assert e["pose"] >= E.ROUNDING_POSE and e["compliance"] >= E.ROUNDING_COMPLIANCE
     if kw.get("model") == "fem":
-        assert e["pose"] == E.ROUNDING_POSE  # the unloaded branch: rounding alone
+        assert e["pose"] < 2 * E.ROUNDING_POSE  # the unloaded branch: rounding alone
     dpos, dth, _ = true[list(r.points).index("lb.pad")]
     assert max(dpos, dth) <= e["pose"]
 
@@ -380,15 +381,39 @@ def test_estimates_hold_or_warn_just_below_a_snap_through(kw):
 
 
 def test_a_fem_chain_too_coarse_for_its_bend_has_an_unknown_stress_estimate():
-    """fem4 on a flexure bent 170 deg (a force of 20 EI/L^2 at 175 deg from the axis): its root
-    joint turns 2.2 rad, fem4 and fem8 are both about 9 % off the elastica's largest curvature,
-    and their difference (found by review: an estimate of 3.2 % for a true 9.6 %) says nothing:
-    the stress estimate is unknown (inf). fem16 resolves it: finite, and it covers the error."""
+    """fem8 on a flexure bent about 170 deg by a force of 50 EI/L^2 at 175 deg from the axis: its
+    root joint turns 1.8 rad, and fem8 and fem16 are both several % off the elastica's largest
+    curvature, so their difference says nothing (found by review on fem4 and fem8 at 20 EI/L^2:
+    an estimate of 3.2 % for a true 9.6 %): the stress estimate is unknown (inf). fem16 resolves
+    it: finite, and it covers the error; so does fem4, checked against scm8, not fem8."""
     a = math.radians(175.0)
-    scene = cantilever(20.0 * math.cos(a), -20.0 * math.sin(a))
+    scene = cantilever(50.0 * math.cos(a), -50.0 * math.sin(a))
     exact = flexgen.solve(scene, model="exact").flexures["beam"].max_curvature
-    coarse = flexgen.solve(scene, model="fem", elements=4).flexures["beam"]
+    coarse = flexgen.solve(scene, model="fem", elements=8).flexures["beam"]
     assert coarse.error_estimate == math.inf
-    fine = flexgen.solve(scene, model="fem", elements=16).flexures["beam"]
-    true = abs(fine.max_curvature - exact) / max(fine.max_curvature, exact)
-    assert math.isfinite(fine.error_estimate) and true <= fine.error_estimate
+    for elements in (4, 16):
+        fine = flexgen.solve(scene, model="fem", elements=elements).flexures["beam"]
+        true = abs(fine.max_curvature - exact) / max(fine.max_curvature, exact)
+        assert math.isfinite(fine.error_estimate) and true <= fine.error_estimate, elements
+
+
+@pytest.mark.parametrize("elements", [2, 3, 4])
+def test_few_elements_are_estimated_within_their_error_just_below_a_snap_through(elements):
+    """fem with 4 or fewer elements is checked against scm8, not fem 2n (estimate.FEM_REFINED):
+    near the elastica's limit load fem n and fem 2n are both far from it, and fem2's estimate
+    against fem4 was 10.4x below its true error with no warning (found by review). Against scm8
+    every answer's pose and compliance errors are within the estimate, with or without a
+    warning; the compliance against the exact elastica's, relative in the spectral norm."""
+    (fx, fy), m = SNAP_LOADS[0]
+    limit = flexgen.solve(cantilever(fx, fy, m), model="exact").critical_load_factors[0]
+    for fraction in (0.9, 0.99, 0.9995):
+        lam = fraction * limit
+        scene = cantilever(lam * fx, lam * fy, lam * m)
+        exact = flexgen.solve(scene, model="exact").points["beam.tip"]
+        point = flexgen.solve(scene, model="fem", elements=elements).points["beam.tip"]
+        turn = abs(math.remainder(point.pose[2] - exact.pose[2], 2 * math.pi))
+        error = max(math.hypot(point.pose[0] - exact.pose[0], point.pose[1] - exact.pose[1]), turn)
+        assert error <= point.error_estimate["pose"], (fraction, error, point.error_estimate)
+        C, C_exact = np.array(point.compliance), np.array(exact.compliance)
+        c_error = np.linalg.norm(C - C_exact, 2) / np.linalg.norm(C_exact, 2)
+        assert c_error <= point.error_estimate["compliance"], (fraction, c_error)

@@ -531,6 +531,32 @@ def test_limit_point_is_reported_not_hidden():
     assert 0.5 < c.critical_load_factor < 0.6
 
 
+@pytest.mark.parametrize("P", [70.0, 120.0])
+def test_the_scene_solver_follows_a_large_transverse_tip_load(P):
+    """Found by review: a plain cantilever under a transverse tip force of 61 to 1000 EI/L^2
+    (below the exact solver's cap) stalled at load factor 0.97 (P = 70) and said "limit point:
+    the load would snap through", which a transverse dead load has none of: Newton's absolute
+    residual tolerance (1e-12) sat below the shooting's rounding at such loads (1e-12 to 1e-9).
+    Its tolerance is relative to the load level now: the scene solver converges and agrees with
+    the single cantilever's own shooting (a Newton on the root moment alone) and, at P = 70,
+    with fem128 and fem256 extrapolated as O(h^2) (Richardson: 6e-9 off here)."""
+    sc = make_scene(
+        [Flexure("b", "base", (0.0, 0.0, 0.0), 1.0, 1.0, MS)], loads=[Load("b.tip", (0.0, -P), 0.0)]
+    )
+    r = solve_exact(sc)
+    assert r.converged and not r.warnings, r.warnings
+    pose = np.array(r.poses["b.tip"])
+    c = cantilever(1.0, 1.0, force=(0.0, -P))
+    assert c.converged and np.abs(pose - c.pose).max() < 1e-9
+    if P == 70.0:
+        fine = [
+            solve_cantilever(FEMModel(1.0, 1.0, n), force=(0.0, -P), steps=40)[1].pose
+            for n in (128, 256)
+        ]
+        richardson = (4.0 * fine[1] - fine[0]) / 3.0
+        assert np.abs(pose - richardson).max() < 5e-8
+
+
 def test_exact_solver_refuses_a_load_past_its_cap_and_says_so():
     """docs/scene.md: the exact solver gives up beyond a nondimensional load of 1000
     (MAX_LOAD); the reason names that cap, not a limit point it never met."""
