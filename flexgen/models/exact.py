@@ -609,6 +609,11 @@ class _SceneProblem:
         R[:, 2::3] = mu_tip - Mreq * self.L / self.EI
         return R, pts, tips, shapes, frames
 
+    def output_rise(self, dpts):
+        """d(mean world y of the output points)/dz, from ``jacobian``'s d(point xy)/dz."""
+        idx = self.out_ids or list(range(dpts.shape[1]))
+        return dpts[:, idx, 1].mean(axis=1)
+
     def jacobian(self, z, lam, h=1e-6):
         m = z.size
         Z = np.repeat(z[None, :], 1 + 2 * m, axis=0)
@@ -719,9 +724,10 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     flips (a bifurcation, e.g. a straight column past its Euler load) the solver tries to switch
     to the branch along the null vector, oriented to the side the load pushed the last stable
     state along its softest mode (an imperfect structure: the side its imperfection chose;
-    ``_imperfection_side``), else (a symmetric structure) so that the first flexure bends
-    counter-clockwise at its root (+y for a flexure along +x), and keeps it if it is stable and
-    on that side. A step from a stable state against the path's tangent is a jump to the mirror
+    ``_imperfection_side``), else (a symmetric structure) by the chain models' side rules: the
+    side whose output points lie higher (to first order along the null vector), else the one
+    where the first flexure bends counter-clockwise at its root (+y for a flexure along +x); it
+    keeps the branch if it is stable and on that side. A step from a stable state against the path's tangent is a jump to the mirror
     branch and is retried shorter.
 
     ``compliance``: d(position of p)/d(force at p), by the implicit function theorem on the
@@ -767,7 +773,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         except RuntimeError as exc:
             ok, why = False, str(exc)
         if ok:
-            R_new, J, _, _, _ = prob.jacobian(z_new, lam_new)
+            R_new, J, dpts, _, _ = prob.jacobian(z_new, lam_new)
             s_new = np.sign(np.linalg.det(J))
             if s_new != sign and dlam > 1e-3:
                 ok = False  # confirm a sign change of det J with small steps (no jump)
@@ -811,8 +817,15 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                 k = np.flatnonzero(np.abs(mus) > 1e-3 * np.max(np.abs(v)))
                 if k.size and mus[k[0]] < 0:
                     v = -v
-                # an imperfect structure: the side its imperfection chose (a symmetric one
-                # has none: the convention above stands)
+                # a symmetric structure: the chain models' convention (docs/solver-core.md,
+                # the side rules): the side whose output points lie higher, where the two
+                # differ in it (to first order along v); else counter-clockwise, as above
+                # (found by review: a column along -x bent to -y here and to +y in every
+                # chain model, off by 2.8 rad against estimates of 3e-4)
+                rise = prob.output_rise(dpts)
+                if abs(float(np.dot(rise, v))) > 1e-6 * float(np.linalg.norm(rise)) + 1e-12:
+                    v = v if float(np.dot(rise, v)) > 0.0 else -v
+                # an imperfect structure: the side its imperfection chose
                 side = _imperfection_side(J_cur, dR_cur)
                 if side is not None and float(np.dot(v, side)) < 0.0:
                     v = -v
