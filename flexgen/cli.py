@@ -12,6 +12,7 @@ same way ("internal error", exit 1) rather than as a traceback (FLEXGEN_TRACEBAC
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import sys
@@ -85,7 +86,9 @@ def _main(argv) -> int:
     args = None
     try:
         args = parser.parse_args(argv)
-        return args.run(args)
+        status = args.run(args)
+        sys.stdout.flush()  # a write error of the answer surfaces here, not at exit
+        return status
     except UnusableTarget as exc:  # an output path that is a folder, a FIFO: bad input
         _error(f"error: cannot write {exc.path}: {exc.why}")
         return 2
@@ -104,6 +107,10 @@ def _main(argv) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except Exception as exc:
+        if isinstance(exc, OSError) and _stdout_refused(exc):
+            # a full disk or device behind stdout: the answer is lost, said in one line
+            _error(f"cannot write to standard output: {exc.strerror or exc}")
+            return 1
         # a bug, not an answer: one line all the same (FLEXGEN_TRACEBACK=1 shows the traceback)
         if os.environ.get("FLEXGEN_TRACEBACK"):
             raise
@@ -111,6 +118,21 @@ def _main(argv) -> int:
         _error(message)
         _json_failure(argv, args, message)
         return 1
+
+
+# what a write to a full or failing device raises (no file name: not a file flexgen opened,
+# whose errors are its own messages)
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EIO, errno.EFBIG, errno.EDQUOT, errno.EBADF}
+
+
+def _stdout_refused(exc: OSError) -> bool:
+    """Whether ``exc`` is stdout refusing the answer (a full disk, /dev/full); stdout is then
+    pointed at /dev/null, so that nothing more is tried, the interpreter's last flush
+    included."""
+    if exc.filename is not None or exc.errno not in _WRITE_ERRNOS:
+        return False
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return True
 
 
 def _json_failure(argv: list, args, message: str) -> None:
@@ -131,7 +153,11 @@ def _json_failure(argv: list, args, message: str) -> None:
     else:  # the scene file as given: the first argument after the command that is no option
         scene = next((str(a) for a in argv[1:] if not str(a).startswith("-")), "")
     reason = printable(" ".join(str(message).split()))
-    print(Result.unsolvable(printable(scene), reason).to_json(indent=2))
+    try:
+        print(Result.unsolvable(printable(scene), reason).to_json(indent=2), flush=True)
+    except OSError as exc:  # stdout refuses it: the one line on stderr stands
+        if not _stdout_refused(exc):
+            raise
 
 
 def _error(message: str) -> None:

@@ -42,6 +42,36 @@ def test_closed_pipe_is_quiet():
     assert "Traceback" not in result.stderr and "BrokenPipe" not in result.stderr
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+@pytest.mark.parametrize(
+    "args, code",
+    [
+        (["solve", "examples/two_link_finger.toml"], 1),
+        (["solve", "examples/two_link_finger.toml", "--json"], 1),
+        (["solve", "no-such-scene.toml", "--json"], 2),
+        (["select", "examples/two_link_finger.toml", "--tol", "1e-3"], 1),
+    ],
+)
+def test_a_full_stdout_is_one_line(args, code):
+    """Found by review: with stdout on a full device, `--json` printed the one line and then
+    35 lines of two chained tracebacks (exit 1 where the scene was bad input), and a good scene
+    said 'internal error ... (please report it)'. Now: one line, no traceback, bad input exit
+    2, a lost answer exit 1."""
+    with open("/dev/full", "w") as full:
+        result = subprocess.run(
+            [sys.executable, "-m", "flexgen", *args],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=Path(__file__).parents[1],
+        )
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == code, result.stderr
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    if code == 1:
+        assert lines[0] == "flexgen: cannot write to standard output: No space left on device"
+
+
 def _flexgen(*args):
     return subprocess.run(
         [sys.executable, "-m", "flexgen", *args],
