@@ -114,6 +114,20 @@ def grid_values(key: str, spec: Any) -> np.ndarray:
     return np.array(values, dtype=float)
 
 
+def _grid_size(spec: Any) -> int:
+    """How many values ``grid_values`` makes of ``spec``, without making them (1 where it will
+    refuse the spec: its own message says why)."""
+    if isinstance(spec, tuple) and len(spec) == 3:
+        count = spec[2]
+        if isinstance(count, (int, np.integer)) and not isinstance(count, bool) and count >= 1:
+            return int(count)
+        return 1
+    try:
+        return max(len(spec), 1)
+    except TypeError:
+        return 1
+
+
 def draw(key: str, spec: Any, samples: int, rng: np.random.Generator) -> np.ndarray:
     """``samples`` values of one Monte-Carlo key."""
     if not (isinstance(spec, (tuple, list)) and len(spec) == 3 and spec[0] in DISTRIBUTIONS):
@@ -186,10 +200,11 @@ def plan(
     if samples is None:
         if seed is not None:
             raise SceneError("seed: only with samples=N (a grid draws nothing)")
-        axes = [grid_values(k, vary[k]) for k in keys]
-        total = math.prod(len(a) for a in axes)
+        # the count before any axis is made: (-1, -2, 10**11) would ask linspace for 745 GiB
+        total = math.prod(_grid_size(vary[k]) for k in keys)
         if total > MAX_CASES:
             raise SceneError(f"vary: {total} cases (at most {MAX_CASES})")
+        axes = [grid_values(k, vary[k]) for k in keys]
         for k, a in zip(keys, axes):
             _check_values(scene, k, a)
         values = _product(axes)

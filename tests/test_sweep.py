@@ -347,6 +347,8 @@ def test_stress_columns_are_the_results_flexures(finger):
         ({"load.0.point": (0.0, 1.0, 2)}, {}, "load.0.point: load[0].point: must be a string"),
         # a tuple is (start, stop, count): a forgotten count is not read as two values
         ({"load.0.force.1": (0.0, -1.0)}, {}, "load.0.force.1: a tuple is (start, stop, count)"),
+        # counted before any axis is made (review: a MemoryError asking for 745 GiB)
+        ({"load.0.force.1": (-1.0, -2.0, 10**11)}, {}, "vary: 100000000000 cases (at most"),
         # a value with a unit: values are numbers in the scene's units
         ({"load.0.force.1": ["1 N", "2 N"]}, {}, "'1 N' is neither a number (values are numbers"),
         ({}, {}, "vary: expected"),
