@@ -23,10 +23,11 @@ equilibrium), and let d_i(N) = |answer(N) - answer(N + 2)| componentwise (compar
 skips the even/odd plateaus of the Legendre series). The truncation error of N is estimated by the
 telescoping tail
 
-    e_i(N) = d_i(N) + e_i(N + 2),     e_i(M - 1), e_i(M) = rho * d_i(M - 3), rho * d_i(M - 2)
+    e_i(N) = d_i(N) + e_i(N + 2),     e_i(M) = d_i(M - 2),
+    e_i(M - 1) = |answer(M - 1) - answer(M)| + e_i(M)
 
-where rho <= 1 is the observed contraction per two modes (the larger of d(M-2)/d(M-4) and
-d(M-3)/d(M-5)). Each flexure also carries its kernel's certified bounds (pose: ERROR_BOUND L_i /
+(each difference times the margin SAFETY): the rich model's error is stated as M - 2's, as every
+answer's estimate of scm8 is (flexgen.estimate), not extrapolated. Each flexure also carries its kernel's certified bounds (pose: ERROR_BOUND L_i /
 L_p; compliance: 2 JACOBIAN_ERROR_BOUND). The estimate of a choice (N_1, ...) is the componentwise
 sum over flexures, and after solving the chosen models it is raised, if needed, to
 |answer(chosen) - answer(R)| + the rich model's own estimate (this catches interaction between
@@ -51,7 +52,6 @@ from .result import Result
 from .scene import Scene, SceneError, _fmt
 
 MAX_MODES = 8  # the polynomial kernels shipped: scm1 .. scm8
-RHO_FLOOR = 1e-13  # added to the differences when the contraction rate is measured
 SAFETY = 1.05  # margin on every measured difference (see docs/selection.md)
 
 
@@ -243,7 +243,7 @@ class FlexureTable:
     kernel: dict[int, str] = field(default_factory=dict)  # N -> kernel at equilibrium
     kern: dict[int, np.ndarray] = field(default_factory=dict)  # N -> kernel bounds
     total: dict[int, np.ndarray] = field(default_factory=dict)  # N -> est + kernel bounds
-    extrapolated: set = field(default_factory=set)  # N estimated by rho
+    extrapolated: set = field(default_factory=set)  # N whose estimate is another N's (M)
 
 
 @dataclass
@@ -309,7 +309,7 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
         sols: dict[int, Outputs | None] = {Mi: rich.outputs}
         ft.kernel[Mi] = rich.kernels[i]
         d: dict[int, np.ndarray] = {}
-        rho = None
+        tail = False  # the tail from M down is set (once d(M - 2) .. d(M - 5) are measured)
         stopped = False
 
         def diff(N):  # called within this iteration only: sols is the current flexure's
@@ -327,11 +327,14 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
             ft.kernel[N] = s.kernels[i]
             if N + 2 <= Mi:
                 d[N] = diff(N)
-            if rho is None and (N == max(Mi - 5, 1) or s.outputs is None):
-                rho = _contraction(d, Mi)
-                # the rich model: the observed contraction applied once more
+            if not tail and (N == max(Mi - 5, 1) or s.outputs is None):
+                tail = True
+                # the rich model: its difference to M - 2, as every answer's estimate of M
+                # takes it (flexgen.estimate: scm8 against scm6), not the observed contraction
+                # applied once more, which stated 5e-6 for a true 3.5e-4 where the modes had
+                # not converged by 8 (found by review: `--tol` claimed T, off by up to 97x)
                 base = d.get(Mi - 2)
-                ft.est[Mi] = rho * SAFETY * base if base is not None else inf.copy()
+                ft.est[Mi] = SAFETY * base if base is not None else inf.copy()
                 ft.extrapolated.add(Mi)
                 if Mi - 1 >= 1:  # M - 1 against M, plus M's own error
                     a, b = sols.get(Mi - 1), sols.get(Mi)
@@ -339,20 +342,19 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
                     ft.est[Mi - 1] = SAFETY * step + ft.est[Mi]
                 for K in range(Mi - 2, N - 1, -1):
                     ft.est[K] = SAFETY * d.get(K, inf) + ft.est.get(K + 2, inf)
-            elif rho is not None:
+            elif tail:
                 ft.est[N] = SAFETY * d.get(N, inf) + ft.est.get(N + 2, inf)
             if s.outputs is None:
                 stopped = True
             elif (
                 stop_at is not None
-                and rho is not None
+                and tail
                 and N + 1 < Mi
                 and np.max(ft.est.get(N, inf)) > stop_at
                 and np.max(ft.est.get(N + 1, inf)) > stop_at
             ):
                 stopped = True
-        if rho is None:  # a flexure with M = 1 (cannot happen with the shipped kernels)
-            rho = 1.0
+        if not tail:  # a flexure with M = 1 (cannot happen with the shipped kernels)
             ft.est[Mi] = np.zeros(ncomp)
         for N in range(1, Mi + 1):
             e = ft.est.get(N)
@@ -365,19 +367,6 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
             ft.total.setdefault(N, inf.copy())
         table.flexures.append(ft)
     return table
-
-
-def _contraction(d: Mapping[int, np.ndarray], M: int) -> np.ndarray | float:
-    """rho per component: the larger of the last two observed two-mode contraction ratios,
-    at most 1 (1 when fewer than one ratio is known)."""
-    ratios = []
-    for top in (M - 2, M - 3):
-        a, b = d.get(top), d.get(top - 2)
-        if a is not None and b is not None and np.all(np.isfinite(a)) and np.all(np.isfinite(b)):
-            ratios.append((a + RHO_FLOOR) / (b + RHO_FLOOR))
-    if not ratios:
-        return 1.0
-    return np.minimum(np.max(ratios, axis=0), 1.0)
 
 
 # -- choosing ----------------------------------------------------------------------------------

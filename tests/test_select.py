@@ -64,11 +64,17 @@ def test_estimate_is_honest_for_every_tolerance(honesty):
 
 
 def test_choice_is_the_cheapest(honesty):
+    """At least 90 % of the choices are the cheapest that meets T in truth; 85 % at 1e-8,
+    where the richest models' own estimate (scm8 against scm6, as every answer's) is close to
+    T: measured 0.889 there, 0.938 at 1e-4, 1.0 at 1e-2, and T reached in 83 % of the cases at
+    1e-8 (the price of stating scm8's error as scm6's, not extrapolated by the observed
+    contraction: test_a_tolerance_past_the_modes_convergence_is_not_claimed)"""
     _, cases = honesty
     rates = H.honesty_rates(cases)
     for tol in TOLS:
-        assert rates[tol]["cheapest"] >= 0.90, (tol, rates[tol])
-        assert rates[tol]["checked"] >= 0.9 * rates[tol]["cases"]
+        assert rates[tol]["cheapest"] >= (0.85 if tol <= 1e-8 else 0.90), (tol, rates[tol])
+        # checked: T reached (at 1e-8: 54 of 65, the rest honestly out of reach)
+        assert rates[tol]["checked"] >= (0.8 if tol <= 1e-8 else 0.9) * rates[tol]["cases"]
 
 
 def test_fewer_modes_for_looser_tolerance(honesty):
@@ -259,3 +265,36 @@ def test_modes_beside_a_scene_tolerance_are_refused(tmp_path):
     )
     with pytest.raises(SceneError, match=r"^flexure\[1\]\.model\.modes: .* not both, got 4$"):
         load_scene(path)
+
+
+def test_a_tolerance_past_the_modes_convergence_is_not_claimed():
+    """Found by review: one flexure under a mostly axial tension (68.5 EI/L^2 at 0.6 rad, a
+    moment of -14.7 EI/L, at a point just off the tip): `--tol 1e-3` chose 8 modes and claimed
+    3.8e-4 while the pose was off by 3.5e-4 against an estimate of 4.7e-6 (74x) and the
+    compliance by 5.0e-3 (13x): the richest model's error was the observed contraction
+    applied once more to a series that had not converged by 8 modes. Stated as scm6's (as
+    every answer's estimate of scm8 is), the answer's errors against the exact elastica are
+    within its estimates, and T is said to be out of reach."""
+    import math as m
+
+    scene = scene_from_dict(
+        {
+            "flexure": [{"name": "b", "length": 1.0, "EI": 1.0}],
+            "link": [{"name": "l", "parent": "b", "points": {"p": [0.043, -0.0996]}}],
+            "load": [
+                {"point": "l.p", "force": [68.5 * m.cos(0.6), 68.5 * m.sin(0.6)], "moment": -14.7}
+            ],
+        }
+    )
+    exact = solve(scene, model="exact").points["l.p"]
+    r = select.solve_to_tolerance(scene, 1e-3)
+    point = r.points["l.p"]
+    pose = max(
+        m.hypot(point.pose[0] - exact.pose[0], point.pose[1] - exact.pose[1]),
+        abs(m.remainder(point.pose[2] - exact.pose[2], 2 * m.pi)),
+    )
+    C, C_exact = np.array(point.compliance), np.array(exact.compliance)
+    compliance = np.linalg.norm(C - C_exact, 2) / np.linalg.norm(C_exact, 2)
+    assert pose <= point.error_estimate["pose"], (pose, point.error_estimate)
+    assert compliance <= point.error_estimate["compliance"], (compliance, point.error_estimate)
+    assert any("out of reach" in w for w in r.warnings), r.warnings
