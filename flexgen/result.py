@@ -250,7 +250,10 @@ class Result:
             lines.append(f"  warning: {msg}")
         for msg in self.notes:
             lines.append(f"  note: {msg}")
-        return "\n".join(lines)
+        # one line per entry: a newline inside a name (or a message) is shown escaped, so that
+        # no name can forge a line of the table (found by review: a flexure named with a
+        # newline printed a fake "converged" line)
+        return "\n".join(line.replace("\n", "\\n").replace("\r", "\\r") for line in lines)
 
 
 class LazyResult(Result):

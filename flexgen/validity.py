@@ -99,7 +99,7 @@ def units_warning(scene: Scene, bends: Mapping[str, float]) -> str | None:
         return None
     name = max(suspects, key=lambda n: bends[n])
     return (
-        f"flexure {name!r}: load level {levels[name]:.3g} (force x L^2/EI) and a bend of "
+        f"flexure {name!r}: load level {levels[name]:.3g} (force x L^2/EI + moment x L/EI) and a bend of "
         f"{_deg(bends[name])}, far past what an elastic flexure survives: {units_hint(scene)}"
     )
 
@@ -109,7 +109,7 @@ def units_reason(scene: Scene) -> str | None:
     level = max(scene.load_levels().values(), default=0.0)
     if level <= UNITS_LOAD_LEVEL:
         return None
-    return f"load level {level:.3g} (force x L^2/EI): {units_hint(scene)}"
+    return f"load level {level:.3g} (force x L^2/EI + moment x L/EI): {units_hint(scene)}"
 
 
 _SCENE_CONSTANTS: dict[int, tuple] = {}

@@ -107,6 +107,27 @@ def test_table_output(capsys):
     assert " 0.2876 " in out and " 0.006883 " in out  # the 3-mode compliance eigenvalues
 
 
+def test_a_newline_in_a_name_cannot_forge_a_table_line(tmp_path, capsys):
+    """Found by review: a scene named "a\\nscene: forged" and a flexure named
+    "b\\nconverged in 1 Newton iterations" printed those as lines of their own. The table has
+    as many lines as with plain names, the newlines shown escaped."""
+    lines = {}
+    for label, (scene, flexure) in {
+        "plain": ("a", "b"),
+        "forged": ("a\\nscene: forged", "b\\nconverged in 1 Newton iterations"),
+    }.items():
+        path = tmp_path / f"{label}.toml"
+        path.write_text(
+            f'name = "{scene}"\n[[flexure]]\nname = "{flexure}"\nlength = 1.0\nEI = 1.0\n'
+        )
+        code, out, err = run(capsys, "solve", path)
+        assert code == 0 and err == ""
+        lines[label] = out.splitlines()
+    assert len(lines["forged"]) == len(lines["plain"])
+    assert lines["forged"][0] == "scene: a\\nscene: forged"
+    assert not any(line.startswith("converged in 1 ") for line in lines["forged"])
+
+
 @pytest.mark.parametrize(
     "argv, model, qlen",
     [

@@ -577,6 +577,9 @@ def test_bad_prefix_and_unwritable_folder(tmp_path):
     scene = str(ROOT / "examples" / "cantilever_tip_load.toml")
     r = _emit(["--scene", scene, "--prefix", "9lives", "--out", "out"], tmp_path)
     assert r.returncode == 2 and "--prefix" in r.stderr and r.stderr.count("\n") == 1
+    # the controller is C: --lang numpy is refused, not ignored (found by review)
+    r = _emit(["--scene", scene, "--lang", "numpy", "--out", "out"], tmp_path)
+    assert r.returncode == 2 and "--lang" in r.stderr and r.stderr.count("\n") == 1
     (tmp_path / "file").write_text("")
     r = _emit(["--scene", scene, "--out", "file/sub"], tmp_path)
     assert r.returncode == 2 and "--out" in r.stderr and r.stderr.count("\n") == 1, r.stderr

@@ -127,6 +127,8 @@ def _run_scene(args) -> int:
     ]
     if args.range_deg is not None:
         given.append("--range")
+    if tuple(args.lang) != tuple(LANGS):  # the controller is C (found by review: ignored)
+        given.append("--lang")
     if given:
         raise UsageError(f"{', '.join(given)}: not used with --scene (the scene chooses models)")
     # the prefix checked first (its error is the one line, before --out's), and without
