@@ -1089,6 +1089,12 @@ WARNING_SCENES = {
         '[model]\nkind = "scm"\nmodes = 3\n[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'
         '[[load]]\npoint = "beam.tip"\nforce = [0.0, 0.0]\nmoment = 3.6\n'
     ),
+    # a flexure shorter than 5 thicknesses: the library warns on every answer (found by
+    # review: the controller dropped it)
+    "short and thick": (
+        '[[flexure]]\nname = "f"\nlength = 0.001\nE = 2e11\nwidth = 0.005\n'
+        'thickness = 0.0003\n[[load]]\npoint = "f.tip"\nforce = [0.0, -0.1]\n'
+    ),
 }
 
 
@@ -1122,6 +1128,9 @@ def test_example_warnings_are_the_library_warnings(tmp_path, case):
         assert "it has 2 flexures" in header
     if case == "prb in its case":
         assert ref["warnings"] == []
+    if case == "short and thick":
+        assert len(ref["warnings"]) == 1 and "3.3 times its thickness" in ref["warnings"][0]
+        assert "flexure 'f' is" in (tmp_path / "s.h").read_text()
 
 
 # -- the float twin past a bifurcation ------------------------------------------------------------
@@ -1244,6 +1253,21 @@ def test_float_twin_takes_the_double_solvers_side_of_a_perfect_bifurcation(tmp_p
 
 
 # -- units, models and the CMake target ------------------------------------------------------------
+
+
+def test_header_says_a_tolerance_chose_the_modes_at_generation(tmp_path):
+    """Found by review: with `[model] tolerance`, flexgen.solve chooses the modes per answer
+    (4 at another tension) while the controller keeps those chosen at generation, and nothing
+    in the emitted files said so. The header names the tolerance and the modes it chose."""
+    scene = tmp_path / "tol.toml"
+    scene.write_text(
+        '[model]\ntolerance = 1e-4\n[[flexure]]\nname = "a"\nlength = 1.0\nEI = 1.0\n'
+        '[[load]]\npoint = "a.tip"\nforce = [0.0, -1.0]\n'
+    )
+    header = " ".join(controller_files(scene, "t")["t.h"].split())
+    assert "tolerance 0.0001 chose the modes at generation" in header
+    assert "('a' " in header and "other * inputs may need more" not in header
+    assert "other inputs may need more" in header.replace(" * ", " ")
 
 
 def test_header_names_the_scene_units_and_the_coordinates(tmp_path):

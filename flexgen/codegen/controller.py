@@ -16,6 +16,7 @@ import functools
 import json
 import math
 import re
+import textwrap
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
@@ -220,9 +221,10 @@ def c_float(x: float) -> str:
     return (text if any(c in text for c in ".e") else text + ".0") + "f"
 
 
-def _prepared_scene(path: Path) -> Scene:
+def _prepared_scene(path: Path) -> tuple[Scene, list[str] | None]:
     """The scene as the controller solves it: a `tolerance` resolved into modes per flexure
-    (flexgen.select, as `flexgen solve` does), the exact model refused."""
+    (flexgen.select, as `flexgen solve` does), the exact model refused; and, for a scene with a
+    tolerance, what the header says of it (the modes chosen, at the scene's own loads)."""
     from flexgen.api import uses_exact
     from flexgen.select import scene_tolerance, select_models
 
@@ -233,14 +235,23 @@ def _prepared_scene(path: Path) -> Scene:
             'or "prb" for a controller (`flexgen select` says which is accurate enough)'
         )
     tol = scene_tolerance(scene)
-    if tol is not None:
-        modes = select_models(scene, tol).modes
-        flexures = tuple(
-            replace(f, model=replace(f.model, modes=modes[f.name], tolerance=None))
-            for f in scene.flexures
-        )
-        scene = replace(scene, model=replace(scene.model, tolerance=None), flexures=flexures)
-    return scene
+    if tol is None:
+        return scene, None
+    modes = select_models(scene, tol).modes
+    flexures = tuple(
+        replace(f, model=replace(f.model, modes=modes[f.name], tolerance=None))
+        for f in scene.flexures
+    )
+    scene = replace(scene, model=replace(scene.model, tolerance=None), flexures=flexures)
+    chosen = ", ".join(f"{name!r} {n}" for name, n in modes.items())
+    # found by review: at other inputs flexgen.solve chose more modes, and nothing said so
+    note = c_comment(
+        f"Models: the scene's tolerance {tol:g} chose the modes at generation, at the scene's "
+        f"own loads ({chosen}), and they are fixed here; flexgen.solve chooses them per "
+        f"answer, so other inputs may need more: check with `flexgen select` over the inputs "
+        f"the controller gives."
+    )
+    return scene, textwrap.wrap(note, 92, break_long_words=False)
 
 
 @functools.cache
@@ -384,13 +395,29 @@ def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
     from flexgen.validity import BEND_LIMIT, PRB_LIMIT, prb_structure_problem
 
     prb_problem = prb_structure_problem(scene)
+    thick = _thick_flexures(scene)
     limits = []
     for name in order:
         limit = BEND_LIMIT
         if model_info(models[name])["kind"] == "prb":
             limit = -1.0 if prb_problem is not None else min(limit, PRB_LIMIT)
+        if name in thick:  # outside the slender-beam model at any bend (scene_warnings)
+            limit = -1.0
         limits.append(float(limit))
     return limits
+
+
+def _thick_flexures(scene: Scene) -> list[str]:
+    """The flexures the library warns about on every answer of the scene (scene_checks:
+    shorter than MIN_SLENDERNESS thicknesses): NO_CLAIM on every answer of the controller
+    (found by review: the warning was dropped)."""
+    from flexgen.scene_checks import MIN_SLENDERNESS
+
+    return [
+        f.name
+        for f in scene.flexures
+        if f.thickness is not None and f.length < MIN_SLENDERNESS * f.thickness
+    ]
 
 
 def _units(scene: Scene) -> dict[str, str]:
@@ -445,6 +472,7 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
     flexgen.result.UNSTABLE) that the example prints for the flags, as C string bodies: whole
     texts, or a head and a tail around a bend in degrees (``%.0f deg``) or a point name. The
     near-critical warning's numbers (the margin) are not computed in C: its text is the C's."""
+    from flexgen.scene_checks import scene_warnings
     from flexgen.validity import _deg, _names, model_label, prb_structure_problem
 
     flex_index = {f.name: i for i, f in enumerate(scene.flexures)}
@@ -496,6 +524,7 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
         "prb_structure": None
         if structure is None
         else c_json_string(case_head + structure + case_tail),
+        "scene": [c_json_string(w) for w in scene_warnings(scene)],
         "prb_moment": None
         if not prb or structure is not None
         else {
@@ -537,7 +566,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
     from flexgen.models.registry import build_models
     from flexgen.problem import Problem
 
-    scene = _prepared_scene(path)
+    scene, tolerance_note = _prepared_scene(path)
     models = build_models(scene)
     problem = Problem(scene, models, DEFAULT)
     settings = SINGLE if options.single else CONTROLLER
@@ -607,6 +636,8 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "stiffness": [number(float(v)) for v in problem.stiffness],
         "claim_limits": [number(v) for v in _claim_limits(scene, models, problem.flexure_order)],
         "prb_structure": _prb_structure(scene, models),
+        "tolerance_note": tolerance_note,
+        "thick": [c_comment(repr(n)) for n in _thick_flexures(scene)],
         "prb_moment_check": _prb_moment_check(scene, models),
         "near_critical": f"{NEAR_SINGULAR!r}",
         "near_critical_percent": f"{NEAR_SINGULAR:.0%}",
