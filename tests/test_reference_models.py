@@ -578,6 +578,24 @@ def test_a_perfect_column_buckles_to_the_chain_models_side(degrees):
     assert np.abs(exact.poses["beam.tip"][:2] - np.array(chain[:2])).max() < 1e-5
 
 
+def test_a_load_step_does_not_jump_to_a_branch_wound_once_more():
+    """Found by review: one flexure under a tension of 80 EI/L^2 at 0.6 rad and a moment of
+    8 EI/L (at a point just off the tip) ended, converged, stable and unwarned, on a branch
+    wound once more (tip angle 7.89 rad), where scm8 and fem512 agree on 1.65 rad and the
+    exact solver itself, in shorter steps, does too. A step may turn a tip by at most
+    MAX_TURN_STEP now."""
+    a = 0.6
+    sc = make_scene(
+        [Flexure("b", "base", (0.0, 0.0, 0.0), 1.0, 1.0, MS)],
+        links=[Link("l", "b", {"p": (0.043, -0.0996)})],
+        loads=[Load("l.p", (80.0 * math.cos(a), 80.0 * math.sin(a)), 8.0)],
+    )
+    default, short = solve_exact(sc), solve_exact(sc, max_step=0.02)
+    assert default.converged and short.converged
+    assert abs(short.poses["l.p"][2] - 1.6508) < 1e-3
+    assert np.abs(default.poses["l.p"] - short.poses["l.p"]).max() < 1e-9
+
+
 def test_exact_solver_refuses_a_load_past_its_cap_and_says_so():
     """docs/scene.md: the exact solver gives up beyond a nondimensional load of 1000
     (MAX_LOAD); the reason names that cap, not a limit point it never met."""

@@ -49,6 +49,9 @@ SHOOTING_NOISE = 1e-10
 # converge up to 200 and stall near 290 (0.72 of 400) where fem has a smooth path; past it a
 # stall is not reported as a sure limit point
 SHOOTING_RESOLVED = 200.0
+# the most a load step may turn a flexure's tip (rad): more, and the step is retried shorter
+# (the chain solvers' max_dq, the same purpose)
+MAX_TURN_STEP = 0.5
 
 
 # ----------------------------------------------------------------------------------------------
@@ -737,7 +740,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     m = 3 * prob.n
     warnings = []
     z = np.zeros(m)
-    R, J0, _, _, _ = prob.jacobian(z, 0.0)
+    R, J0, _, _, tips_cur = prob.jacobian(z, 0.0)
     ref_sign = np.sign(np.linalg.det(J0))
     # at the last accepted state (z, lam): the shooting Jacobian and, while it is stable,
     # dR/dlam (the path's tangent is -J^-1 dR/dlam), found once per state for every step tried
@@ -773,10 +776,15 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         except RuntimeError as exc:
             ok, why = False, str(exc)
         if ok:
-            R_new, J, dpts, _, _ = prob.jacobian(z_new, lam_new)
+            R_new, J, dpts, _, tips_new = prob.jacobian(z_new, lam_new)
             s_new = np.sign(np.linalg.det(J))
             if s_new != sign and dlam > 1e-3:
                 ok = False  # confirm a sign change of det J with small steps (no jump)
+            # a step that turns a flexure's tip by more than MAX_TURN_STEP may have jumped to
+            # another branch (found by review: under tension and a moment the default step
+            # landed on a branch wound once more, tip angle 7.89 rad against 1.65)
+            elif np.max(np.abs(tips_new[:, 2] - tips_cur[:, 2])) > MAX_TURN_STEP:
+                ok = False
         if not ok:
             dlam *= 0.5
             if dlam < 1e-6:
@@ -848,6 +856,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                         # chosen side of the pitchfork (no jump to the mirror branch)
                         hist = [(lam, z.copy())]
                         z_new, s_new, switched = zb, ref_sign, True
+                        tips_new = prob.evaluate(zb, lam_new)[2][0]
                         R_new, J = Rb, Jb
                         warnings.append(
                             f"bifurcation at load factor {lam_c:.9g}: followed the stable branch"
@@ -857,7 +866,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                     warnings.append(f"equilibrium path lost stability at load factor {lam_c:.9g}")
             sign = s_new
         hist.append((lam_new, z_new.copy()))
-        lam, z = lam_new, z_new
+        lam, z, tips_cur = lam_new, z_new, tips_new
         J_cur = J
         dR_cur = _load_derivative(prob, z, lam, R_new) if sign == ref_sign and lam < 1.0 else None
         dlam = min(max_step, dlam * (1.5 if it <= 4 else 1.0))
