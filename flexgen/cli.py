@@ -15,6 +15,7 @@ import argparse
 import errno
 import importlib
 import os
+import re
 import sys
 
 from flexgen.codegen.render import OutputError
@@ -152,7 +153,7 @@ def _json_failure(argv: list, args, message: str) -> None:
         scene = str(getattr(args, "scene", "") or "")
     else:  # the scene file as given: the first argument after the command that is no option
         scene = next((str(a) for a in argv[1:] if not str(a).startswith("-")), "")
-    reason = printable(" ".join(str(message).split()))
+    reason = printable(_shortened(" ".join(str(message).split())))
     try:
         print(Result.unsolvable(printable(scene), reason).to_json(indent=2), flush=True)
     except OSError as exc:  # stdout refuses it: the one line on stderr stands
@@ -160,11 +161,22 @@ def _json_failure(argv: list, args, message: str) -> None:
             raise
 
 
+# a quoted name or value in a message: shortened past 80 characters (docs/scene.md, Errors)
+_QUOTED = re.compile(r"'[^'\n]{81,}'|\"[^\"\n]{81,}\"")
+
+
+def _shortened(text: str) -> str:
+    """``text`` with every quoted part longer than 80 characters cut to 77 and '...' (found by
+    review: a 3000-character flexure name made a 6066-character message)."""
+    return _QUOTED.sub(lambda m: m.group(0)[:77] + "..." + m.group(0)[0], text)
+
+
 def _error(message: str) -> None:
-    """``flexgen: <message>`` on stderr as one line of printable text."""
+    """``flexgen: <message>`` on stderr as one line of printable text, long quoted names and
+    values shortened."""
     from flexgen.commands.common import printable
 
-    text = printable(" ".join(str(message).split()))
+    text = printable(_shortened(" ".join(str(message).split())))
     print(f"flexgen: {text}", file=sys.stderr)
 
 

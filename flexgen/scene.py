@@ -488,7 +488,12 @@ def _fmt(v: Any) -> str:
 def _names(names: Any, limit: int = 12) -> str:
     """A comma-separated list of at most ``limit`` names (then how many more)."""
     names = list(names)
-    shown = ", ".join(repr(n)[1:-1] if isinstance(n, str) else str(n) for n in names[:limit])
+
+    def one(n: Any) -> str:  # each shortened as a value is (at most 80 characters)
+        text = repr(n)[1:-1] if isinstance(n, str) else str(n)
+        return text if len(text) <= 80 else text[:77] + "..."
+
+    shown = ", ".join(one(n) for n in names[:limit])
     return shown + (f", ... ({len(names) - limit} more)" if len(names) > limit else "")
 
 

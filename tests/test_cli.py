@@ -72,6 +72,27 @@ def test_a_full_stdout_is_one_line(args, code):
         assert lines[0] == "flexgen: cannot write to standard output: No space left on device"
 
 
+@pytest.mark.parametrize(
+    "tail",
+    [
+        '[[load]]\npoint = "nowhere.tip"\nforce = [0.0, -1.0]\n',  # an unknown point
+        '[[flexure]]\nname = "{name}"\nlength = 1.0\nEI = 1.0\n',  # a duplicate name
+        '[output]\npoints = ["{name}.nowhere"]\n',  # an unknown point name on it
+    ],
+)
+def test_a_long_name_is_shortened_in_the_message(tmp_path, tail):
+    """Found by review: a 3000-character flexure name made a 6066-character message; a name in
+    a message is shortened as a value is (docs/scene.md: at most 80 characters)."""
+    name = "x" * 3000
+    scene = tmp_path / "long.toml"
+    scene.write_text(
+        f'[[flexure]]\nname = "{name}"\nlength = 1.0\nEI = 1.0\n' + tail.format(name=name)
+    )
+    result = _flexgen("solve", str(scene))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr[:300]
+    assert len(result.stderr) < 400, result.stderr[:300]
+
+
 def _flexgen(*args):
     return subprocess.run(
         [sys.executable, "-m", "flexgen", *args],
