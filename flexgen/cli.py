@@ -166,9 +166,10 @@ _QUOTED = re.compile(r"'[^'\n]{81,}'|\"[^\"\n]{81,}\"")
 
 
 def _shortened(text: str) -> str:
-    """``text`` with every quoted part longer than 80 characters cut to 77 and '...' (found by
-    review: a 3000-character flexure name made a 6066-character message)."""
-    return _QUOTED.sub(lambda m: m.group(0)[:77] + "..." + m.group(0)[0], text)
+    """``text`` with every quoted part longer than 80 characters cut to its first 40 and last
+    37, '...' between: a path keeps its file name (found by review: a 3000-character flexure
+    name made a 6066-character message)."""
+    return _QUOTED.sub(lambda m: m.group(0)[:40] + "..." + m.group(0)[-37:], text)
 
 
 def _error(message: str) -> None:
