@@ -148,11 +148,13 @@ def _json_failure(argv: list, args, message: str) -> None:
         return
     from flexgen.commands.common import printable
     from flexgen.result import Result
+    from flexgen.scene import scene_name_of
 
     if args is not None:
         scene = str(getattr(args, "scene", "") or "")
     else:  # the scene file as given: the first argument after the command that is no option
         scene = next((str(a) for a in argv[1:] if not str(a).startswith("-")), "")
+    scene = scene_name_of(scene) if scene else scene  # its name, as a solved answer's
     reason = printable(_shortened(" ".join(str(message).split())))
     try:
         print(Result.unsolvable(printable(scene), reason).to_json(indent=2), flush=True)

@@ -394,6 +394,24 @@ def _read_regular_file(path: Path) -> bytes:
     return raw
 
 
+def scene_name_of(path: str) -> str:
+    """The name a scene file's answer carries, as far as the file says it, for the answer to a
+    scene that could not be solved or read (``"converged": false``): its ``name`` when the file
+    reads as TOML with a string ``name``, else the file's stem (as ``load_scene`` defaults it).
+    Never raises (found by review: the JSON of a bad scene named it by its file name)."""
+    try:
+        d = tomllib.loads(_read_regular_file(Path(path)).decode("utf-8"))
+        name = d.get("name")
+        if isinstance(name, str) and name.strip():
+            return name
+    except (SceneError, ValueError, RecursionError, OSError, TypeError):
+        pass
+    try:
+        return Path(path).stem or str(path)
+    except TypeError:
+        return str(path)
+
+
 def load_scene(path: str | os.PathLike[str]) -> Scene:
     """Read and validate a TOML scene file. Any problem raises a one-line ``SceneError``."""
     try:

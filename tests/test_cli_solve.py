@@ -418,7 +418,25 @@ def test_backend_option_is_gone(capsys, value):
     ignored."""
     code, out, err = run(capsys, "solve", EX / "two_link_finger.toml", "--json", "--backend", value)
     _one_line_error(code, out, err, "--backend", json_out=True)
-    assert json.loads(out)["scene"] == str(EX / "two_link_finger.toml")
+    assert json.loads(out)["scene"] == "two-link finger"  # the scene's name, as when solved
+
+
+def test_the_json_of_a_bad_scene_carries_its_name(tmp_path, capsys):
+    """Found by review: the exit-2 JSON named a bad scene by its file name, where the contract's
+    "scene" is the scene's name (exit-1 JSON had it). A scene that says its name: that name;
+    one that says none, or cannot be read: the file's stem, as a solved answer's default."""
+    named = tmp_path / "named_bad.toml"
+    named.write_text('name = "my finger"\n[[flexure]]\nname = "b"\nlength = -1.0\nEI = 1.0\n')
+    nameless = tmp_path / "nameless.toml"
+    nameless.write_text('[[flexure]]\nname = "b"\nlength = -1.0\nEI = 1.0\n')
+    for path, name in (
+        (named, "my finger"),
+        (nameless, "nameless"),
+        (tmp_path / "gone.toml", "gone"),
+    ):
+        code, out, err = run(capsys, "solve", path, "--json")
+        assert code == 2 and len(err.splitlines()) == 1, err
+        assert json.loads(out)["scene"] == name
 
 
 def test_help_names_no_backend_and_no_cache(capsys):
