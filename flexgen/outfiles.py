@@ -20,6 +20,7 @@ import errno
 import os
 import secrets
 import stat
+import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -57,6 +58,13 @@ def folder_problem(folder: Path) -> str | None:
         return f"{probe} is not a folder"
     if not os.access(probe, os.W_OK | os.X_OK):
         return f"{probe} is not writable"
+    # permission bits do not tell everything (root passes them; /sys refuses root's mkdir):
+    # a folder made and removed at once says whether the writes will be refused (found by
+    # review: --out /sys/foo failed only at its first file, exit 1 where bad input is 2)
+    try:
+        os.rmdir(tempfile.mkdtemp(dir=probe, prefix=".flexgen-probe-"))
+    except OSError as exc:
+        return f"{probe} refuses new files ({exc.strerror or exc})"
     return None
 
 

@@ -596,6 +596,30 @@ def test_bad_prefix_and_unwritable_folder(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def _refuses_new_folders(folder: str) -> bool:
+    import tempfile
+
+    try:
+        os.rmdir(tempfile.mkdtemp(dir=folder))
+    except OSError:
+        return True
+    return False
+
+
+@pytest.mark.skipif(
+    not (os.path.isdir("/sys") and _refuses_new_folders("/sys")),
+    reason="needs a folder whose permission bits allow writing but that refuses new files",
+)
+def test_a_folder_that_refuses_new_files_is_bad_input(tmp_path):
+    """Found by review (as root): --out /sys/foo passed the permission check (root's) and
+    failed at its first file, exit 1 "cannot write"; a bad --out is exit 2, one line, before
+    any work."""
+    scene = str(ROOT / "examples" / "cantilever_tip_load.toml")
+    r = _emit(["--scene", scene, "--out", "/sys/flexgen-test-out"], tmp_path)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--out" in r.stderr and "refuses new files" in r.stderr
+
+
 def test_prefixes_clashing_with_the_core_are_refused(tmp_path):
     """The emitted names share one translation unit with the core and kernels: --prefix direct
     would define a second direct_solve; an empty prefix is no C identifier. One line, exit 2,
