@@ -499,19 +499,18 @@ def _fmt(v: Any) -> str:
             s = _REPR.repr(v)
         except Exception:  # a repr that fails (an object's own __repr__)
             s = f"<{type(v).__name__}>"
-    s = " ".join(s.split()) if "\n" in s else s
-    return s if len(s) <= 80 else s[:77] + "..."
+    return _cut(" ".join(s.split()) if "\n" in s else s)
+
+
+def _cut(text: str) -> str:
+    """``text`` as a message shows it: at most 80 characters (docs/scene.md, Errors)."""
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _names(names: Any, limit: int = 12) -> str:
     """A comma-separated list of at most ``limit`` names (then how many more)."""
     names = list(names)
-
-    def one(n: Any) -> str:  # each shortened as a value is (at most 80 characters)
-        text = repr(n)[1:-1] if isinstance(n, str) else str(n)
-        return text if len(text) <= 80 else text[:77] + "..."
-
-    shown = ", ".join(one(n) for n in names[:limit])
+    shown = ", ".join(_cut(repr(n)[1:-1] if isinstance(n, str) else str(n)) for n in names[:limit])
     return shown + (f", ... ({len(names) - limit} more)" if len(names) > limit else "")
 
 

@@ -16,8 +16,9 @@ than a design.
 from __future__ import annotations
 
 import math
+from typing import cast
 
-from .scene import Scene
+from .scene import Flexure, Scene
 
 
 def scene_notes(scene: Scene) -> list[str]:
@@ -48,16 +49,25 @@ def scene_notes(scene: Scene) -> list[str]:
 MIN_SLENDERNESS = 5.0
 
 
+def thick_flexures(scene: Scene) -> list[Flexure]:
+    """The flexures whose thickness (when given) is more than 1/MIN_SLENDERNESS of their
+    length: outside the slender-beam model (the emitted controller flags them too)."""
+    return [
+        f
+        for f in scene.flexures
+        if f.thickness is not None and f.length < MIN_SLENDERNESS * f.thickness
+    ]
+
+
 def scene_warnings(scene: Scene) -> list[str]:
-    """One warning per flexure whose thickness (when given) is more than 1/MIN_SLENDERNESS of its
-    length: outside the beam model, and often a unit slip (a length in m in an mm scene)."""
+    """One warning per flexure of ``thick_flexures``: outside the beam model, and often a unit
+    slip (a length in m in an mm scene)."""
     out = []
-    for f in scene.flexures:
-        if f.thickness is not None and f.length < MIN_SLENDERNESS * f.thickness:
-            out.append(
-                f"flexure {f.name!r}: length {f.length:.4g} is only {f.length / f.thickness:.2g} "
-                f"times its thickness {f.thickness:.4g}: the model is a slender beam (no shear), "
-                f"off by several percent below {MIN_SLENDERNESS:g} thicknesses (check the units "
-                f"of both)"
-            )
+    for f in thick_flexures(scene):
+        t = cast(float, f.thickness)  # given: thick_flexures reads only given thicknesses
+        out.append(
+            f"flexure {f.name!r}: length {f.length:.4g} is only {f.length / t:.2g} times its "
+            f"thickness {t:.4g}: the model is a slender beam (no shear), off by several "
+            f"percent below {MIN_SLENDERNESS:g} thicknesses (check the units of both)"
+        )
     return out

@@ -243,7 +243,6 @@ class FlexureTable:
     kernel: dict[int, str] = field(default_factory=dict)  # N -> kernel at equilibrium
     kern: dict[int, np.ndarray] = field(default_factory=dict)  # N -> kernel bounds
     total: dict[int, np.ndarray] = field(default_factory=dict)  # N -> est + kernel bounds
-    extrapolated: set = field(default_factory=set)  # N whose estimate is another N's (M)
 
 
 @dataclass
@@ -335,7 +334,6 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
                 # not converged by 8 (found by review: `--tol` claimed T, off by up to 97x)
                 base = d.get(Mi - 2)
                 ft.est[Mi] = SAFETY * base if base is not None else inf.copy()
-                ft.extrapolated.add(Mi)
                 if Mi - 1 >= 1:  # M - 1 against M, plus M's own error
                     a, b = sols.get(Mi - 1), sols.get(Mi)
                     step = inf if a is None or b is None else error_components(a, b, scales)

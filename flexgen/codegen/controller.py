@@ -411,13 +411,9 @@ def _thick_flexures(scene: Scene) -> list[str]:
     """The flexures the library warns about on every answer of the scene (scene_checks:
     shorter than MIN_SLENDERNESS thicknesses): NO_CLAIM on every answer of the controller
     (found by review: the warning was dropped)."""
-    from flexgen.scene_checks import MIN_SLENDERNESS
+    from flexgen.scene_checks import thick_flexures
 
-    return [
-        f.name
-        for f in scene.flexures
-        if f.thickness is not None and f.length < MIN_SLENDERNESS * f.thickness
-    ]
+    return [f.name for f in thick_flexures(scene)]
 
 
 def _units(scene: Scene) -> dict[str, str]:

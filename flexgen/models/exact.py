@@ -843,7 +843,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                     except RuntimeError:
                         continue
                     iters += itb
-                    Rb, Jb = prob.jacobian(zb, lam_new)[:2]
+                    Rb, Jb, _, _, tips_b = prob.jacobian(zb, lam_new)
                     # stable, and on v's side: past the critical load of an imperfect structure
                     # z_new may lie between the two stable branches, and a short push along v
                     # can still fall back to the far one
@@ -856,7 +856,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                         # chosen side of the pitchfork (no jump to the mirror branch)
                         hist = [(lam, z.copy())]
                         z_new, s_new, switched = zb, ref_sign, True
-                        tips_new = prob.evaluate(zb, lam_new)[2][0]
+                        tips_new = tips_b
                         R_new, J = Rb, Jb
                         warnings.append(
                             f"bifurcation at load factor {lam_c:.9g}: followed the stable branch"
