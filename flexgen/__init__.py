@@ -18,12 +18,20 @@ See docs/solve.md, docs/scene.md and docs/sweep.md.
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
-from .api import prepare as Solver
+from .api import PreparedSolver as Solver
 from .api import solve
 from .scene import SceneError, load_scene, scene_from_dict
 from .settings import SolverSettings
 from .sweep import sweep
+
+if TYPE_CHECKING:  # the annotations' names only: not the package's namespace
+    import os
+    from collections.abc import Mapping, Sequence
+
+    from .result import Result
+    from .scene import Scene
 
 try:
     __version__ = version("flexgen")
@@ -38,7 +46,7 @@ def generate(
     degree: int | None = None,
     nodes: int | None = None,
     tol: float = 1e-10,
-    langs=("numpy", "c"),
+    langs: Sequence[str] = ("numpy", "c"),
 ) -> dict[str, str]:
     """Generate one flexure kernel: {relative path: source text} (nothing is written).
 
@@ -50,7 +58,13 @@ def generate(
     return generate_files(KernelSpec(modes, kernel, range_deg, degree, nodes, tol), tuple(langs))
 
 
-def plot(scene, result=None, ax=None, *, title: str | None = None):
+def plot(
+    scene: Scene | Mapping[str, Any] | str | os.PathLike[str],
+    result: Result | None = None,
+    ax: Any = None,
+    *,
+    title: str | None = None,
+) -> Any:
     """Draw a scene on a matplotlib Axes and return it: the mechanism unloaded (links as bodies,
     base, flexures, tendons, loads), or at ``result``'s equilibrium (``flexgen.solve(scene)``)
     with stress colouring and compliance ellipses. ``ax``: draw there (its figure is used);

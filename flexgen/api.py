@@ -354,32 +354,40 @@ def solve(
     )[0]
 
 
-def prepare(
-    scene: Scene | Mapping[str, Any] | str | os.PathLike,
-    model: str | None = None,
-    modes: int | None = None,
-    elements: int | None = None,
-    models: Mapping[str, Any] | None = None,
-    settings: SolverSettings | None = None,
-    **options: Any,
-) -> Solver:
-    """A ``Solver`` for repeated solves of one scene (``flexgen.Solver``'s front door: the same
-    scene arguments and overrides as ``solve``). ``Solver.solve(loads=..., tensions=...)``
-    skips the scene handling: the core call, the Result and, where the core's screen finds a
-    warning may apply, ``flexgen.solve``'s validity check (``CheckedSolver``).
-    ``flexgen.Solver`` is this function; the type it returns, for annotations and isinstance,
-    is ``flexgen.solver.Solver``."""
-    sc = override(as_scene(scene), model, modes, elements)
-    if uses_exact(sc):
-        raise SceneError("Solver: the exact model is a reference solver; use flexgen.solve")
-    from .select import scene_tolerance
+class PreparedSolver(CheckedSolver):
+    """``flexgen.Solver``: a solver for repeated solves of one scene, with the same scene
+    arguments and overrides as ``flexgen.solve``. ``solve(loads=..., tensions=...)`` skips the
+    scene handling: the core call, the Result and, where the core's screen finds a warning may
+    apply, ``flexgen.solve``'s validity check (``CheckedSolver``). A class, so that
+    ``isinstance(s, flexgen.Solver)`` and annotations ``s: flexgen.Solver`` work (it was a
+    function: review)."""
 
-    if models is None and scene_tolerance(sc) is not None:
-        # its modes would be the defaults, not the tolerance's: a silently other model
-        raise SceneError(
-            "Solver: the scene asks for a tolerance, which chooses the modes per solve; give "
-            "modes instead (flexgen select SCENE --tol T says which), or use flexgen.solve"
-        )
-    if models is not None:  # flexgen.solve's check: a bad model would fail deep in the build
-        _check_inputs(sc, models, None)
-    return CheckedSolver(sc, models, make_settings(settings, **options))
+    def __init__(
+        self,
+        scene: Scene | Mapping[str, Any] | str | os.PathLike,
+        model: str | None = None,
+        modes: int | None = None,
+        elements: int | None = None,
+        models: Mapping[str, Any] | None = None,
+        settings: SolverSettings | None = None,
+        **options: Any,
+    ) -> None:
+        sc = override(as_scene(scene), model, modes, elements)
+        if uses_exact(sc):
+            raise SceneError("Solver: the exact model is a reference solver; use flexgen.solve")
+        from .select import scene_tolerance
+
+        if models is None and scene_tolerance(sc) is not None:
+            # its modes would be the defaults, not the tolerance's: a silently other model
+            raise SceneError(
+                "Solver: the scene asks for a tolerance, which chooses the modes per solve; give "
+                "modes instead (flexgen select SCENE --tol T says which), or use flexgen.solve"
+            )
+        if models is not None:  # flexgen.solve's check: a bad model would fail deep in the build
+            _check_inputs(sc, models, None)
+        super().__init__(sc, models, make_settings(settings, **options))
+
+
+def prepare(*args: Any, **kwargs: Any) -> PreparedSolver:
+    """``flexgen.Solver(...)`` (the name earlier versions exported it by)."""
+    return PreparedSolver(*args, **kwargs)

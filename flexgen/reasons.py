@@ -61,16 +61,24 @@ def failure_reason(solver: Any, status: int) -> str:
             f"load continuation needed more than {solver.settings.max_steps} steps "
             f"(reached load factor {lam:.6g})"
         )
-    else:
+    model = _model_message(solver, a.model_error, a.model_error_flexure, a.model_error_route)
+    if a.failure == lib.FG_FAIL_LIMIT and a.model_error == lib.FG_ERR_KERNEL_RANGE and model:
+        # the path ran out of the kernel's range, which is the cause to read first, not a
+        # limit point (review: a pure end moment under kernel "poly" read as a limit point)
+        reason = (
+            f"no equilibrium found beyond load factor {lam:.6g}, where {model}: "
+            f"{_last_error(solver, a)}"
+        )
+    elif a.failure != lib.FG_FAIL_STEPS:
         what = {
             lib.FG_FAIL_UNLOADED: "no equilibrium of the unloaded scene",
             lib.FG_FAIL_BIFURCATION: "no stable equilibrium found past the bifurcation near "
             f"load factor {lam:.6g}",
             lib.FG_FAIL_LIMIT: f"no equilibrium found beyond load factor {lam:.6g} (the load "
-            "path ends there, a limit point, and no stable state to snap to was found)",
+            "path may end there at a limit point with no stable state to snap to, or Newton "
+            "could not follow it)",
         }.get(a.failure, f"the solver core could not run this problem (status {status})")
         reason = f"{what}: {_last_error(solver, a)}"
-    model = _model_message(solver, a.model_error, a.model_error_flexure, a.model_error_route)
     if model and model not in reason:
         reason = f"{reason} (last model error: {model})"
     return reason

@@ -198,7 +198,12 @@ class Scene:
         try:
             return scene_from_dict(root, order=self._kinds_in_order(), default_name=self.name)
         except SceneError as exc:
-            raise SceneError(f"{', '.join(values)}: {exc}") from None
+            # the validator's message names its key; the paths are prefixed only when it names
+            # another (review: "model.modes: model.modes: must be an integer ...")
+            text = str(exc)
+            if any(text.startswith(f"{path}:") for path in values):
+                raise SceneError(text) from None
+            raise SceneError(f"{', '.join(values)}: {text}") from None
 
     def editable_source(self) -> dict[str, Any]:
         """A mutable copy of the mapping this scene was read from; SceneError when it has none or
@@ -207,7 +212,8 @@ class Scene:
 
         if self.source is None:
             raise SceneError(
-                "with_value: this Scene was built without its source; read it with "
+                "scene: this Scene was built without its source (a study or with_value changes "
+                "its source); read it with "
                 "flexgen.load_scene or flexgen.scene_from_dict"
             )
         if "_source_matches" not in self.__dict__:  # once per Scene object (it is immutable)
@@ -217,7 +223,7 @@ class Scene:
             object.__setattr__(self, "_source_matches", again == self)
         if not self.__dict__["_source_matches"]:
             raise SceneError(
-                "with_value: this Scene was changed after it was read (dataclasses.replace or a "
+                "scene: this Scene was changed after it was read (dataclasses.replace or a "
                 "model override), so its source no longer describes it; change the source instead"
             )
         return thaw(self.source)

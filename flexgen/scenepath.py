@@ -7,6 +7,8 @@ A path walks the scene's TOML structure, one segment per table key or array inde
     base.points.r0.1              the y of the base point r0
     flexure.proximal.thickness    a [[flexure]] key, the flexure by name ...
     flexure.0.length              ... or by its index among the [[flexure]] tables
+    flexure[0].length             the same: an index in brackets (as messages write keys) is
+                                  always an index; digits that name another flexure are an error
     flexure.proximal.at.2         one entry of a list
     link.middle.points.pad.0      a link's point (links by name or index)
     load.0.force.1                a [[load]] key (loads and tendons by index)
@@ -22,6 +24,7 @@ name or index that does not exist, is a ``PathError`` naming the path and listin
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 from typing import Any
@@ -72,21 +75,46 @@ def _short(v: Any) -> str:
     return s if len(s) <= 60 else s[:57] + "..."
 
 
+# an index in brackets, as flexgen's messages write keys (flexure[1].length): always an index
+_BRACKET = re.compile(r"\[(\d+)\]")
+
+
 def _segments(path: Any) -> list[str]:
-    if not isinstance(path, str) or not path or any(not s for s in path.split(".")):
-        raise PathError(f"scene path must be keys joined by dots, got {_short(path)}")
-    return path.split(".")
+    """The path's segments; ``a[1]`` is the segments ``a`` and ``[1]`` (``_position``)."""
+    if isinstance(path, str):
+        dotted = _BRACKET.sub(lambda m: ".[" + m.group(1) + "]", path)
+        if path and not dotted.startswith(".") and all(dotted.split(".")):
+            return dotted.split(".")
+    raise PathError(f"scene path must be keys joined by dots, got {_short(path)}")
+
+
+def _position(seg: str) -> int | None:
+    """The index a segment gives: ``3`` or ``[3]``; None for a name."""
+    if seg.isdigit():
+        return int(seg)
+    if seg.startswith("[") and seg.endswith("]") and seg[1:-1].isdigit():
+        return int(seg[1:-1])
+    return None
 
 
 def _index(seg: str, items: Sequence[Any], path: str, what: str) -> int:
-    """The index of ``seg`` (a decimal index, or a table's name where allowed) in ``items``."""
-    if seg.isdigit():
-        i = int(seg)
-        if i < len(items):
-            return i
-        raise PathError(f"{path}: no {what} {i} (the scene has {len(items)})")
+    """The index of ``seg`` (a decimal index, ``[i]``, or a table's name where allowed) in
+    ``items``. Digits that are also another table's name are ambiguous: an error that names
+    both (review: flexure.1 changed the flexure at index 1 of a scene whose flexures are named
+    "1" and "2")."""
+    names = [t.get("name") if isinstance(t, Mapping) else None for t in items]
+    i = _position(seg)
+    if i is not None:
+        if i >= len(items):
+            raise PathError(f"{path}: no {what} {i} (the scene has {len(items)})")
+        if seg.isdigit() and what in NAMED and seg in names and names.index(seg) != i:
+            j = names.index(seg)
+            raise PathError(
+                f"{path}: {seg!r} is both the name of {what}[{j}] and the index of {what}[{i}] "
+                f"(named {names[i]!r}): write {what}[{j}] or {what}[{i}]"
+            )
+        return i
     if what in NAMED:
-        names = [t.get("name") if isinstance(t, Mapping) else None for t in items]
         if seg in names:
             return names.index(seg)
         raise PathError(
@@ -120,11 +148,12 @@ def _walk(
     while True:
         seg, where = segs[i], ".".join(segs[:i]) or "the scene"
         if isinstance(node, list):
-            if not seg.isdigit() or int(seg) >= len(node):
+            at = _position(seg)
+            if at is None or at >= len(node):
                 raise PathError(
                     f"{path}: {where} has no index {seg!r} (it has {len(node)} entries)"
                 )
-            key = int(seg)
+            key = at
         elif isinstance(node, dict):
             allowed = tables.get(kind) if kind is not None else None
             if seg not in node and (allowed is None or seg not in allowed):

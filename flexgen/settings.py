@@ -10,6 +10,7 @@ solver cannot run with, naming the field (``settings.tol: must be ...``).
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, fields
 
 INT_MAX = 2**31 - 1
@@ -70,8 +71,10 @@ class SolverSettings:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.type == "int":
-                if isinstance(value, bool) or not isinstance(value, int):
+                if isinstance(value, bool) or not isinstance(value, numbers.Integral):
                     _bad(f.name, "must be an integer", value)
+                value = int(value)  # a NumPy integer as the int the core's struct takes
+                object.__setattr__(self, f.name, value)
                 low = 0 if f.name in _ZERO_OK else 1
                 if not low <= value <= INT_MAX:
                     _bad(f.name, f"must be an integer in [{low}, 2**31 - 1]", value)
@@ -82,9 +85,12 @@ class SolverSettings:
                 if not (math.isfinite(value) and lo(value) and hi(value)):
                     _bad(f.name, f"must be a finite number {what}", value)
         if not self.min_step <= self.initial_step <= self.max_step:
+            # all three named: which one the caller changed is not known here (review: a
+            # min_step above max_step was blamed on the default initial_step)
             raise ValueError(
-                f"settings.initial_step: must lie in [min_step, max_step] = "
-                f"[{self.min_step!r}, {self.max_step!r}], got {self.initial_step!r}"
+                f"settings: min_step <= initial_step <= max_step must hold, got min_step="
+                f"{self.min_step!r}, initial_step={self.initial_step!r}, max_step="
+                f"{self.max_step!r}"
             )
         if self.stagnation_lag > MAX_LAG:
             _bad(

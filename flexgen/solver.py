@@ -254,6 +254,8 @@ class Solver:
             a = None if isinstance(values, (str, bytes)) else np.asarray(values)
         except (TypeError, ValueError, OverflowError):
             a = None
+        if a is not None and a.size == 0 and target.size == 0 and a.dtype.kind in "iuf":
+            return  # loads=[] for a scene without loads (NumPy reads it as shape (0,))
         # the exact shape: a (3, 2) array for (2, 3) loads, reshaped, would be other loads
         if a is None or a.dtype.kind not in "iuf" or a.shape != target.shape:
             got = f"shape {a.shape}" if a is not None and a.dtype.kind in "iuf" else _fmt(values)
@@ -308,8 +310,9 @@ class Solver:
             units=None if self._units is None else dict(self._units),
         )
 
-    def _result(self, status: int, est: Any = None) -> Result:
-        # on every solve (flexgen.solve's loop): written for speed, every field as before
+    def _result(self, status: int, est: Any = None, stress: bool = True) -> Result:
+        # on every solve (flexgen.solve's loop): written for speed, every field as before;
+        # stress=False: no flexures built, so no safety-factor warnings (a study's rows)
         ws = self.workspace
         a = ws.answer
         if status == _MODEL_ERROR:  # the core refused the problem: the answer is not filled
@@ -371,7 +374,7 @@ class Solver:
         )
         r._build = partial(self._lazy_field, snapshot)
         r.units = None if self._units is None else dict(self._units)
-        if self._strengths:
+        if self._strengths and stress:
             r.flexures = self._lazy_field(snapshot, "flexures")
             warnings.extend(safety_warnings(self.scene, r.flexures))
         return r

@@ -4,7 +4,8 @@
                        vary={"tendon.0.tension": (0.0, 10.0, 11), "load.0.force.1": (0.0, -1.0, 5)})
 
 One row per case, the columns of docs/sweep.md: each varied key as written, ``converged``,
-``stable``, ``iterations``, ``reason`` ("" when solved), per output point ``<point>.x``,
+``stable``, ``iterations``, ``reason`` ("" when solved), ``warnings`` and ``notes`` (the
+Result's, one per line), per output point ``<point>.x``,
 ``.y``, ``.angle``, ``.major``, ``.minor``, ``.ellipse_angle``, ``.error_estimate``, per flexure
 ``<flexure>.max_stress`` and ``.safety_factor`` (NaN when unknown or not solved).
 
@@ -23,7 +24,8 @@ import time
 import uuid
 from collections.abc import Callable, Iterable, Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from multiprocessing import get_context
+from concurrent.futures.process import BrokenProcessPool
+from multiprocessing import current_process, get_context
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -32,7 +34,15 @@ from .estimate import estimate_answer
 from .scene import Scene, SceneError, as_scene, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver, check_flag
-from .sweep_chunk import CASE_FIELDS, FLEXURE_FIELDS, POINT_FIELDS, Chunk, run_chunk, stress_columns
+from .sweep_chunk import (
+    CASE_FIELDS,
+    FLEXURE_FIELDS,
+    POINT_FIELDS,
+    TEXT_FIELDS,
+    Chunk,
+    run_chunk,
+    stress_columns,
+)
 from .sweep_plan import CHUNK_SIZE, Plan, plan
 from .units import result_units
 
@@ -73,7 +83,9 @@ def sweep(
       thickness``).
     - ``workers``: processes on this machine (None: every core, unless a probe finds the
       study shorter than twice the workers' start-up, ``START_UP``: then this process; 1: this
-      process only; N >= 2: N processes, as asked).
+      process only; N >= 2: N processes, as asked, at most one per chunk: a study of one chunk
+      runs in this process). A script that runs a study on worker processes needs the
+      ``if __name__ == "__main__":`` guard: each worker imports it.
     - ``client``: a ``dask.distributed.Client``: the chunks run as its tasks instead.
     - ``progress``: True a bar on a terminal, else a plain line on stderr at most every
       ``PLAIN_EVERY`` seconds (as cases finish in this process, as chunks finish on worker
@@ -90,6 +102,7 @@ def sweep(
     ``SceneError`` naming the key, raised before anything is solved; a case without an
     equilibrium is a row with ``converged`` False and its ``reason``.
     """
+    _refuse_in_a_starting_worker()
     sc = as_scene(scene)
     _check_scene(sc)
     study = plan(sc, vary, samples, seed)
@@ -118,6 +131,31 @@ def sweep(
     finally:
         bar.close()
     return _table(sc, study, results)
+
+
+class WorkerDied(RuntimeError):
+    """A worker process ended without returning its chunk (exit 1 of ``flexgen sweep``)."""
+
+
+WORKER_DIED = (
+    "a worker process ended without returning its chunk (killed by the system, e.g. out of "
+    "memory; or, from a script, the script starts a study outside an "
+    '`if __name__ == "__main__":` guard, so each worker, which imports it, starts one too: '
+    "add the guard, or pass workers=1)"
+)
+
+
+def _refuse_in_a_starting_worker() -> None:
+    """A study asked for while a worker process imports the parent's main script (spawn and
+    fork server workers do, before they take work: multiprocessing marks that phase
+    ``_inheriting``, as its own check of the same mistake reads it): the script has no
+    ``__main__`` guard. One short error instead of a study per worker (the parent then reports
+    WORKER_DIED)."""
+    if getattr(current_process(), "_inheriting", False):
+        raise WorkerDied(
+            "flexgen.sweep called while a worker process imports the main script: put the "
+            'study under `if __name__ == "__main__":`'
+        )
 
 
 def _check_scene(scene: Scene) -> None:
@@ -165,7 +203,7 @@ def _chunks(
     ]
 
 
-Result = tuple[np.ndarray, list[str]]
+Result = tuple[np.ndarray, list[tuple[str, str, str]]]
 
 
 def _local(
@@ -192,6 +230,9 @@ def _local(
             i = futures[future]
             done[i] = future.result()
             bar.update(len(chunks[i].values))
+    except BrokenProcessPool:
+        _stop_pool()
+        raise WorkerDied(WORKER_DIED) from None
     except BaseException:  # KeyboardInterrupt above all: the workers stop with the study
         _stop_pool()
         raise
@@ -299,12 +340,13 @@ def _table(scene: Scene, study: Plan, results: Iterable[Result]) -> pd.DataFrame
     import pandas as pd
 
     data = np.concatenate([r[0] for r in results])
-    reasons = [s for r in results for s in r[1]]
+    texts = [s for r in results for s in r[1]]
     # back from solve order to table order
     table = np.empty_like(data)
     table[study.order] = data
-    why = np.empty(len(reasons), dtype=object)
-    why[study.order] = reasons
+    why = np.empty((len(texts), len(TEXT_FIELDS)), dtype=object)
+    if texts:
+        why[study.order] = texts
     points = list(scene.output_points())
     flexures = [f.name for f in scene.flexures]
     cols: dict[str, Any] = {k: study.values[:, i] for i, k in enumerate(study.keys)}
@@ -314,7 +356,8 @@ def _table(scene: Scene, study: Plan, results: Iterable[Result]) -> pd.DataFrame
     cols["converged"] = table[:, 0] == 1.0
     cols["stable"] = table[:, 1] == 1.0
     cols["iterations"] = table[:, 2].astype(np.int64)
-    cols["reason"] = why
+    for i, name in enumerate(TEXT_FIELDS):
+        cols[name] = why[:, i]
     j = len(CASE_FIELDS)
     for p in points:
         for f in POINT_FIELDS:

@@ -36,11 +36,16 @@ from .scene import Scene, SceneError, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver
 from .stress import peak_stress
+from .validity import calm as validity_calm
+from .validity import check as validity_check
 from .warm import inputs_close, values_close
 
 POINT_FIELDS = ("x", "y", "angle", "major", "minor", "ellipse_angle", "error_estimate")
 FLEXURE_FIELDS = ("max_stress", "safety_factor")
 CASE_FIELDS = ("converged", "stable", "iterations")
+TEXT_FIELDS = ("reason", "warnings", "notes")
+# the warnings (notes) of one case in one cell: a message may hold "; " but not a newline
+TEXT_SEPARATOR = "\n"
 
 # Prepared Solvers kept per process, by (study, design): the chunks of a load study that land in
 # one process prepare its Solver and error estimator (~2 ms) once. A Solver keeps nothing
@@ -73,10 +78,12 @@ def columns(points: list[str], flexures: list[str]) -> int:
 
 def run_chunk(
     chunk: Chunk, report: Callable[[int], Any] | None = None
-) -> tuple[np.ndarray, list[str]]:
-    """(cases x columns floats, reasons) for the chunk's cases, in its order. Columns: converged,
-    stable, iterations, then POINT_FIELDS per output point, FLEXURE_FIELDS per flexure.
-    ``report(1)`` after each case, when given (progress of a chunk solved in this process)."""
+) -> tuple[np.ndarray, list[tuple[str, str, str]]]:
+    """(cases x columns floats, texts) for the chunk's cases, in its order. Columns: converged,
+    stable, iterations, then POINT_FIELDS per output point, FLEXURE_FIELDS per flexure. Texts:
+    per case (reason, warnings, notes), the Result's, each list joined by TEXT_SEPARATOR ("" for
+    none). ``report(1)`` after each case, when given (progress of a chunk solved in this
+    process)."""
     base = _scenes.get(chunk.study)
     if base is None:
         base = scene_from_dict(chunk.source, order=chunk.order, default_name=chunk.name)
@@ -87,7 +94,7 @@ def run_chunk(
     failed_design = [0.0, 0.0, 0.0] + [math.nan] * (width - 3)
     rows = chunk.values.tolist()  # plain floats: cheaper than NumPy scalars at this size
     out: list[list[float]] = []
-    reasons = [""] * len(rows)
+    reasons: list[tuple[str, str, str]] = [("", "", "")] * len(rows)
     design_cols = [k for k, t in enumerate(chunk.targets) if t is None]
     load_cols = [(k, t) for k, t in enumerate(chunk.targets) if t is not None]
     solver: Solver | str | None = None
@@ -105,7 +112,7 @@ def run_chunk(
                 slices = list(solver.problem.chain.slices.items())
         if not isinstance(solver, Solver):  # this combination of values is not a valid scene
             out.append(failed_design)
-            reasons[c] = str(solver)
+            reasons[c] = (str(solver), "", "")
         else:
             assert loads is not None and tensions is not None
             _set_loads(row, load_cols, loads, tensions)
@@ -204,12 +211,13 @@ def _record(solver: Solver, status: int, chunk: Chunk, width: int, reasons, c) -
     a = ws.answer
     if status != core.SOLVED:
         iterations = a.iterations if status != core.MODEL_ERROR else 0
-        reasons[c] = failure_reason(solver, status)
+        reasons[c] = (failure_reason(solver, status), "", "")
         return [0.0, 0.0, float(iterations)] + [math.nan] * (width - 3)
     row = [1.0, 1.0 if a.stable else 0.0, float(a.iterations)]
     n = len(solver.problem.outputs)
     poses, ellipses = ws.pose[:n].tolist(), ws.ellipse[:n].tolist()
     est = estimate_answer(solver, status, Solver) if chunk.estimate else None
+    reasons[c] = ("", *_messages(solver, status, est))
     errors = [max(p, q) for p, q in zip(est.pose, est.compliance)] if est else [math.nan] * n
     for pose, ellipse, error in zip(poses, ellipses, errors):
         row += pose
@@ -220,6 +228,30 @@ def _record(solver: Solver, status: int, chunk: Chunk, width: int, reasons, c) -
     else:
         row += [math.nan] * (width - len(row))
     return row
+
+
+def _messages(solver: Solver, status: int, est: Any) -> tuple[str, str]:
+    """The warnings and notes ``flexgen.solve`` gives this solved case (joined by
+    TEXT_SEPARATOR), but the safety factors' (the row has the safety factors; the warning of
+    one within its estimate of 1 takes the stress estimate, which a study does not compute):
+    the Result built and checked as ``flexgen.Solver``'s answers are, only where a warning or
+    note may apply (the usual case reads the core's flags and returns at once)."""
+    a = solver.workspace.answer
+    quiet = (
+        a.stable
+        and not a.ncritical
+        and not a.undefined_compliance
+        and (est is None or not est.warning)
+        and not solver._scene_warnings
+        and not solver._scene_notes
+        and not (solver._switchable and solver.workspace.switched.any())
+    )
+    if quiet and validity_calm(solver, None):
+        return "", ""
+    result = solver._result(status, est, stress=False)
+    if not validity_calm(solver, result):
+        validity_check(solver.scene, result, solver.models)
+    return TEXT_SEPARATOR.join(result.warnings), TEXT_SEPARATOR.join(result.notes)
 
 
 def _has_section(solver: Solver) -> bool:

@@ -199,3 +199,13 @@ def test_select_prints_the_answers_warnings_as_solve_does():
     warnings = [ln for ln in result.stdout.splitlines() if ln.startswith("  warning: ")]
     assert any("exceeds its yield strength" in w for w in warnings), result.stdout
     assert any("out of reach" in w for w in warnings) and "note: tolerance" not in result.stdout
+
+
+@pytest.mark.parametrize("command", ["bench", "stability"])
+def test_page_writers_default_to_docs_under_the_current_folder(command):
+    """Their --out defaulted to the installed checkout's docs/, whatever the current folder:
+    `cd /tmp/x && flexgen stability` rewrote the repository's tracked pages (review)."""
+    from flexgen.cli import build_parser
+
+    args = build_parser().parse_args([command])
+    assert args.out == Path("docs") and not args.out.is_absolute()

@@ -417,3 +417,66 @@ def test_few_elements_are_estimated_within_their_error_just_below_a_snap_through
         C, C_exact = np.array(point.compliance), np.array(exact.compliance)
         c_error = np.linalg.norm(C - C_exact, 2) / np.linalg.norm(C_exact, 2)
         assert c_error <= point.error_estimate["compliance"], (fraction, c_error)
+
+
+def _scaled_relative(C3, ref, length):
+    """||D (C3 - ref) D||_2 / ||D ref D||_2, D = diag(1, 1, length): the 3x3 compliance's error
+    with the rotational row and column in the position block's units (the estimate's measure)."""
+    D = np.diag([1.0, 1.0, length])
+    return np.linalg.norm(D @ (np.asarray(C3) - ref) @ D, 2) / np.linalg.norm(D @ ref @ D, 2)
+
+
+COARSE_AND_FINE = [
+    {"model": "prb"},
+    {"model": "cc"},
+    {"modes": 2},
+    {"modes": 3},
+    {"model": "fem", "elements": 4},
+    {"model": "fem", "elements": 16},
+]
+
+
+@pytest.mark.parametrize("kw", COARSE_AND_FINE, ids=lambda kw: "-".join(map(str, kw.values())))
+def test_the_compliance_estimate_covers_the_rotational_compliance_unloaded(kw):
+    # review: prb's unloaded d(angle)/d(moment) was 56 % low under a compliance estimate of
+    # 4.7 % (the estimate covered the 2x2 position block only). Closed form (model-notes):
+    # a cantilever's tip compliance in (y, angle) is [[L^3/3, L^2/2], [L^2/2, L]] / EI.
+    L, EI = 0.05, 0.02
+    scene = {
+        "flexure": [{"name": "a", "length": L, "EI": EI}],
+        "output": {"points": ["a.tip"]},
+    }
+    ref = np.zeros((3, 3))
+    ref[1:, 1:] = np.array([[L**3 / 3, L**2 / 2], [L**2 / 2, L]]) / EI
+    p = flexgen.solve(scene, **kw).points["a.tip"]
+    assert _scaled_relative(p.compliance3, ref, L) <= p.error_estimate["compliance"]
+
+
+@pytest.mark.parametrize("kw", COARSE_AND_FINE, ids=lambda kw: "-".join(map(str, kw.values())))
+def test_the_compliance_estimate_covers_the_rotational_compliance_loaded(kw, exact_compliance3):
+    p = flexgen.solve(exact_compliance3["scene"], **kw).points["a.tip"]
+    true = _scaled_relative(p.compliance3, exact_compliance3["C3"], 1.0)
+    assert true <= p.error_estimate["compliance"]
+
+
+@pytest.fixture(scope="module")
+def exact_compliance3():
+    """A cantilever under a tip force and moment; its 3x3 compliance d(x, y, angle)/d(fx, fy, m)
+    by central differences of the exact elastica's tip pose (step 1e-5: error ~1e-9)."""
+
+    def scene(u):
+        return {
+            "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
+            "load": [{"point": "a.tip", "force": [u[0], u[1]], "moment": u[2]}],
+            "output": {"points": ["a.tip"]},
+        }
+
+    u0, h = np.array([1.0, -3.0, 0.5]), 1e-5
+    C = np.zeros((3, 3))
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = h
+        plus = flexgen.solve(scene(u0 + e), model="exact").points["a.tip"].pose
+        minus = flexgen.solve(scene(u0 - e), model="exact").points["a.tip"].pose
+        C[:, j] = (np.array(plus) - np.array(minus)) / (2 * h)
+    return {"scene": scene(u0), "C3": 0.5 * (C + C.T)}

@@ -61,7 +61,17 @@ def test_defaults_are_the_solvers():
         ("line_search_halvings", 0, "settings.line_search_halvings: must be an integer in [1, "),
         ("max_iterations", 2.0, "settings.max_iterations: must be an integer, got 2.0"),
         ("armijo", True, "settings.armijo: must be a finite number, got True"),
-        ("initial_step", 0.5, "settings.initial_step: must lie in [min_step, max_step]"),
+        (
+            "initial_step",
+            0.5,
+            "settings: min_step <= initial_step <= max_step must hold, got min_step=1e-05, "
+            "initial_step=0.5, max_step=0.25",
+        ),
+        (
+            "min_step",
+            0.5,  # review: blamed on the default initial_step
+            "settings: min_step <= initial_step <= max_step must hold, got min_step=0.5, ",
+        ),
         (
             "stagnation_lag",
             9,
@@ -102,3 +112,11 @@ def test_prepared_solver_refuses_a_warm_start_for_an_unknown_flexure():
         again = solver.solve(q0={"beam": q0})
         assert again.converged
         np.testing.assert_allclose(again.q["beam"], r.q["beam"], rtol=0, atol=1e-12)
+
+
+def test_numpy_integers_are_integers():
+    """max_steps=np.int64(50) was refused ("must be an integer") where modes takes it."""
+    import numpy as np
+
+    s = SolverSettings(max_steps=np.int64(50))
+    assert s.max_steps == 50 and type(s.max_steps) is int

@@ -1219,3 +1219,38 @@ def test_newton_last_step_linearized_against_evaluated(name):
         np.testing.assert_allclose(pa.pose, pb.pose, rtol=0, atol=1e-12)
         c = np.asarray(pb.compliance)
         np.testing.assert_allclose(pa.compliance, c, rtol=0, atol=1e-9 * np.abs(c).max())
+
+
+def test_a_path_out_of_its_kernels_range_says_so_first_not_a_limit_point():
+    """A pure end moment (no limit point: the arc bends uniformly) under kernel "poly" ends at
+    90 degrees; its reason read "the load path ends there, a limit point" and named the kernel
+    last (review)."""
+    scene = {
+        "model": {"kernel": "poly"},
+        "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "a.tip", "force": [0.0, 0.0], "moment": 2.0}],
+    }
+    r = flexgen.solve(scene)
+    assert not r.converged
+    head = r.reason.split(":")[0]
+    assert head.startswith("no equilibrium found beyond load factor 0.785")  # 90 deg of 2 rad
+    assert "where flexure 'a'" in r.reason and "polynomial kernel scm3" in r.reason
+    assert "limit point" not in r.reason
+
+
+def test_a_rank_one_compliance_has_a_minor_axis_of_zero_not_minus_rounding():
+    """prb (one coordinate) under an end moment: minor -1.08e-17, printed -0.000000 and a NaN
+    semi-axis in the drawing (review). Zero within the compliance's rounding."""
+    r = flexgen.solve(EXAMPLES / "arc_moment.toml", model="prb")
+    for p in r.points.values():
+        assert p.ellipse["minor"] == 0.0 and p.ellipse["major"] > 0.0
+
+
+def test_no_loads_given_as_an_empty_list_for_a_scene_without_loads():
+    """loads=[] on a scene with no [[load]] raised "expected (0, 3) numbers, got shape (0,)"
+    (review): an empty list is the scene's zero loads."""
+    s = flexgen.Solver({"flexure": [{"name": "a", "length": 1.0, "EI": 1.0}]})
+    r = s.solve(loads=[], tensions=[])
+    assert r.converged and r.points["a.tip"].pose == pytest.approx([1.0, 0.0, 0.0], abs=1e-14)
+    with pytest.raises(ValueError, match="expected"):
+        s.solve(loads=[[0.0, 1.0, 0.0]])

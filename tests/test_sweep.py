@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import io
 import itertools
 import json
 import math
@@ -47,7 +48,7 @@ def finger():
 
 
 def expected_columns(keys):
-    cols = list(keys) + ["converged", "stable", "iterations", "reason"]
+    cols = list(keys) + ["converged", "stable", "iterations", "reason", "warnings", "notes"]
     cols += [f"{p}.{c}" for p in POINTS for c in POINT_COLUMNS]
     cols += [f"{f}.{c}" for f in FLEXURES for c in ("max_stress", "safety_factor")]
     return cols
@@ -57,6 +58,10 @@ def assert_row_is_solve(row, result):
     """The row's numbers are those of ``result`` (a cold flexgen.solve of the same scene)."""
     assert row["converged"] == result.converged
     assert row["stable"] == result.stable
+    # the Result's warnings and notes, but the safety factors' (their own column)
+    warnings = [w for w in result.warnings if "safety factor " not in w]
+    assert row["warnings"] == "\n".join(warnings)
+    assert row["notes"] == "\n".join(result.notes)
     for ref, pr in result.points.items():
         got = [row[f"{ref}.{c}"] for c in ("x", "y", "angle")]
         np.testing.assert_allclose(got, pr.pose, rtol=RTOL, atol=RTOL * 0.1)
@@ -144,7 +149,7 @@ def test_with_value_keeps_what_it_does_not_change(finger):
             "ten",  # a string is a number with its unit ("5 N"), as in a scene file
             "tendon.0.tension: tendon[0].tension: 'ten': expected a number and a unit",
         ),
-        ("model.modes", 2.5, "model.modes: model.modes: must be an integer in [1, 8]"),
+        ("model.modes", 2.5, "model.modes: must be an integer in [1, 8]"),
         ("flexure.proximal.EI", 1e-4, "flexure.proximal.EI: flexure[0].E: conflicts with EI"),
         ("flexure..length", 1.0, "scene path must be keys joined by dots"),
     ],
@@ -609,7 +614,8 @@ def test_cli_writes_the_table(finger, tmp_path, suffix, capsys):
         finger, {"tendon.0.tension": (0.0, 10.0, 3), "load.0.force.1": (0.0, -1.0, 2)}, workers=1
     )
     assert list(got.columns) == list(want.columns)
-    got["reason"] = got["reason"].astype(object).where(got["reason"].notna(), "")  # "" read as NaN
+    for text in ("reason", "warnings", "notes"):  # "" read as NaN
+        got[text] = got[text].astype(object).where(got[text].notna(), "")
     pd.testing.assert_frame_equal(got, want, check_dtype=False, rtol=1e-15)
     assert "sweep: 6 cases, 0 without an equilibrium" in capsys.readouterr().err
     assert [p.name for p in tmp_path.iterdir()] == [out.name]  # no temporary file left
@@ -692,8 +698,8 @@ def test_plot_labels_carry_the_scenes_units():
             ["--vary", "tendon.0.tension=zero:10:3"],
             "--vary tendon.0.tension: 'zero' is neither a number",
         ),
-        (["--vary", "model.modes=1:4:7"], "model.modes: model.modes: must be an integer"),
-        (["--vary", "model.kind=1:2:2"], "model.kind: model.kind: must be one of"),
+        (["--vary", "model.modes=1:4:7"], "model.modes: must be an integer"),
+        (["--vary", "model.kind=1:2:2"], "model.kind: must be one of"),
         (
             [
                 "--samples",
@@ -937,3 +943,83 @@ def test_count_keys_are_integer_columns():
     df = flexgen.sweep(scene, {"model.modes": [2, 3, 4]}, workers=1)
     assert df["model.modes"].dtype == np.int64 and df["model.modes"].tolist() == [2, 3, 4]
     assert df["converged"].all()
+
+
+def test_a_row_carries_the_warnings_and_notes_of_its_solve(finger):
+    # review: a column near its Euler load (solve warns the compliance amplifies the model's
+    # error 319x), one past it (a bifurcation note) and the finger bent past its kernels'
+    # certified range (no accuracy claimed) were plain rows: only the estimate was kept
+    column = flexgen.scene_from_dict(
+        {
+            "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
+            "load": [{"point": "a.tip", "force": [-1.0, 0.0]}],
+            "output": {"points": ["a.tip"]},
+        }
+    )
+    df = flexgen.sweep(column, {"load.0.force.0": [-1.0, -2.46, -3.0]}, workers=1)
+    for row, fx in zip(df.to_dict("records"), (-1.0, -2.46, -3.0)):
+        assert_row_is_solve(row, flexgen.solve(column.with_value("load.0.force.0", fx)))
+    assert df["warnings"].tolist()[0] == "" and df["notes"].tolist()[0] == ""
+    assert "near a critical load" in df["warnings"].tolist()[1]
+    assert "bifurcation" in df["notes"].tolist()[2]
+    df = flexgen.sweep(finger, {"tendon.0.tension": [60.0]}, workers=1)
+    assert "no accuracy is claimed" in df["warnings"].tolist()[0]
+    assert_row_is_solve(
+        df.to_dict("records")[0], flexgen.solve(finger.with_value("tendon.0.tension", 60.0))
+    )
+
+
+def test_a_script_without_the_main_guard_is_told_to_add_it(tmp_path):
+    """A script starting a study on worker processes without `if __name__ == "__main__":`
+    (each worker imports it and started the study again: 86 lines of multiprocessing's
+    bootstrapping errors, then BrokenProcessPool; review): the error names the guard."""
+    import subprocess
+
+    script = tmp_path / "study.py"
+    script.write_text(
+        "import flexgen\n"
+        f"flexgen.sweep({str(FINGER)!r}, {{'tendon.0.tension': [1.0, 2.0, 3.0, 4.0]}},\n"
+        "              workers=2, chunk_size=2)\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path
+    )
+    assert proc.returncode == 1
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith("flexgen.sweep.WorkerDied: ") and '__name__ == "__main__"' in last
+    assert "bootstrapping phase" not in proc.stderr
+
+
+def test_cli_chunk_size_is_the_studys(finger, capsys):
+    """--chunk-size N is flexgen.sweep's chunk_size (a short study of slow cases can then use
+    --workers: one chunk runs in this process)."""
+    assert main(["sweep", str(FINGER), "--vary", "tendon.0.tension=1:4:4", "--chunk-size", "2",
+                 "--workers", "2"]) == 0  # fmt: skip
+    got = pd.read_csv(io.StringIO(capsys.readouterr().out), keep_default_na=False)
+    want = flexgen.sweep(finger, {"tendon.0.tension": (1.0, 4.0, 4)}, workers=1, chunk_size=2)
+    np.testing.assert_allclose(got["fingertip.pad.x"], want["fingertip.pad.x"], rtol=1e-15)
+    assert (
+        main(["sweep", str(FINGER), "--vary", "tendon.0.tension=1:4:4", "--chunk-size", "0"]) == 2
+    )
+
+
+def test_digits_that_name_another_flexure_are_ambiguous():
+    """Flexures named "1" and "2": flexure.1 changed "2" (index 1) while the columns, named by
+    flexure, showed "1" unchanged (review). Now an error naming both; the bracket form, as
+    messages write keys, is always an index."""
+    src = {
+        "flexure": [
+            {"name": "1", "length": 1.0, "EI": 1.0},
+            {"name": "2", "length": 1.0, "EI": 1.0},
+        ],
+        "load": [{"point": "2.tip", "force": [0.0, -1.0]}],
+    }
+    scene = flexgen.scene_from_dict(src)
+    with pytest.raises(flexgen.SceneError, match=r"write flexure\[0\] or flexure\[1\]"):
+        scene.with_value("flexure.1.length", 2.0)
+    assert [f.length for f in scene.with_value("flexure[1].length", 2.0).flexures] == [1.0, 2.0]
+    assert [f.length for f in scene.with_value("flexure[0].length", 2.0).flexures] == [2.0, 1.0]
+    assert scene.with_value("load[0].force[1]", -2.0).loads[0].force[1] == -2.0
+    df = flexgen.sweep(scene, {"flexure[1].length": [1.0, 1.5]}, workers=1)
+    assert list(df["flexure[1].length"]) == [1.0, 1.5]
+    assert df["2.tip.y"].iloc[1] < df["2.tip.y"].iloc[0]

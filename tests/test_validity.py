@@ -146,7 +146,9 @@ def test_load_level_above_the_old_calibration_is_not_a_warning(tmp_path):
     r = flexgen.solve(cantilever_toml(tmp_path, 40.0, 5.0))  # mostly tension: converges
     assert r.converged
     assert not any("load level" in w or "calibrated" in w for w in r.warnings)
-    assert r.error_estimate is not None and r.error_estimate < 1e-2
+    # scm3's 3x3 compliance is 3.1 % off the exact elastica's here (its rotational part: the
+    # tension's boundary layer at the root; the 2x2 block 0.6 %), which the estimate covers
+    assert r.error_estimate is not None and r.error_estimate < 0.1
     # nor in the stability sweep's assessment (the same assess, no table)
     scene = flexgen.load_scene(cantilever_toml(tmp_path, 40.0, 5.0))
     claim = V.assess(scene, r, V.models_of(scene, r))

@@ -6,8 +6,9 @@ imports flexgen_tools); it needs a source checkout (examples/)."""
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
-from flexgen.commands.common import REPO, UsageError, integer, output_path
+from flexgen.commands.common import UsageError, integer, output_path
 
 
 def register(sub) -> None:
@@ -31,7 +32,11 @@ def register(sub) -> None:
         help="a few scenes and models (for the tests; well under a minute)",
     )
     p.add_argument(
-        "--out", type=output_path, default=REPO / "docs", help="output folder (default docs/)"
+        "--out",
+        type=output_path,
+        default=Path("docs"),
+        help="output folder (default docs/ under the current folder; make bench-models writes "
+        "the checkout's pages)",
     )
     p.add_argument(
         "--random",

@@ -1,12 +1,10 @@
-"""What the subcommands share: the repository root, the one-line usage error, argument types."""
+"""What the subcommands share: the one-line usage error, argument types."""
 
 from __future__ import annotations
 
 import argparse
 import math
 from pathlib import Path
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 class UsageError(Exception):

@@ -6,8 +6,9 @@ never imports flexgen_tools); it needs a source checkout (examples/)."""
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
-from flexgen.commands.common import REPO, UsageError, output_path
+from flexgen.commands.common import UsageError, output_path
 
 
 def register(sub) -> None:
@@ -26,7 +27,11 @@ def register(sub) -> None:
     )
     p.add_argument("--quick", action="store_true", help="a small grid and a few models")
     p.add_argument(
-        "--out", type=output_path, default=REPO / "docs", help="output folder (default docs/)"
+        "--out",
+        type=output_path,
+        default=Path("docs"),
+        help="output folder (default docs/ under the current folder; make bench-models writes "
+        "the checkout's pages)",
     )
     p.set_defaults(run=run)
 

@@ -19,7 +19,7 @@ from typing import Any
 
 from flexgen.commands.common import UsageError, integer, printable
 from flexgen.outfiles import WriteFailed, write_all
-from flexgen.sweep_plan import DISTRIBUTIONS, plan
+from flexgen.sweep_plan import CHUNK_SIZE, DISTRIBUTIONS, plan
 
 TABLES = (".parquet", ".csv")
 EXAMPLE = """\
@@ -84,8 +84,18 @@ def register(sub) -> None:
         "--workers",
         type=integer(1),
         metavar="N",
-        help="processes on this machine: N as asked, 1 this process only (default: every core, "
-        "or this process when a probe finds the study shorter than starting the workers)",
+        help="processes on this machine: N as asked (at most one per chunk of --chunk-size "
+        "cases: a study of one chunk runs in this process), 1 this process only (default: every "
+        "core, or this process when a probe finds the study shorter than starting the workers)",
+    )
+    p.add_argument(
+        "--chunk-size",
+        type=integer(1),
+        metavar="N",
+        default=CHUNK_SIZE,
+        help=f"cases per chunk (a task; its first case solves cold, the rest warm-start from a "
+        f"neighbour): part of the study's definition (default {CHUNK_SIZE}); smaller chunks "
+        f"spread a short study of slow cases over more workers",
     )
     p.add_argument(
         "--no-estimate",
@@ -173,7 +183,7 @@ def run(args) -> int:
     vary = parse_vary(args.vary, args.samples is not None)
 
     from flexgen.scene import load_scene
-    from flexgen.sweep import sweep
+    from flexgen.sweep import WorkerDied, sweep
 
     scene = load_scene(args.scene)
     plan(scene, vary, args.samples, args.seed)  # bad keys and values: exit 2 before a client
@@ -194,7 +204,11 @@ def run(args) -> int:
             progress=True,
             estimate=args.estimate,
             stress=args.stress,
+            chunk_size=args.chunk_size,
         )
+    except WorkerDied as exc:
+        print(f"flexgen: {exc}", file=sys.stderr)
+        return 1
     finally:
         if client is not None:
             client.close()

@@ -223,7 +223,7 @@ FG_API size_t fg_work_size(const fg_problem *p)
     size_t state = 6 * n + 2 * n * n + (size_t)FG_NOUTPUTS(p) * (3 + 3 * n);
     return F * (3 + 3 * n) + FG_FDATA * F + tip_size(p) + P * (3 + 3 * n) + 4 * F + F + n
         + 4 * ((size_t)kmax(p) + 1) + n + 3 * n * n + 11 * n + (size_t)FG_NLOADS(p)
-        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + n + 16;
+        + n + n * n + 2 * n * n + FG_LWORK(n) + FG_NSTATES * state + n + 3 * n + 16;
 }
 
 FG_API size_t fg_iwork_size(const fg_problem *p)
@@ -272,7 +272,7 @@ static void bind(fg_ws *w, const fg_problem *p, fg_real *work, int *iwork)
     w->reach = x; x += n;
     w->la = x; x += n * n;
     w->lb = x; x += n * n;
-    w->lc = x; x += n * n;
+    w->lc = x; x += n * n + 3 * n;   /* also 3 columns of n (compliance, estimate), n < 3 too */
     w->vec1 = x; x += n;
     w->vec2 = x; x += n;
     w->vec3 = x; x += n;
@@ -2311,6 +2311,9 @@ static void clear_switched(fg_ws *w)
     memset(w->switched, 0, sizeof(int) * (size_t)FG_NFLEX(w->p));
 }
 
+/* relative rounding of a computed compliance (as the error estimate's ROUNDING_COMPLIANCE) */
+#define FG_ELLIPSE_ROUNDING 1e-12
+
 /* the compliance ellipse of a 2 x 2 compliance (chain_solver.h) */
 FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out)
 {
@@ -2323,6 +2326,11 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out)
     mean = 0.5 * (a + d);
     major = mean + half;
     minor = major > 0.0 && mean > 0.0 ? (a * d - b * b) / major : mean - half;
+    /* a rank-one compliance (one coordinate: prb, a link on one pin) has minor 0, which
+     * rounding may put at -1e-17: 0 within the compliance's rounding, so that sqrt(minor) and
+     * a semi-axis drawn from it stay real (an unstable state's truly negative minor is kept) */
+    if (minor < 0.0 && -minor <= FG_ELLIPSE_ROUNDING * major)
+        minor = 0.0;
     big = fabs(major) > fabs(minor) ? fabs(major) : fabs(minor);
     out[0] = major;
     out[1] = minor;
@@ -2709,12 +2717,34 @@ static fg_real sym2_norm(fg_real a, fg_real b, fg_real c)
     return fabs(0.5 * (a + c)) + hypot(0.5 * (a - c), b);
 }
 
+/* ||A||_2 of the symmetric 3 x 3 A (its upper triangle, row-major): its largest |eigenvalue|,
+ * from the closed form of the three (the trigonometric solution of the characteristic cubic) */
+static fg_real sym3_norm(const fg_real *A)
+{
+    fg_real off = A[1] * A[1] + A[2] * A[2] + A[5] * A[5], m = (A[0] + A[4] + A[8]) / 3.0;
+    fg_real d0 = A[0] - m, d1 = A[4] - m, d2 = A[8] - m, p, r, phi, hi, lo;
+    p = sqrt((d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * off) / 6.0);
+    if (!(p > 0.0))
+        return fabs(m);
+    /* det((A - m I) / p) / 2, clamped: rounding may put it just outside [-1, 1] */
+    r = (d0 * (d1 * d2 - A[5] * A[5]) - A[1] * (A[1] * d2 - A[5] * A[2])
+         + A[2] * (A[1] * A[5] - d1 * A[2])) / (2.0 * p * p * p);
+    r = r < -1.0 ? -1.0 : r > 1.0 ? 1.0 : r;
+    phi = acos(r) / 3.0;
+    hi = m + 2.0 * p * cos(phi);
+    lo = m + 2.0 * p * cos(phi + 2.0 * FG_PI / 3.0);
+    return fabs(hi) > fabs(lo) ? fabs(hi) : fabs(lo);
+}
+
 /* The differences of an answer (pose, compliance per output) to the richer model at state st,
  * whose stiffness's Cholesky factor is in w->la, linearized along -d (st's q minus d is the
  * richer model's equilibrium to first order; d NULL: st is taken as it): out[2 j] =
- * max(|r_j - r_j,rich| / scale[j], |angle_j - angle_j,rich|), out[2 j + 1] =
- * ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position compliances). 0 if one is not
- * finite. */
+ * max(|r_j - r_j,rich| / scale[j], |angle_j - angle_j,rich|), out[2 j + 1] = the larger of
+ * ||C_j - C_j,rich||_2 / ||C_j,rich||_2 for the 2 x 2 position compliances and for the 3 x 3
+ * compliances d(x, y, angle)/d(fx, fy, moment) with the angle row and column times scale[j]
+ * (D C D, D = diag(1, 1, scale[j]): every entry then in the units of the position block, so
+ * one norm weighs the rotational compliance as the positional one; a hinge's rotational
+ * compliance is what many designs read). 0 if one is not finite. */
 static int estimate_differences(fg_ws *w, const fg_state *st, const fg_real *d,
                                 const fg_real *pose, const fg_real *compliance,
                                 const fg_real *scale, fg_real *out)
@@ -2724,26 +2754,39 @@ static int estimate_differences(fg_ws *w, const fg_state *st, const fg_real *d,
     for (j = 0; j < FG_NOUTPUTS(p); ++j) {
         const fg_real *o = st->out + (size_t)j * (3 + 3 * (size_t)n), *J = o + 3;
         const fg_real *P = pose + 3 * j, *C = compliance + 9 * j;
-        fg_real R[3], Cr[4], dpos, dth, nr, nd;
-        fg_real *col = w->lc;
+        fg_real R[3], Cr[9], Sr[9], Sd[9], dpos, dth, nr, nd, rel2, rel3;
+        fg_real *col = w->lc, sc[3];
+        int b;
         for (a = 0; a < 3; ++a) {
             R[a] = o[a];
             if (d != NULL)
                 R[a] -= dot(J + (size_t)a * (size_t)n, d, n);
         }
-        /* C_rich = J K^-1 J^T = Y^T Y with Y = U^-T J^T (K = U^T U), position rows only */
-        for (a = 0; a < 2; ++a)
+        /* C_rich = J K^-1 J^T = Y^T Y with Y = U^-T J^T (K = U^T U): its upper triangle */
+        for (a = 0; a < 3; ++a)
             cholesky_forward(w, w->la, J + (size_t)a * (size_t)n, col + (size_t)a * (size_t)n);
-        Cr[0] = dot(col, col, n);
-        Cr[1] = Cr[2] = dot(col, col + n, n);
-        Cr[3] = dot(col + n, col + n, n);
+        for (a = 0; a < 3; ++a)
+            for (b = a; b < 3; ++b)
+                Cr[3 * a + b] = dot(col + (size_t)a * (size_t)n, col + (size_t)b * (size_t)n, n);
         dpos = hypot(P[0] - R[0], P[1] - R[1]) / scale[j];
         dth = fabs(remainder(P[2] - R[2], 2.0 * FG_PI));
-        nr = sym2_norm(Cr[0], Cr[1], Cr[3]);
-        nd = sym2_norm(C[0] - Cr[0], 0.5 * (C[1] + C[3]) - Cr[1], C[4] - Cr[3]);
+        nr = sym2_norm(Cr[0], Cr[1], Cr[4]);
+        nd = sym2_norm(C[0] - Cr[0], 0.5 * (C[1] + C[3]) - Cr[1], C[4] - Cr[4]);
+        rel2 = nr > 0.0 ? nd / nr : nd;
+        sc[0] = sc[1] = 1.0;
+        sc[2] = scale[j];
+        for (a = 0; a < 3; ++a)
+            for (b = a; b < 3; ++b) {
+                fg_real s2 = sc[a] * sc[b];
+                Sr[3 * a + b] = s2 * Cr[3 * a + b];
+                Sd[3 * a + b] = s2 * (0.5 * (C[3 * a + b] + C[3 * b + a]) - Cr[3 * a + b]);
+            }
+        nr = sym3_norm(Sr);
+        nd = sym3_norm(Sd);
+        rel3 = nr > 0.0 ? nd / nr : nd;
         out[2 * j] = dpos > dth ? dpos : dth;
-        out[2 * j + 1] = nr > 0.0 ? nd / nr : nd;
-        if (!isfinite(dpos) || !isfinite(dth) || !isfinite(out[2 * j + 1]))
+        out[2 * j + 1] = rel2 > rel3 ? rel2 : rel3;
+        if (!isfinite(dpos) || !isfinite(dth) || !isfinite(rel2) || !isfinite(rel3))
             return 0;
     }
     return 1;

@@ -329,8 +329,9 @@ enum {
  * first-order pose(q_k) - J d_k, the richer compliance J K^-1 J^T at q_k (off by O(|d_k|); at
  * T q alone, off by O(|d_0|), measured too far off to be honest). Usually two evaluations of the
  * richer model. Per output j the differences dp_j = max(|r_j - r_j,rich| / scale[j], |angle_j -
- * angle_j,rich|) and dc_j = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (the 2 x 2 position
- * compliances, spectral norm) become the estimates out[2 j] = factor dp_j + floors[j] and
+ * angle_j,rich|) and dc_j = ||C_j - C_j,rich||_2 / ||C_j,rich||_2 (spectral norm, the larger of
+ * the 2 x 2 position compliances' and the 3 x 3's with the angle row and column times scale[j])
+ * become the estimates out[2 j] = factor dp_j + floors[j] and
  * out[2 j + 1] = factor dc_j + floors[noutputs] (factor: the margin of the model pair, floors:
  * the kernels' bounds, noutputs + 1 entries), and out[2 noutputs] = the largest of them (the whole
  * answer's), then out[2 noutputs + 1 ...] = the richer equilibrium's coordinates q_k - d_k

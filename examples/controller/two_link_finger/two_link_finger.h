@@ -40,7 +40,7 @@ extern "C" {
 #define TWO_LINK_FINGER_NTENDONS 1      /* [[tendon]] entries, in scene order */
 #define TWO_LINK_FINGER_NOUTPUTS 2      /* [output] points, in scene order */
 #define TWO_LINK_FINGER_NFLEXURES 2     /* [[flexure]] entries, in scene order */
-#define TWO_LINK_FINGER_NWORK 1715       /* the solver's scratch memory, in two_link_finger_state */
+#define TWO_LINK_FINGER_NWORK 1733       /* the solver's scratch memory, in two_link_finger_state */
 #define TWO_LINK_FINGER_NIWORK 29
 #define TWO_LINK_FINGER_WARM_CHANGE 0.25      /* largest relative change of the inputs for a warm start */
 #define TWO_LINK_FINGER_NEAR_CRITICAL 0.05    /* margin to a critical load below which FLAG_NEAR_CRITICAL */
