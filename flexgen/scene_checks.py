@@ -22,8 +22,24 @@ from .scene import Flexure, Scene
 
 
 def scene_notes(scene: Scene) -> list[str]:
-    """One note per flexure that looks like it forgot its ``at`` (see the module docstring)."""
+    """One note per flexure that looks like it forgot its ``at`` (see the module docstring),
+    whose strengths cannot be checked, or whose ``at`` angle looks written in degrees."""
     notes = []
+    for f in scene.flexures:
+        if (f.yield_strength is not None or f.fatigue_strength is not None) and (
+            f.E is None or f.thickness is None
+        ):  # review: the designer believed the check ran
+            notes.append(
+                f"flexure {f.name!r}: its strengths are not checked (no safety factor): a "
+                f"bending stress needs E and thickness, and it gives "
+                f"{'EI' if f.E is None else 'E'}"
+                f"{'' if f.thickness is None else ' and thickness'}"
+            )
+        if abs(f.at[2]) > 2 * math.pi:  # plain angles are radians; more than a turn: degrees?
+            notes.append(
+                f"flexure {f.name!r}: at angle {f.at[2]:g} is read in radians "
+                f'({math.degrees(f.at[2]):.4g} deg); for degrees write "{f.at[2]:g} deg"'
+            )
     for f in scene.flexures:
         if scene.body_kind(f.parent) != "link" or (f.at[0], f.at[1]) != (0.0, 0.0):
             continue
@@ -59,10 +75,51 @@ def thick_flexures(scene: Scene) -> list[Flexure]:
     ]
 
 
+# Plain numbers of a scene whose other values carry units are read in SI (docs/scene.md, "Units")
+# when the scene declares no ``units``. A plain stress below 1 MPa (no flexure material: the
+# softest elastomers are about that) or a plain length above 10 m (no flexure) read in SI is a
+# scene whose plain numbers were written in another system (mm and MPa, say): review, one
+# "1400 MPa" strength made a plain-mm steel flexure 20 m long with E = 200 kPa, unwarned.
+SI_MIN_PLAIN_STRESS = 1e6
+SI_MAX_PLAIN_LENGTH = 10.0
+
+
+def mixed_units(scene: Scene) -> str | None:
+    """The warning of plain numbers read in SI that look written in another system, or None."""
+    from .scenepath import thaw
+    from .units import locations
+
+    if scene.units is None or scene.source is None or "units" in scene.source:
+        return None
+    src = thaw(scene.source)  # plain dicts and lists, as locations reads them
+    for path, key, dim in locations(src):
+        value: object = src
+        for k in path:
+            value = value[k]  # type: ignore[index]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value == 0:
+            continue
+        si = {"stress": "Pa", "length": "m"}.get(dim)
+        if (dim == "stress" and abs(value) < SI_MIN_PLAIN_STRESS) or (
+            dim == "length" and abs(value) > SI_MAX_PLAIN_LENGTH
+        ):
+            name = key if path[-1] == key.split(".")[-1] else f"{key}.{path[-1]}"
+            return (
+                f"{name} = {value:g} is a plain number in a scene whose other values carry units "
+                f"and which declares no units, so it is read in SI: {value:g} {si}; if the plain "
+                f'numbers are in other units, declare them (units = {{length = "mm", force = '
+                f'"N"}}) or give each a unit'
+            )
+    return None
+
+
 def scene_warnings(scene: Scene) -> list[str]:
     """One warning per flexure of ``thick_flexures``: outside the beam model, and often a unit
-    slip (a length in m in an mm scene)."""
+    slip (a length in m in an mm scene); one for plain numbers read in SI that look written in
+    another system (``mixed_units``)."""
     out = []
+    mixed = mixed_units(scene)
+    if mixed:
+        out.append(mixed)
     for f in thick_flexures(scene):
         t = cast(float, f.thickness)  # given: thick_flexures reads only given thicknesses
         out.append(

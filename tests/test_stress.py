@@ -361,3 +361,23 @@ def test_point_matrices_are_numpy_views_of_the_contract():
         assert C3.shape == (3, 3) and C3.tolist() == p.compliance3
         assert np.allclose(C3, C3.T, rtol=1e-9, atol=1e-12 * np.abs(C3).max())
         assert np.abs(C3[2]).max() > 0.0
+
+
+def test_unchecked_strengths_and_an_angle_in_degrees_are_notes():
+    """Strengths on a flexure whose stress is unknown (EI and thickness; E and I) gave a null
+    safety factor and nothing else; a plain `at` angle of 30 is 1719 degrees (review)."""
+    scene = {
+        "model": {"yield_strength": 1e9},
+        "flexure": [
+            {"name": "a", "length": 1.0, "EI": 1.0, "thickness": 0.01},
+            {"name": "b", "parent": "a", "length": 1.0, "E": 2e11, "I": 1e-12, "at": [0, 0, 30]},
+        ],
+        "load": [{"point": "b.tip", "force": [0.0, -1e-3]}],
+    }
+    r = flexgen.solve(scene)
+    assert r.flexures["a"].safety_factor is None and r.flexures["b"].safety_factor is None
+    notes = "\n".join(r.notes)
+    assert "flexure 'a': its strengths are not checked" in notes
+    assert "flexure 'b': its strengths are not checked" in notes
+    assert "at angle 30 is read in radians (1719 deg)" in notes
+    assert not flexgen.solve(ROOT / "examples" / "steel_finger.toml").notes

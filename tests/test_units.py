@@ -354,3 +354,23 @@ def test_a_study_key_has_the_dimension_of_its_scene_key(path, dimension):
     from flexgen.units import key_dimension
 
     assert key_dimension(path) == dimension
+
+
+def test_plain_numbers_read_in_si_that_look_like_another_system_warn():
+    """One unit string ("1400 MPa") in a scene of plain mm numbers made the flexure 20 m long
+    with E = 200 kPa: safety factor 5.26e6 instead of 5.26, unwarned (review)."""
+    mm = {
+        "model": {"yield_strength": "1400 MPa"},
+        "flexure": [{"name": "a", "length": 20, "E": 200000, "width": 10, "thickness": 0.3}],
+        "load": [{"point": "a.tip", "force": [0, -2]}],
+    }
+    r = flexgen.solve(mm)
+    assert any("flexure[0].length = 20 is a plain number" in w for w in r.warnings)
+    si = {**mm, "flexure": [{"name": "a", "length": 0.02, "E": 2e11, "width": 0.01,
+                              "thickness": 0.0003}]}  # fmt: skip
+    assert not [w for w in flexgen.solve(si).warnings if "plain number" in w]
+    declared = {**mm, "units": {"length": "mm", "force": "N"}}
+    assert not [w for w in flexgen.solve(declared).warnings if "plain number" in w]
+    assert flexgen.solve(declared).flexures["a"].safety_factor == pytest.approx(
+        flexgen.solve({**mm, "model": {"yield_strength": 1400}}).flexures["a"].safety_factor
+    )

@@ -24,7 +24,8 @@ def register(sub) -> None:
             "arrows to a scale the legend states, and the compliance ellipses of the output "
             "points (scaled to be visible; the legend gives the scale). Notes about the scene "
             "(e.g. a flexure that starts at its link's origin: a forgotten `at`) are printed "
-            "by `flexgen solve`. In Python, flexgen.plot(scene, result) draws on a matplotlib "
+            "by `flexgen solve`; the answer's warnings (what may make it wrong beyond its "
+            "error estimate, a safety factor below 1) are printed on stderr. In Python, flexgen.plot(scene, result) draws on a matplotlib "
             "Axes and returns it (docs/solve.md)."
         ),
     )
@@ -67,5 +68,9 @@ def run(args) -> int:
         where = printable(str(exc.filename or args.output))
         print(f"flexgen: cannot write {where}: {exc.strerror or exc}", file=sys.stderr)
         return 1
+    # the drawing cannot say what the answer may get wrong: its warnings as flexgen solve
+    # gives them (review: a finger past yield, a load in the wrong units, plotted silently)
+    for warning in result.warnings:
+        print(f"flexgen: warning: {one_line(warning)}", file=sys.stderr)
     print(printable(str(path)))
     return 0
