@@ -177,6 +177,9 @@ def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list
     max_stress / (1 - estimate) (the estimate is relative to the larger peak; any stress at an
     estimate of 1 or more), would exceed the smaller strength."""
     out = []
+    # the stresses' unit where the scene names its units (review: "max stress 2360 ... yield
+    # strength 1400" in an mm/N scene)
+    unit = "" if scene.units is None else " " + scene.units.label("stress")
     for f in scene.flexures:
         st = stresses.get(f.name)
         if st is None or st.safety_factor is None:
@@ -191,18 +194,18 @@ def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list
             out.append(
                 f"flexure {f.name!r}: safety factor {safety_text(st.safety_factor)} "
                 f"({st.limited_by}) "
-                f"may be below 1: its max stress {st.max_stress:.4g} may be off by {off} (its "
+                f"may be below 1: its max stress {st.max_stress:.4g}{unit} may be off by {off} (its "
                 f"error estimate; more modes or elements resolve it)"
             )
             continue
         assert st.max_stress is not None
         exceeded = " and ".join(
-            f"{name} strength {value:.4g}"
+            f"{name} strength {value:.4g}{unit}"
             for name, value in strengths(f).items()
             if value < st.max_stress
         )
         out.append(
-            f"flexure {f.name!r}: max stress {st.max_stress:.4g} at s/L = {st.at:.3g} exceeds "
+            f"flexure {f.name!r}: max stress {st.max_stress:.4g}{unit} at s/L = {st.at:.3g} exceeds "
             f"its {exceeded} (safety factor {safety_text(st.safety_factor)})"
         )
     return out

@@ -400,16 +400,19 @@ def quantity(text: str, dimension: str, system: System, key: str) -> float:
     def fail(msg: str) -> UnitsError:
         return UnitsError(f"{key}: {_show(text)}: {msg}" if msg else key)
 
+    # a strength's example unit is MPa (E's GPa: "1400" is no steel's strength in GPa)
+    example = "MPa" if key.endswith("_strength") else EXAMPLES[dimension]
+
     if len(text) > MAX_TEXT:
         raise fail(f"too long for a quantity (at most {MAX_TEXT} characters)")
     m = _QUANTITY.fullmatch(text)
     if m is None:
-        raise fail(f'expected a number and a unit, such as "20 {EXAMPLES[dimension]}"')
+        raise fail(f'expected a number and a unit, such as "20 {example}"')
     number, unit_text = float(m[1]), m[2]
     if not unit_text:
         raise fail(
             f"a number without a unit: write it as a number, or with a unit "
-            f'("{m[1]} {EXAMPLES[dimension]}")'
+            f'("{m[1]} {example}")'
         )
     if not math.isfinite(number):
         raise fail("not a finite number")

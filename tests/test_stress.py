@@ -381,3 +381,15 @@ def test_unchecked_strengths_and_an_angle_in_degrees_are_notes():
     assert "flexure 'b': its strengths are not checked" in notes
     assert "at angle 30 is read in radians (1719 deg)" in notes
     assert not flexgen.solve(ROOT / "examples" / "steel_finger.toml").notes
+
+
+def test_safety_warnings_name_the_scenes_stress_unit():
+    """In an mm/N scene the warning read "max stress 2360 ... yield strength 1400" (review)."""
+    scene = {
+        "units": {"length": "mm", "force": "N"},
+        "model": {"yield_strength": 1400},
+        "flexure": [{"name": "a", "length": 20, "E": 200000, "width": 10, "thickness": 0.3}],
+        "load": [{"point": "a.tip", "force": [0, -20]}],
+    }
+    (w,) = [w for w in flexgen.solve(scene).warnings if "exceeds" in w]
+    assert "MPa at s/L" in w and "yield strength 1400 MPa" in w
