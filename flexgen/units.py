@@ -411,8 +411,7 @@ def quantity(text: str, dimension: str, system: System, key: str) -> float:
     number, unit_text = float(m[1]), m[2]
     if not unit_text:
         raise fail(
-            f"a number without a unit: write it as a number, or with a unit "
-            f'("{m[1]} {example}")'
+            f'a number without a unit: write it as a number, or with a unit ("{m[1]} {example}")'
         )
     if not math.isfinite(number):
         raise fail("not a finite number")
