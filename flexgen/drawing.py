@@ -473,8 +473,16 @@ def _loaded_flexures(ax, scene: Scene, g: Geometry, colour: Colouring | None) ->
         mid = 0.5 * (t[1:] + t[:-1])
         s_rel, values = colour.along[name]
         segments = np.stack([shape[:-1], shape[1:]], axis=1)
+        # round caps close the wedges butt caps leave between the segments of a curve (the
+        # background showed through them as stripes: review)
         lines = LineCollection(
-            list(segments), cmap=COLOURMAP, norm=norm, lw=3.0, zorder=4, gid=f"flexure:{name}"
+            list(segments),
+            cmap=COLOURMAP,
+            norm=norm,
+            lw=3.0,
+            zorder=4,
+            gid=f"flexure:{name}",
+            capstyle="round",
         )
         lines.set_array(np.interp(mid, s_rel, values))
         ax.add_collection(lines)
