@@ -116,7 +116,8 @@ class Units:
 
     def label(self, quantity: str) -> str:
         """The unit of ``quantity``: "length", "force", "moment", "angle", "compliance"
-        (length/force), "rotational compliance" (rad/(force x length)), "stress"
+        (length/force), "rotational compliance" (rad/(force x length)), "cross compliance"
+        (compliance3's d(position)/d(moment) and d(angle)/d(force): 1/force), "stress"
         (force/length^2, named: N/mm^2 is "MPa"), "curvature" (1/length), "stiffness" (the
         generalized stiffness, force x length), "EI" (force x length^2)."""
         L, F = _group(self.length), _group(self.force)
@@ -127,6 +128,7 @@ class Units:
             "angle": "rad",
             "compliance": f"{L}/{F}",
             "rotational compliance": f"rad/({F}*{L})",
+            "cross compliance": f"1/{F}",
             "curvature": f"1/{L}",
             "stiffness": f"{F}*{L}",
             "EI": f"{F}*{L}^2",
@@ -145,7 +147,9 @@ class Units:
     def as_dict(self) -> dict[str, str]:
         """The JSON "units" object of a result."""
         keys = ("length", "force", "moment", "angle", "compliance", "stress", "curvature")
-        return {k: self.label(k) for k in keys} | {"stiffness": self.label("stiffness")}
+        # compliance3's blocks other than the 2x2 (review: one label for three units)
+        more = ("stiffness", "cross compliance", "rotational compliance")
+        return {k: self.label(k) for k in keys + more}
 
 
 def result_units(scene: Any) -> dict[str, str] | None:

@@ -147,6 +147,8 @@ def test_labels_and_the_json_units_object():
         "stress": "MPa",
         "curvature": "1/mm",
         "stiffness": "N*mm",
+        "cross compliance": "1/N",
+        "rotational compliance": "rad/(N*mm)",
     }
     si = Units("m", "N")
     assert [si.label(q) for q in ("stress", "compliance", "EI")] == ["Pa", "m/N", "N*m^2"]
