@@ -20,11 +20,23 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
-from .api import PreparedSolver as Solver
-from .api import solve
 from .scene import SceneError, load_scene, scene_from_dict
 from .settings import SolverSettings
-from .sweep import sweep
+
+try:  # what needs the compiled core
+    from .api import PreparedSolver as Solver
+    from .api import solve
+    from .sweep import sweep
+except ImportError as _exc:  # the core missing or stale: the rest of the package still loads
+    if type(_exc).__name__ != "CoreUnavailable":  # (flexgen generate, the CLI's one line)
+        raise
+    _core_error = _exc
+
+    def __getattr__(name: str) -> Any:
+        if name in ("Solver", "solve", "sweep"):
+            raise _core_error
+        raise AttributeError(f"module 'flexgen' has no attribute {name!r}")
+
 
 if TYPE_CHECKING:  # the annotations' names only: not the package's namespace
     import os

@@ -58,7 +58,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"flexgen {_version()}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in COMMANDS:
-        importlib.import_module(f"flexgen.commands.{name}").register(sub)
+        try:
+            module = importlib.import_module(f"flexgen.commands.{name}")
+        except ImportError as exc:  # the core missing or stale: the command says so when run
+            if not _core_unavailable(exc):
+                raise
+            p = sub.add_parser(name, help="(needs flexgen's compiled core, which is not usable)")
+            p.add_argument("arguments", nargs=argparse.REMAINDER)
+            p.set_defaults(run=_needs_the_core(exc), core_missing=True)
+            continue
+        module.register(sub)
     return parser
 
 
@@ -79,6 +88,21 @@ def main(argv=None) -> int:
     except (MemoryError, RecursionError) as exc:  # pragma: no cover - the limits prevent them
         _error(f"out of resources ({type(exc).__name__})")
         return 1
+
+
+def _core_unavailable(exc: BaseException) -> bool:
+    """The compiled core is missing or older than its sources (flexgen.core.CoreUnavailable,
+    named so that this module does not import the core)."""
+    return type(exc).__name__ == "CoreUnavailable"
+
+
+def _needs_the_core(error: ImportError):
+    """A subcommand's run when its module cannot load without the core: the error, raised."""
+
+    def run(args) -> int:
+        raise error
+
+    return run
 
 
 def _main(argv) -> int:
@@ -103,11 +127,16 @@ def _main(argv) -> int:
     except KeyboardInterrupt:
         _error("interrupted")
         return 130
+
     except BrokenPipeError:
         # the reader (e.g. `| head`) went away: stop quietly, as other Unix tools do
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except Exception as exc:
+        if _core_unavailable(exc):  # the install or build, not the input: exit 1
+            _error(f"error: {exc}")
+            _json_failure(argv, None if getattr(args, "core_missing", False) else args, str(exc))
+            return 1
         if isinstance(exc, OSError) and _stdout_refused(exc):
             # a full disk or device behind stdout: the answer is lost, said in one line
             _error(f"cannot write to standard output: {exc.strerror or exc}")

@@ -1,5 +1,6 @@
 """The command line as a whole: help for every subcommand, quiet exit on a closed pipe."""
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -209,3 +210,31 @@ def test_page_writers_default_to_docs_under_the_current_folder(command):
 
     args = build_parser().parse_args([command])
     assert args.out == Path("docs") and not args.out.is_absolute()
+
+
+def test_a_core_that_is_not_usable_is_one_line_and_generate_still_runs(tmp_path):
+    """Without a usable compiled core (not built, or older than its sources in a checkout)
+    every command, --version included, was a traceback from `import flexgen` (review)."""
+    runner = (
+        "import sys; sys.modules['flexgen._core'] = None\n"  # as if it were not built
+        "from flexgen.cli import main; sys.exit(main(sys.argv[1:]))\n"
+    )
+    scene = Path(__file__).resolve().parents[1] / "examples" / "arc_moment.toml"
+
+    def run(*args):
+        return subprocess.run(
+            [sys.executable, "-c", runner, *args], capture_output=True, text=True, cwd=tmp_path
+        )
+
+    r = run("--version")
+    assert r.returncode == 0 and r.stdout.startswith("flexgen ")
+    r = run("solve", str(scene), "--json")
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines() == [
+        "flexgen: error: flexgen's compiled core (flexgen._core) is not built: install flexgen "
+        "with pip (`pip install .`, or `make setup` in a checkout)"
+    ]
+    assert json.loads(r.stdout)["converged"] is False
+    r = run("generate", "--modes", "2", "--lang", "numpy", "--out", "k")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "k" / "numpy" / "scm2.py").is_file()
