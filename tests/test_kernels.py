@@ -355,3 +355,28 @@ def test_one_q_path_matches_the_block_path(name):
     for k, row in enumerate(q):
         for got, want in zip(m.evaluate(row), batch):
             np.testing.assert_allclose(got, want[k], rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_in_range_is_0_for_a_q_that_is_not_finite(c_libraries, name):
+    """A NaN (or infinite) q_n is out of range in C (the strict build and the compiled core)
+    and in NumPy alike (review: C's sampled test skipped a NaN sample, and q[0] has no margin,
+    so scmN_in_range({NAN, 0, ...}) was 1 and the solver took a NaN iterate as in range)."""
+    from flexgen import _core
+
+    m = kernels.load_numpy(name)
+    ptr = ctypes.POINTER(ctypes.c_double)
+    checks = (
+        lambda q: lib_in_range(np.ascontiguousarray(q).ctypes.data_as(ptr)),
+        lambda q: core_in_range(_core.ffi.cast("double *", _core.ffi.from_buffer(q))),
+        lambda q: int(m.in_range(q)),
+    )
+    lib_in_range = c_libraries[name][f"{name}_in_range"]
+    core_in_range = getattr(_core.lib, f"{name}_in_range")
+    inside = np.r_[0.5 * m.PHI_MAX, np.zeros(m.N - 1)]
+    assert [check(inside.copy()) for check in checks] == [1, 1, 1]
+    for n in range(m.N):
+        for bad in (np.nan, np.inf, -np.inf):
+            q = inside.copy()
+            q[n] = bad
+            assert [check(q) for check in checks] == [0, 0, 0], (n, bad)

@@ -442,44 +442,45 @@ void scm4_gauss33_evaluate_f(const float *q, float *pose, float *J, float *H)
 
 int scm4_gauss33_in_range(const double *q)
 {
-    double worst = 0.0;
-    double v;
+    const double margin = 0.000244140625*fabs(q[1]) + 0.000732421875*fabs(q[2]) + 0.00146484375*fabs(q[3]);
+    double v;  /* double also in a float controller: its test is the double kernel's on q */
     /* clearly inside (most q): |q| . RANGE_BOUND, a bound on the sampled test below, decides in
      * a few multiply-adds; the 1e-12 keeps its rounding from accepting what the test would not */
     if (1.0*fabs(q[0]) + 0.250244140625*fabs(q[1]) + 0.09686279296875*fabs(q[2]) + 0.06396484375*fabs(q[3]) <= SCM4_GAUSS33_PHI_MAX * (1.0 - 1e-12)) return 1;
-    v = fabs(0.0); if (v > worst) worst = v;
-    v = fabs(0.03125*q[0] - 0.0302734375*q[1] + 0.02838134765625*q[2] - 0.02569103240966797*q[3]); if (v > worst) worst = v;
-    v = fabs(0.0625*q[0] - 0.05859375*q[1] + 0.05126953125*q[2] - 0.0414276123046875*q[3]); if (v > worst) worst = v;
-    v = fabs(0.09375*q[0] - 0.0849609375*q[1] + 0.06903076171875*q[2] - 0.04886913299560547*q[3]); if (v > worst) worst = v;
-    v = fabs(0.125*q[0] - 0.109375*q[1] + 0.08203125*q[2] - 0.049560546875*q[3]); if (v > worst) worst = v;
-    v = fabs(0.15625*q[0] - 0.1318359375*q[1] + 0.09063720703125*q[2] - 0.04493236541748047*q[3]); if (v > worst) worst = v;
-    v = fabs(0.1875*q[0] - 0.15234375*q[1] + 0.09521484375*q[2] - 0.0363006591796875*q[3]); if (v > worst) worst = v;
-    v = fabs(0.21875*q[0] - 0.1708984375*q[1] + 0.09613037109375*q[2] - 0.02486705780029297*q[3]); if (v > worst) worst = v;
-    v = fabs(0.25*q[0] - 0.1875*q[1] + 0.09375*q[2] - 0.01171875*q[3]); if (v > worst) worst = v;
-    v = fabs(0.28125*q[0] - 0.2021484375*q[1] + 0.08843994140625*q[2] + 0.0021715164184570312*q[3]); if (v > worst) worst = v;
-    v = fabs(0.3125*q[0] - 0.21484375*q[1] + 0.08056640625*q[2] + 0.0159454345703125*q[3]); if (v > worst) worst = v;
-    v = fabs(0.34375*q[0] - 0.2255859375*q[1] + 0.07049560546875*q[2] + 0.02885913848876953*q[3]); if (v > worst) worst = v;
-    v = fabs(0.375*q[0] - 0.234375*q[1] + 0.05859375*q[2] + 0.040283203125*q[3]); if (v > worst) worst = v;
-    v = fabs(0.40625*q[0] - 0.2412109375*q[1] + 0.04522705078125*q[2] + 0.04970264434814453*q[3]); if (v > worst) worst = v;
-    v = fabs(0.4375*q[0] - 0.24609375*q[1] + 0.03076171875*q[2] + 0.0567169189453125*q[3]); if (v > worst) worst = v;
-    v = fabs(0.46875*q[0] - 0.2490234375*q[1] + 0.01556396484375*q[2] + 0.06103992462158203*q[3]); if (v > worst) worst = v;
-    v = fabs(0.5*q[0] - 0.25*q[1] + 0.0625*q[3]); if (v > worst) worst = v;
-    v = fabs(0.53125*q[0] - 0.2490234375*q[1] - 0.01556396484375*q[2] + 0.06103992462158203*q[3]); if (v > worst) worst = v;
-    v = fabs(0.5625*q[0] - 0.24609375*q[1] - 0.03076171875*q[2] + 0.0567169189453125*q[3]); if (v > worst) worst = v;
-    v = fabs(0.59375*q[0] - 0.2412109375*q[1] - 0.04522705078125*q[2] + 0.04970264434814453*q[3]); if (v > worst) worst = v;
-    v = fabs(0.625*q[0] - 0.234375*q[1] - 0.05859375*q[2] + 0.040283203125*q[3]); if (v > worst) worst = v;
-    v = fabs(0.65625*q[0] - 0.2255859375*q[1] - 0.07049560546875*q[2] + 0.02885913848876953*q[3]); if (v > worst) worst = v;
-    v = fabs(0.6875*q[0] - 0.21484375*q[1] - 0.08056640625*q[2] + 0.0159454345703125*q[3]); if (v > worst) worst = v;
-    v = fabs(0.71875*q[0] - 0.2021484375*q[1] - 0.08843994140625*q[2] + 0.0021715164184570312*q[3]); if (v > worst) worst = v;
-    v = fabs(0.75*q[0] - 0.1875*q[1] - 0.09375*q[2] - 0.01171875*q[3]); if (v > worst) worst = v;
-    v = fabs(0.78125*q[0] - 0.1708984375*q[1] - 0.09613037109375*q[2] - 0.02486705780029297*q[3]); if (v > worst) worst = v;
-    v = fabs(0.8125*q[0] - 0.15234375*q[1] - 0.09521484375*q[2] - 0.0363006591796875*q[3]); if (v > worst) worst = v;
-    v = fabs(0.84375*q[0] - 0.1318359375*q[1] - 0.09063720703125*q[2] - 0.04493236541748047*q[3]); if (v > worst) worst = v;
-    v = fabs(0.875*q[0] - 0.109375*q[1] - 0.08203125*q[2] - 0.049560546875*q[3]); if (v > worst) worst = v;
-    v = fabs(0.90625*q[0] - 0.0849609375*q[1] - 0.06903076171875*q[2] - 0.04886913299560547*q[3]); if (v > worst) worst = v;
-    v = fabs(0.9375*q[0] - 0.05859375*q[1] - 0.05126953125*q[2] - 0.0414276123046875*q[3]); if (v > worst) worst = v;
-    v = fabs(0.96875*q[0] - 0.0302734375*q[1] - 0.02838134765625*q[2] - 0.02569103240966797*q[3]); if (v > worst) worst = v;
-    v = fabs(1.0*q[0]); if (v > worst) worst = v;
-    worst += 0.000244140625*fabs(q[1]) + 0.000732421875*fabs(q[2]) + 0.00146484375*fabs(q[3]);
-    return worst <= SCM4_GAUSS33_PHI_MAX;
+    /* every sample, padded by the margin, within PHI_MAX; written !(v <= PHI_MAX) so that a q
+     * that is not finite (a NaN sample or margin) is out of range */
+    v = fabs(0.0); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.03125*q[0] - 0.0302734375*q[1] + 0.02838134765625*q[2] - 0.02569103240966797*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.0625*q[0] - 0.05859375*q[1] + 0.05126953125*q[2] - 0.0414276123046875*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.09375*q[0] - 0.0849609375*q[1] + 0.06903076171875*q[2] - 0.04886913299560547*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.125*q[0] - 0.109375*q[1] + 0.08203125*q[2] - 0.049560546875*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.15625*q[0] - 0.1318359375*q[1] + 0.09063720703125*q[2] - 0.04493236541748047*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.1875*q[0] - 0.15234375*q[1] + 0.09521484375*q[2] - 0.0363006591796875*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.21875*q[0] - 0.1708984375*q[1] + 0.09613037109375*q[2] - 0.02486705780029297*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.25*q[0] - 0.1875*q[1] + 0.09375*q[2] - 0.01171875*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.28125*q[0] - 0.2021484375*q[1] + 0.08843994140625*q[2] + 0.0021715164184570312*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.3125*q[0] - 0.21484375*q[1] + 0.08056640625*q[2] + 0.0159454345703125*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.34375*q[0] - 0.2255859375*q[1] + 0.07049560546875*q[2] + 0.02885913848876953*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.375*q[0] - 0.234375*q[1] + 0.05859375*q[2] + 0.040283203125*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.40625*q[0] - 0.2412109375*q[1] + 0.04522705078125*q[2] + 0.04970264434814453*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.4375*q[0] - 0.24609375*q[1] + 0.03076171875*q[2] + 0.0567169189453125*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.46875*q[0] - 0.2490234375*q[1] + 0.01556396484375*q[2] + 0.06103992462158203*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.5*q[0] - 0.25*q[1] + 0.0625*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.53125*q[0] - 0.2490234375*q[1] - 0.01556396484375*q[2] + 0.06103992462158203*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.5625*q[0] - 0.24609375*q[1] - 0.03076171875*q[2] + 0.0567169189453125*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.59375*q[0] - 0.2412109375*q[1] - 0.04522705078125*q[2] + 0.04970264434814453*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.625*q[0] - 0.234375*q[1] - 0.05859375*q[2] + 0.040283203125*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.65625*q[0] - 0.2255859375*q[1] - 0.07049560546875*q[2] + 0.02885913848876953*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.6875*q[0] - 0.21484375*q[1] - 0.08056640625*q[2] + 0.0159454345703125*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.71875*q[0] - 0.2021484375*q[1] - 0.08843994140625*q[2] + 0.0021715164184570312*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.75*q[0] - 0.1875*q[1] - 0.09375*q[2] - 0.01171875*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.78125*q[0] - 0.1708984375*q[1] - 0.09613037109375*q[2] - 0.02486705780029297*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.8125*q[0] - 0.15234375*q[1] - 0.09521484375*q[2] - 0.0363006591796875*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.84375*q[0] - 0.1318359375*q[1] - 0.09063720703125*q[2] - 0.04493236541748047*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.875*q[0] - 0.109375*q[1] - 0.08203125*q[2] - 0.049560546875*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.90625*q[0] - 0.0849609375*q[1] - 0.06903076171875*q[2] - 0.04886913299560547*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.9375*q[0] - 0.05859375*q[1] - 0.05126953125*q[2] - 0.0414276123046875*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(0.96875*q[0] - 0.0302734375*q[1] - 0.02838134765625*q[2] - 0.02569103240966797*q[3]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    v = fabs(1.0*q[0]); v += margin; if (!(v <= SCM4_GAUSS33_PHI_MAX)) return 0;
+    return 1;
 }

@@ -3535,46 +3535,47 @@ static void scm3_evaluate(const double *q, double *pose, double *J, double *H)
 
 static int scm3_in_range(const double *q)
 {
-    double worst = 0.0;
-    double v;
+    const double margin = 0.000244140625*fabs(q[1]) + 0.000732421875*fabs(q[2]);
+    double v;  /* double also in a float controller: its test is the double kernel's on q */
     /* clearly inside (most q): |q| . RANGE_BOUND, a bound on the sampled test below, decides in
      * a few multiply-adds; the 1e-12 keeps its rounding from accepting what the test would not */
     if (1.0*fabs(q[0]) + 0.250244140625*fabs(q[1]) + 0.09686279296875*fabs(q[2]) <= SCM3_PHI_MAX * (1.0 - 1e-12)) return 1;
-    v = fabs(0.0); if (v > worst) worst = v;
-    v = fabs(0.03125*q[0] - 0.0302734375*q[1] + 0.02838134765625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.0625*q[0] - 0.05859375*q[1] + 0.05126953125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.09375*q[0] - 0.0849609375*q[1] + 0.06903076171875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.125*q[0] - 0.109375*q[1] + 0.08203125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.15625*q[0] - 0.1318359375*q[1] + 0.09063720703125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.1875*q[0] - 0.15234375*q[1] + 0.09521484375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.21875*q[0] - 0.1708984375*q[1] + 0.09613037109375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.25*q[0] - 0.1875*q[1] + 0.09375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.28125*q[0] - 0.2021484375*q[1] + 0.08843994140625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.3125*q[0] - 0.21484375*q[1] + 0.08056640625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.34375*q[0] - 0.2255859375*q[1] + 0.07049560546875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.375*q[0] - 0.234375*q[1] + 0.05859375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.40625*q[0] - 0.2412109375*q[1] + 0.04522705078125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.4375*q[0] - 0.24609375*q[1] + 0.03076171875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.46875*q[0] - 0.2490234375*q[1] + 0.01556396484375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.5*q[0] - 0.25*q[1]); if (v > worst) worst = v;
-    v = fabs(0.53125*q[0] - 0.2490234375*q[1] - 0.01556396484375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.5625*q[0] - 0.24609375*q[1] - 0.03076171875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.59375*q[0] - 0.2412109375*q[1] - 0.04522705078125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.625*q[0] - 0.234375*q[1] - 0.05859375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.65625*q[0] - 0.2255859375*q[1] - 0.07049560546875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.6875*q[0] - 0.21484375*q[1] - 0.08056640625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.71875*q[0] - 0.2021484375*q[1] - 0.08843994140625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.75*q[0] - 0.1875*q[1] - 0.09375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.78125*q[0] - 0.1708984375*q[1] - 0.09613037109375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.8125*q[0] - 0.15234375*q[1] - 0.09521484375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.84375*q[0] - 0.1318359375*q[1] - 0.09063720703125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.875*q[0] - 0.109375*q[1] - 0.08203125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.90625*q[0] - 0.0849609375*q[1] - 0.06903076171875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.9375*q[0] - 0.05859375*q[1] - 0.05126953125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.96875*q[0] - 0.0302734375*q[1] - 0.02838134765625*q[2]); if (v > worst) worst = v;
-    v = fabs(1.0*q[0]); if (v > worst) worst = v;
-    worst += 0.000244140625*fabs(q[1]) + 0.000732421875*fabs(q[2]);
-    return worst <= SCM3_PHI_MAX;
+    /* every sample, padded by the margin, within PHI_MAX; written !(v <= PHI_MAX) so that a q
+     * that is not finite (a NaN sample or margin) is out of range */
+    v = fabs(0.0); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.03125*q[0] - 0.0302734375*q[1] + 0.02838134765625*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.0625*q[0] - 0.05859375*q[1] + 0.05126953125*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.09375*q[0] - 0.0849609375*q[1] + 0.06903076171875*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.125*q[0] - 0.109375*q[1] + 0.08203125*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.15625*q[0] - 0.1318359375*q[1] + 0.09063720703125*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.1875*q[0] - 0.15234375*q[1] + 0.09521484375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.21875*q[0] - 0.1708984375*q[1] + 0.09613037109375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.25*q[0] - 0.1875*q[1] + 0.09375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.28125*q[0] - 0.2021484375*q[1] + 0.08843994140625*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.3125*q[0] - 0.21484375*q[1] + 0.08056640625*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.34375*q[0] - 0.2255859375*q[1] + 0.07049560546875*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.375*q[0] - 0.234375*q[1] + 0.05859375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.40625*q[0] - 0.2412109375*q[1] + 0.04522705078125*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.4375*q[0] - 0.24609375*q[1] + 0.03076171875*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.46875*q[0] - 0.2490234375*q[1] + 0.01556396484375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.5*q[0] - 0.25*q[1]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.53125*q[0] - 0.2490234375*q[1] - 0.01556396484375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.5625*q[0] - 0.24609375*q[1] - 0.03076171875*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.59375*q[0] - 0.2412109375*q[1] - 0.04522705078125*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.625*q[0] - 0.234375*q[1] - 0.05859375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.65625*q[0] - 0.2255859375*q[1] - 0.07049560546875*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.6875*q[0] - 0.21484375*q[1] - 0.08056640625*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.71875*q[0] - 0.2021484375*q[1] - 0.08843994140625*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.75*q[0] - 0.1875*q[1] - 0.09375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.78125*q[0] - 0.1708984375*q[1] - 0.09613037109375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.8125*q[0] - 0.15234375*q[1] - 0.09521484375*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.84375*q[0] - 0.1318359375*q[1] - 0.09063720703125*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.875*q[0] - 0.109375*q[1] - 0.08203125*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.90625*q[0] - 0.0849609375*q[1] - 0.06903076171875*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.9375*q[0] - 0.05859375*q[1] - 0.05126953125*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(0.96875*q[0] - 0.0302734375*q[1] - 0.02838134765625*q[2]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    v = fabs(1.0*q[0]); v += margin; if (!(v <= SCM3_PHI_MAX)) return 0;
+    return 1;
 }
 
 
@@ -3737,46 +3738,47 @@ static void scm3_gauss25_evaluate(const double *q, double *pose, double *J, doub
 
 static int scm3_gauss25_in_range(const double *q)
 {
-    double worst = 0.0;
-    double v;
+    const double margin = 0.000244140625*fabs(q[1]) + 0.000732421875*fabs(q[2]);
+    double v;  /* double also in a float controller: its test is the double kernel's on q */
     /* clearly inside (most q): |q| . RANGE_BOUND, a bound on the sampled test below, decides in
      * a few multiply-adds; the 1e-12 keeps its rounding from accepting what the test would not */
     if (1.0*fabs(q[0]) + 0.250244140625*fabs(q[1]) + 0.09686279296875*fabs(q[2]) <= SCM3_GAUSS25_PHI_MAX * (1.0 - 1e-12)) return 1;
-    v = fabs(0.0); if (v > worst) worst = v;
-    v = fabs(0.03125*q[0] - 0.0302734375*q[1] + 0.02838134765625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.0625*q[0] - 0.05859375*q[1] + 0.05126953125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.09375*q[0] - 0.0849609375*q[1] + 0.06903076171875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.125*q[0] - 0.109375*q[1] + 0.08203125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.15625*q[0] - 0.1318359375*q[1] + 0.09063720703125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.1875*q[0] - 0.15234375*q[1] + 0.09521484375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.21875*q[0] - 0.1708984375*q[1] + 0.09613037109375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.25*q[0] - 0.1875*q[1] + 0.09375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.28125*q[0] - 0.2021484375*q[1] + 0.08843994140625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.3125*q[0] - 0.21484375*q[1] + 0.08056640625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.34375*q[0] - 0.2255859375*q[1] + 0.07049560546875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.375*q[0] - 0.234375*q[1] + 0.05859375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.40625*q[0] - 0.2412109375*q[1] + 0.04522705078125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.4375*q[0] - 0.24609375*q[1] + 0.03076171875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.46875*q[0] - 0.2490234375*q[1] + 0.01556396484375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.5*q[0] - 0.25*q[1]); if (v > worst) worst = v;
-    v = fabs(0.53125*q[0] - 0.2490234375*q[1] - 0.01556396484375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.5625*q[0] - 0.24609375*q[1] - 0.03076171875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.59375*q[0] - 0.2412109375*q[1] - 0.04522705078125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.625*q[0] - 0.234375*q[1] - 0.05859375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.65625*q[0] - 0.2255859375*q[1] - 0.07049560546875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.6875*q[0] - 0.21484375*q[1] - 0.08056640625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.71875*q[0] - 0.2021484375*q[1] - 0.08843994140625*q[2]); if (v > worst) worst = v;
-    v = fabs(0.75*q[0] - 0.1875*q[1] - 0.09375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.78125*q[0] - 0.1708984375*q[1] - 0.09613037109375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.8125*q[0] - 0.15234375*q[1] - 0.09521484375*q[2]); if (v > worst) worst = v;
-    v = fabs(0.84375*q[0] - 0.1318359375*q[1] - 0.09063720703125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.875*q[0] - 0.109375*q[1] - 0.08203125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.90625*q[0] - 0.0849609375*q[1] - 0.06903076171875*q[2]); if (v > worst) worst = v;
-    v = fabs(0.9375*q[0] - 0.05859375*q[1] - 0.05126953125*q[2]); if (v > worst) worst = v;
-    v = fabs(0.96875*q[0] - 0.0302734375*q[1] - 0.02838134765625*q[2]); if (v > worst) worst = v;
-    v = fabs(1.0*q[0]); if (v > worst) worst = v;
-    worst += 0.000244140625*fabs(q[1]) + 0.000732421875*fabs(q[2]);
-    return worst <= SCM3_GAUSS25_PHI_MAX;
+    /* every sample, padded by the margin, within PHI_MAX; written !(v <= PHI_MAX) so that a q
+     * that is not finite (a NaN sample or margin) is out of range */
+    v = fabs(0.0); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.03125*q[0] - 0.0302734375*q[1] + 0.02838134765625*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.0625*q[0] - 0.05859375*q[1] + 0.05126953125*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.09375*q[0] - 0.0849609375*q[1] + 0.06903076171875*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.125*q[0] - 0.109375*q[1] + 0.08203125*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.15625*q[0] - 0.1318359375*q[1] + 0.09063720703125*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.1875*q[0] - 0.15234375*q[1] + 0.09521484375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.21875*q[0] - 0.1708984375*q[1] + 0.09613037109375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.25*q[0] - 0.1875*q[1] + 0.09375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.28125*q[0] - 0.2021484375*q[1] + 0.08843994140625*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.3125*q[0] - 0.21484375*q[1] + 0.08056640625*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.34375*q[0] - 0.2255859375*q[1] + 0.07049560546875*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.375*q[0] - 0.234375*q[1] + 0.05859375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.40625*q[0] - 0.2412109375*q[1] + 0.04522705078125*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.4375*q[0] - 0.24609375*q[1] + 0.03076171875*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.46875*q[0] - 0.2490234375*q[1] + 0.01556396484375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.5*q[0] - 0.25*q[1]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.53125*q[0] - 0.2490234375*q[1] - 0.01556396484375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.5625*q[0] - 0.24609375*q[1] - 0.03076171875*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.59375*q[0] - 0.2412109375*q[1] - 0.04522705078125*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.625*q[0] - 0.234375*q[1] - 0.05859375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.65625*q[0] - 0.2255859375*q[1] - 0.07049560546875*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.6875*q[0] - 0.21484375*q[1] - 0.08056640625*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.71875*q[0] - 0.2021484375*q[1] - 0.08843994140625*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.75*q[0] - 0.1875*q[1] - 0.09375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.78125*q[0] - 0.1708984375*q[1] - 0.09613037109375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.8125*q[0] - 0.15234375*q[1] - 0.09521484375*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.84375*q[0] - 0.1318359375*q[1] - 0.09063720703125*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.875*q[0] - 0.109375*q[1] - 0.08203125*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.90625*q[0] - 0.0849609375*q[1] - 0.06903076171875*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.9375*q[0] - 0.05859375*q[1] - 0.05126953125*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(0.96875*q[0] - 0.0302734375*q[1] - 0.02838134765625*q[2]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    v = fabs(1.0*q[0]); v += margin; if (!(v <= SCM3_GAUSS25_PHI_MAX)) return 0;
+    return 1;
 }
 
 
