@@ -380,3 +380,71 @@ def test_in_range_is_0_for_a_q_that_is_not_finite(c_libraries, name):
             q = inside.copy()
             q[n] = bad
             assert [check(q) for check in checks] == [0, 0, 0], (n, bad)
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        # too few Gauss nodes: the Hessian's bound (and for fewer, the pose's) was inf, emitted
+        # as `inf`, which neither the C header nor the Python module reads
+        (["--modes", "3", "--kernel", "gauss", "--nodes", "3"], "--nodes"),
+        (["--modes", "3", "--kernel", "gauss", "--nodes", "1"], "--nodes"),
+        (["--modes", "8", "--kernel", "gauss", "--nodes", "8"], "--nodes"),
+        # --tol was dropped silently where --nodes fixes the bound (poly: --degree with --tol)
+        (["--modes", "3", "--kernel", "gauss", "--nodes", "10", "--tol", "1e-12"], "--tol"),
+        # below double rounding: the pose bound came out above --tol, with exit 0
+        (["--modes", "2", "--tol", "1e-15"], "--tol"),
+        (["--modes", "3", "--tol", "1e-14"], "--tol"),
+        (["--modes", "3", "--tol", "1e-30"], "--tol"),
+    ],
+)
+def test_generate_refuses_what_it_cannot_certify(args, named, tmp_path):
+    result = _cli("generate", *args, "--out", str(tmp_path))
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.count("\n") == 1 and result.stderr.startswith(f"flexgen: error: {named}")
+    assert not any(tmp_path.iterdir())
+
+
+def test_the_fewest_gauss_nodes_with_a_bound_and_a_tol_near_rounding(tmp_path):
+    """N + 1 nodes is the fewest that bound the Hessian: a finite bound that the module states
+    and keeps; a poly --tol just above the rounding floor is met by the pose bound, rounding
+    included (5e-14: degree 14 gave 5.1e-14)."""
+    for args in (["--kernel", "gauss", "--nodes", "4"], ["--tol", "5e-14"]):
+        result = _cli("generate", "--modes", "3", *args, "--lang", "numpy", "--out", str(tmp_path))
+        assert result.returncode == 0, result.stderr
+    m = kernels.load_numpy("scm3_gauss4", tmp_path)
+    bounds = (m.ERROR_BOUND, m.JACOBIAN_ERROR_BOUND, m.HESSIAN_ERROR_BOUND)
+    assert all(np.isfinite(bounds))
+    q = reference.near_edge(3, m.PHI_MAX, 200, seed=9)
+    pose, J, H = m.evaluate(q)
+    rp, rJ, rH = reference.tip(q)
+    assert np.abs(pose[:, :2] - rp).max() <= m.ERROR_BOUND
+    assert np.abs(J[:, :2] - rJ).max() <= m.JACOBIAN_ERROR_BOUND
+    assert np.abs(H[:, :2] - rH).max() <= m.HESSIAN_ERROR_BOUND
+    assert kernels.load_numpy("scm3", tmp_path).ERROR_BOUND <= 5e-14
+
+
+@pytest.mark.parametrize(
+    "args",
+    [["--degree", "1"], ["--degree", "2"], ["--tol", "0.2"], ["--tol", "0.5"], ["--range", "1e-9"]],
+)
+def test_low_degree_poly_kernels_are_generated(args, tmp_path):
+    """A cos/sin interpolant of degree 1 or 2 has an all-zero derivative (s'' = 0, and for
+    degree 1 c' = 0): it was `internal error: StopIteration`. Now the kernel is emitted, its C
+    compiles strictly and its pose is within its bound against the reference on its range."""
+    result = _cli("generate", "--modes", "3", *args, "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    from cbuild import STRICT
+
+    subprocess.run(
+        ["gcc", *STRICT, "-c", str(tmp_path / "c" / "scm3.c"), "-o", str(tmp_path / "scm3.o")],
+        check=True,
+    )
+    m = kernels.load_numpy("scm3", tmp_path)
+    q = reference.near_edge(3, m.PHI_MAX, 50, seed=10)
+    for row in q:
+        pose, J, H = m.evaluate(row)
+        rp, rJ, rH = reference.tip(row[None])
+        assert np.abs(pose[:2] - rp[0]).max() <= m.ERROR_BOUND
+        assert np.abs(J[:2] - rJ[0]).max() <= m.JACOBIAN_ERROR_BOUND
+        assert np.abs(H[:2] - rH[0]).max() <= m.HESSIAN_ERROR_BOUND

@@ -108,7 +108,8 @@ def trig_coefficients(kernel: FlexureKernel) -> tuple[list[list[float]], list[bo
     for _name, coeffs in (("c", interp.cos), ("s", interp.sin)):
         poly = [mpmath.mpf(c) for c in coeffs]
         for _ in range(3):  # value, first, second derivative
-            parity = next(k for k, c in enumerate(poly) if c != 0) % 2
+            # an all-zero derivative (degree 1 or 2: s'' = 0) is the even row [0.0]
+            parity = next((k for k, c in enumerate(poly) if c != 0), 0) % 2
             rows.append([float(c) for c in poly[parity::2]][::-1])
             odd.append(bool(parity))
             poly = [k * poly[k] for k in range(1, len(poly))]

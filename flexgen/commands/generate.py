@@ -82,8 +82,9 @@ def register(sub) -> None:
     how.add_argument(
         "--tol",
         type=float,
-        help="poly: bound on the cos/sin error on the range; gauss: bound on the "
-        "pose error; local: the pose error certified at each q (J: 10x, H: 100x) "
+        help="poly: bound on the cos/sin error on the range, and on the pose error with "
+        "double rounding; gauss: bound on the pose error (not with --nodes); local: the pose "
+        "error certified at each q (J: 10x, H: 100x) "
         f"(default {DEFAULT_TOL:g}, units of the flexure length)",
     )
     gen.add_argument("--nodes", type=integer(), help="gauss, local: number of quadrature nodes")
@@ -188,6 +189,12 @@ def _run_kernels(args) -> int:
     else:
         tol = DEFAULT_TOL if args.tol is None else args.tol
         kernel = "poly" if args.kernel is None else args.kernel
+        if kernel == "gauss" and args.nodes is not None and args.tol is not None:
+            # as poly's --degree with --tol: the nodes fix the bound (it was ignored silently)
+            raise UsageError(
+                "--tol: not allowed with --nodes for --kernel gauss (the nodes fix its error "
+                "bound; without --nodes, the fewest nodes that meet --tol)"
+            )
         specs = (KernelSpec(args.modes, kernel, args.range_deg, args.degree, args.nodes, tol),)
     files: dict[str, str] = {}
     for i, spec in enumerate(specs, 1):
