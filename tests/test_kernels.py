@@ -448,3 +448,24 @@ def test_low_degree_poly_kernels_are_generated(args, tmp_path):
         assert np.abs(pose[:2] - rp[0]).max() <= m.ERROR_BOUND
         assert np.abs(J[:2] - rJ[0]).max() <= m.JACOBIAN_ERROR_BOUND
         assert np.abs(H[:2] - rH[0]).max() <= m.HESSIAN_ERROR_BOUND
+
+
+@pytest.mark.parametrize("args", [["--degree", "1"], ["--degree", "2"], ["--degree", "3"]])
+def test_low_degree_poly_kernels_evaluate_batches(args, tmp_path):
+    """A degree-2 or degree-3 interpolant's c'' is a constant (degree 1: c', c'', s'' too),
+    which _trig returned as a scalar: the batch path failed in its matrix product (review
+    finding 2). A (2, 3, N) batch is now within the bounds of the reference, row by row, and
+    equals the one-q path."""
+    result = _cli("generate", "--modes", "3", *args, "--lang", "numpy", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    m = kernels.load_numpy("scm3", tmp_path)
+    q = reference.near_edge(3, m.PHI_MAX, 6, seed=13)[:6].reshape(2, 3, 3)
+    pose, J, H = m.evaluate(q)
+    assert pose.shape == (2, 3, 3) and J.shape == (2, 3, 3, 3) and H.shape == (2, 3, 3, 3, 3)
+    rp, rJ, rH = reference.tip(q.reshape(-1, 3))
+    assert np.abs(pose.reshape(-1, 3)[:, :2] - rp).max() <= m.ERROR_BOUND
+    assert np.abs(J.reshape(-1, 3, 3)[:, :2] - rJ).max() <= m.JACOBIAN_ERROR_BOUND
+    assert np.abs(H.reshape(-1, 3, 3, 3)[:, :2] - rH).max() <= m.HESSIAN_ERROR_BOUND
+    for k, row in enumerate(q.reshape(-1, 3)):
+        for got, want in zip(m.evaluate(row), (pose, J, H)):
+            np.testing.assert_allclose(got, want.reshape(6, *want.shape[2:])[k], atol=1e-14)

@@ -134,7 +134,14 @@ def numpy_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
         [trig[k] for k in TRIG_ROWS], symbols=sp.numbered_symbols("u"), order="none"
     )
     lines = [f"{sym} = {printer.doprint(expr)}" for sym, expr in temps]
-    lines += [f"{k} = {printer.doprint(e)}" for k, e in zip(TRIG_ROWS, reduced)]
+    # a constant row (c'' of degree 2 and below, s'' = 0) as an array of phi's shape: a scalar
+    # would not broadcast in the block path's matrix products
+    lines += [
+        f"{k} = {printer.doprint(e)}"
+        if e.free_symbols
+        else f"{k} = np.full(phi.shape, {float(e)!r})"
+        for k, e in zip(TRIG_ROWS, reduced)
+    ]
     lines.append(f"return {', '.join(TRIG_ROWS)}")
     context = _common(kernel, prefix) | {
         "trig_lines": lines,
