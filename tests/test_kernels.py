@@ -469,3 +469,17 @@ def test_low_degree_poly_kernels_evaluate_batches(args, tmp_path):
     for k, row in enumerate(q.reshape(-1, 3)):
         for got, want in zip(m.evaluate(row), (pose, J, H)):
             np.testing.assert_allclose(got, want.reshape(6, *want.shape[2:])[k], atol=1e-14)
+
+
+def test_a_prefix_differing_only_in_case_is_refused_beside_the_other(tmp_path):
+    """`--prefix Arm` beside arm_scm2.h: the same ARM_SCM2_* macros and header guard (and one
+    file on a case-insensitive file system). One line, exit 2, nothing written; a prefix that
+    differs in more than case is written beside it."""
+    common = ["--modes", "2", "--lang", "c", "--out", str(tmp_path)]
+    assert _cli("generate", *common, "--prefix", "arm").returncode == 0
+    before = sorted(p.name for p in (tmp_path / "c").iterdir())
+    result = _cli("generate", *common, "--range", "60", "--prefix", "Arm")
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert result.stderr.startswith("flexgen: error: --prefix") and "case" in result.stderr
+    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == before
+    assert _cli("generate", *common, "--range", "60", "--prefix", "arm60").returncode == 0

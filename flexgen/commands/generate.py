@@ -200,6 +200,8 @@ def _run_kernels(args) -> int:
     for i, spec in enumerate(specs, 1):
         start = time.perf_counter()
         new = generate_files(spec, args.lang, _kernel_prefix(args.prefix))
+        if not args.check:  # before its progress line: the error is the one line
+            _check_case_clash(new, out, "--out" if args.prefix is None else "--prefix")
         files |= new
         print(
             f"[{i}/{len(specs)}] {', '.join(sorted(new))} ({time.perf_counter() - start:.1f} s)",
@@ -219,6 +221,24 @@ def _run_kernels(args) -> int:
     for path in write_files(files, out):
         print(path)
     return 0
+
+
+def _check_case_clash(files: dict[str, str], out: Path, option: str) -> None:
+    """UsageError if out already holds a file whose name differs from one to be written only
+    in case (`--prefix Arm` beside arm_scm2.h): their macros and header guard, upper case,
+    would be the same, and a case-insensitive file system would take one for the other. As
+    for controllers (docs/controller.md), prefixes must differ in more than case."""
+    for rel in sorted(files):
+        path = out / rel
+        if not path.parent.is_dir():
+            continue
+        for other in sorted(p.name for p in path.parent.iterdir()):
+            if other != path.name and other.lower() == path.name.lower():
+                raise UsageError(
+                    f"{option}: {path.name} and the {other} in {path.parent} differ only in "
+                    "case (they would share macros and header guard); use a prefix that "
+                    "differs in more than case"
+                )
 
 
 def _kernel_prefix(prefix: str | None) -> str:
