@@ -179,6 +179,16 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
     (``<kernel>_*`` without a prefix) and declared with ``linkage`` ("static " where a
     controller embeds them)."""
     lowered = lower(kernel)
+    # H's symmetric twin H[j][i] (the same expression object as H[i][j]) is copied, not computed
+    # again: the emitted code is what lowered.ops counts
+    first: dict[int, int] = {}
+    copy_of: dict[int, int] = {}
+    for o in lowered.outputs:
+        if o.array == "H" and not o.expr.is_Number:
+            if id(o.expr) in first:
+                copy_of[o.index] = first[id(o.expr)]
+            else:
+                first[id(o.expr)] = o.index
     variants = []
     for ctype, suffix in (("double", ""), ("float", "_f")):
         printer = CPrinter(ctype)
@@ -189,7 +199,16 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
                 "temporaries": [
                     (str(sym), printer.doprint(expr)) for sym, expr in lowered.temporaries
                 ],
-                "outputs": [(o.array, o.index, printer.doprint(o.expr)) for o in lowered.outputs],
+                "outputs": [
+                    (
+                        o.array,
+                        o.index,
+                        f"H[{copy_of[o.index]}]"
+                        if o.array == "H" and o.index in copy_of
+                        else printer.doprint(o.expr),
+                    )
+                    for o in lowered.outputs
+                ],
             }
         )
     printer = CPrinter("double")
