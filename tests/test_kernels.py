@@ -514,3 +514,12 @@ def test_the_stated_cost_is_the_emitted_code(name):
     assert _counted_ops(source, name) == tuple(int(v) for v in stated.groups()[1:])
     header = (kernels.GENERATED / "c" / f"{name}.h").read_text()
     assert f"Cost: {stated[0][6:]}" in header
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_in_range_names_a_q_of_the_wrong_shape_as_evaluate_does(name):
+    """in_range(np.zeros(N + 1)) raised numpy's matmul error; now evaluate's one line."""
+    m = kernels.load_numpy(name)
+    for function in (m.evaluate, m.in_range):
+        with pytest.raises(ValueError, match=rf"^q must have shape \(\.\.\., {m.N}\), got"):
+            function(np.zeros(m.N + 1))
