@@ -166,6 +166,8 @@ def _run_kernels(args) -> int:
     out = args.out if args.out is not None else Path("generated")
     if not args.check:
         check_writable(out)
+    elif out.exists() and not out.is_dir():  # as without --check (it said "stale in", exit 1)
+        raise UsageError(f"--out: {out} is not a folder")
     if args.modes is None:
         # the checked-in set has its own kernels, ranges and tolerances: an option for one
         # kernel is a mistake here, not something to ignore
