@@ -355,3 +355,180 @@ def test_one_q_path_matches_the_block_path(name):
     for k, row in enumerate(q):
         for got, want in zip(m.evaluate(row), batch):
             np.testing.assert_allclose(got, want[k], rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_in_range_is_0_for_a_q_that_is_not_finite(c_libraries, name):
+    """A NaN (or infinite) q_n is out of range in C (the strict build and the compiled core)
+    and in NumPy alike (review: C's sampled test skipped a NaN sample, and q[0] has no margin,
+    so scmN_in_range({NAN, 0, ...}) was 1 and the solver took a NaN iterate as in range)."""
+    from flexgen import _core
+
+    m = kernels.load_numpy(name)
+    ptr = ctypes.POINTER(ctypes.c_double)
+    checks = (
+        lambda q: lib_in_range(np.ascontiguousarray(q).ctypes.data_as(ptr)),
+        lambda q: core_in_range(_core.ffi.cast("double *", _core.ffi.from_buffer(q))),
+        lambda q: int(m.in_range(q)),
+    )
+    lib_in_range = c_libraries[name][f"{name}_in_range"]
+    core_in_range = getattr(_core.lib, f"{name}_in_range")
+    inside = np.r_[0.5 * m.PHI_MAX, np.zeros(m.N - 1)]
+    assert [check(inside.copy()) for check in checks] == [1, 1, 1]
+    for n in range(m.N):
+        for bad in (np.nan, np.inf, -np.inf):
+            q = inside.copy()
+            q[n] = bad
+            with np.errstate(invalid="ignore"):  # inf * 0 in NumPy's samples
+                assert [check(q) for check in checks] == [0, 0, 0], (n, bad)
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        # too few Gauss nodes: the Hessian's bound (and for fewer, the pose's) was inf, emitted
+        # as `inf`, which neither the C header nor the Python module reads
+        (["--modes", "3", "--kernel", "gauss", "--nodes", "3"], "--nodes"),
+        (["--modes", "3", "--kernel", "gauss", "--nodes", "1"], "--nodes"),
+        (["--modes", "8", "--kernel", "gauss", "--nodes", "8"], "--nodes"),
+        # --tol was dropped silently where --nodes fixes the bound (poly: --degree with --tol)
+        (["--modes", "3", "--kernel", "gauss", "--nodes", "10", "--tol", "1e-12"], "--tol"),
+        # below double rounding: the pose bound came out above --tol, with exit 0
+        (["--modes", "2", "--tol", "1e-15"], "--tol"),
+        (["--modes", "3", "--tol", "1e-14"], "--tol"),
+        (["--modes", "3", "--tol", "1e-30"], "--tol"),
+    ],
+)
+def test_generate_refuses_what_it_cannot_certify(args, named, tmp_path):
+    result = _cli("generate", *args, "--out", str(tmp_path))
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.count("\n") == 1 and result.stderr.startswith(f"flexgen: error: {named}")
+    assert not any(tmp_path.iterdir())
+
+
+def test_the_fewest_gauss_nodes_with_a_bound_and_a_tol_near_rounding(tmp_path):
+    """N + 1 nodes is the fewest that bound the Hessian: a finite bound that the module states
+    and keeps; a poly --tol just above the rounding floor is met by the pose bound, rounding
+    included (5e-14: degree 14 gave 5.1e-14)."""
+    for args in (["--kernel", "gauss", "--nodes", "4"], ["--tol", "5e-14"]):
+        result = _cli("generate", "--modes", "3", *args, "--lang", "numpy", "--out", str(tmp_path))
+        assert result.returncode == 0, result.stderr
+    m = kernels.load_numpy("scm3_gauss4", tmp_path)
+    bounds = (m.ERROR_BOUND, m.JACOBIAN_ERROR_BOUND, m.HESSIAN_ERROR_BOUND)
+    assert all(np.isfinite(bounds))
+    q = reference.near_edge(3, m.PHI_MAX, 200, seed=9)
+    pose, J, H = m.evaluate(q)
+    rp, rJ, rH = reference.tip(q)
+    assert np.abs(pose[:, :2] - rp).max() <= m.ERROR_BOUND
+    assert np.abs(J[:, :2] - rJ).max() <= m.JACOBIAN_ERROR_BOUND
+    assert np.abs(H[:, :2] - rH).max() <= m.HESSIAN_ERROR_BOUND
+    assert kernels.load_numpy("scm3", tmp_path).ERROR_BOUND <= 5e-14
+
+
+@pytest.mark.parametrize(
+    "args",
+    [["--degree", "1"], ["--degree", "2"], ["--tol", "0.2"], ["--tol", "0.5"], ["--range", "1e-9"]],
+)
+def test_low_degree_poly_kernels_are_generated(args, tmp_path):
+    """A cos/sin interpolant of degree 1 or 2 has an all-zero derivative (s'' = 0, and for
+    degree 1 c' = 0): it was `internal error: StopIteration`. Now the kernel is emitted, its C
+    compiles strictly and its pose is within its bound against the reference on its range."""
+    result = _cli("generate", "--modes", "3", *args, "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    from cbuild import STRICT
+
+    subprocess.run(
+        ["gcc", *STRICT, "-c", str(tmp_path / "c" / "scm3.c"), "-o", str(tmp_path / "scm3.o")],
+        check=True,
+    )
+    m = kernels.load_numpy("scm3", tmp_path)
+    q = reference.near_edge(3, m.PHI_MAX, 50, seed=10)
+    for row in q:
+        pose, J, H = m.evaluate(row)
+        rp, rJ, rH = reference.tip(row[None])
+        assert np.abs(pose[:2] - rp[0]).max() <= m.ERROR_BOUND
+        assert np.abs(J[:2] - rJ[0]).max() <= m.JACOBIAN_ERROR_BOUND
+        assert np.abs(H[:2] - rH[0]).max() <= m.HESSIAN_ERROR_BOUND
+
+
+@pytest.mark.parametrize("args", [["--degree", "1"], ["--degree", "2"], ["--degree", "3"]])
+def test_low_degree_poly_kernels_evaluate_batches(args, tmp_path):
+    """A degree-2 or degree-3 interpolant's c'' is a constant (degree 1: c', c'', s'' too),
+    which _trig returned as a scalar: the batch path failed in its matrix product (review
+    finding 2). A (2, 3, N) batch is now within the bounds of the reference, row by row, and
+    equals the one-q path."""
+    result = _cli("generate", "--modes", "3", *args, "--lang", "numpy", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    m = kernels.load_numpy("scm3", tmp_path)
+    q = reference.near_edge(3, m.PHI_MAX, 6, seed=13)[:6].reshape(2, 3, 3)
+    pose, J, H = m.evaluate(q)
+    assert pose.shape == (2, 3, 3) and J.shape == (2, 3, 3, 3) and H.shape == (2, 3, 3, 3, 3)
+    rp, rJ, rH = reference.tip(q.reshape(-1, 3))
+    assert np.abs(pose.reshape(-1, 3)[:, :2] - rp).max() <= m.ERROR_BOUND
+    assert np.abs(J.reshape(-1, 3, 3)[:, :2] - rJ).max() <= m.JACOBIAN_ERROR_BOUND
+    assert np.abs(H.reshape(-1, 3, 3, 3)[:, :2] - rH).max() <= m.HESSIAN_ERROR_BOUND
+    for k, row in enumerate(q.reshape(-1, 3)):
+        for got, want in zip(m.evaluate(row), (pose, J, H)):
+            np.testing.assert_allclose(got, want.reshape(6, *want.shape[2:])[k], atol=1e-14)
+
+
+def test_a_prefix_differing_only_in_case_is_refused_beside_the_other(tmp_path):
+    """`--prefix Arm` beside arm_scm2.h: the same ARM_SCM2_* macros and header guard (and one
+    file on a case-insensitive file system). One line, exit 2, nothing written; a prefix that
+    differs in more than case is written beside it."""
+    common = ["--modes", "2", "--lang", "c", "--out", str(tmp_path)]
+    assert _cli("generate", *common, "--prefix", "arm").returncode == 0
+    before = sorted(p.name for p in (tmp_path / "c").iterdir())
+    result = _cli("generate", *common, "--range", "60", "--prefix", "Arm")
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert result.stderr.startswith("flexgen: error: --prefix") and "case" in result.stderr
+    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == before
+    assert _cli("generate", *common, "--range", "60", "--prefix", "arm60").returncode == 0
+
+
+def _counted_ops(source: str, name: str) -> tuple[int, int, int]:
+    """Adds (binary + and -), multiplies and cos/sin calls in the text of <name>_evaluate, counted
+    from the C tokens (a literal's exponent sign and a unary minus are not adds)."""
+    body = re.search(rf"void {name}_evaluate\(const double[^{{]*\{{(.*?)\n\}}", source, re.S)
+    assert body is not None
+    text = re.sub(r"\d+\.?\d*[eE][-+]?\d+", "1.0", body[1])
+    adds = muls = calls = 0
+    previous = None
+    for token in re.findall(r"[A-Za-z_]\w*(?:\[\d+\])?|\d+\.?\d*|[-+*/=(),;]", text):
+        if token in "+-" and previous not in ("=", "(", ",", "+", "-", "*"):
+            adds += 1
+        muls += token == "*"
+        calls += token in ("cos", "sin")
+        assert token != "/"
+        previous = token
+    return adds, muls, calls
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_stated_cost_is_the_emitted_code(name):
+    """The header's and the source's "Cost" count the operations of the emitted evaluate (review:
+    H[i][j] and its twin H[j][i] were both printed in full, so scm8 ran 18747 ops at -O0 against
+    the 12847 stated); the twin is now a copy."""
+    source = (kernels.GENERATED / "c" / f"{name}.c").read_text()
+    stated = re.search(r"Cost: (\d+) ops \((\d+) add, (\d+) mul, (\d+) cos/sin\)", source)
+    assert stated is not None
+    assert _counted_ops(source, name) == tuple(int(v) for v in stated.groups()[1:])
+    header = (kernels.GENERATED / "c" / f"{name}.h").read_text()
+    assert f"Cost: {stated[0][6:]}" in header
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_in_range_names_a_q_of_the_wrong_shape_as_evaluate_does(name):
+    """in_range(np.zeros(N + 1)) raised numpy's matmul error; now evaluate's one line."""
+    m = kernels.load_numpy(name)
+    for function in (m.evaluate, m.in_range):
+        with pytest.raises(ValueError, match=rf"^q must have shape \(\.\.\., {m.N}\), got"):
+            function(np.zeros(m.N + 1))
+
+
+def test_check_against_a_file_is_bad_input(tmp_path):
+    """--check --out FILE said "stale in FILE", exit 1; without --check it is exit 2."""
+    (tmp_path / "afile").write_text("x\n")
+    result = _cli("generate", "--modes", "2", "--check", "--out", str(tmp_path / "afile"))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert "--out" in result.stderr and "not a folder" in result.stderr

@@ -77,7 +77,8 @@ def _common(kernel: FlexureKernel, prefix: str = "") -> dict:
                 "integrate the degree "
                 f"{kernel.interpolant.degree * s.modes} polynomial in s without error."
                 if s.family == "poly"
-                else " Valid at any angle; the error bound is certified on |phi| <= PHI_MAX."
+                else " It evaluates at any angle; its error bound is certified only on "
+                "|phi| <= PHI_MAX (in_range), and past it the error grows."
                 if s.family == "gauss"
                 else " Valid at any angle; the error bounds are certified at each q: where "
                 "in_range(q) is 1 (a bound on the quadrature error at q, flexgen.symbolic."
@@ -108,7 +109,8 @@ def trig_coefficients(kernel: FlexureKernel) -> tuple[list[list[float]], list[bo
     for _name, coeffs in (("c", interp.cos), ("s", interp.sin)):
         poly = [mpmath.mpf(c) for c in coeffs]
         for _ in range(3):  # value, first, second derivative
-            parity = next(k for k, c in enumerate(poly) if c != 0) % 2
+            # an all-zero derivative (degree 1 or 2: s'' = 0) is the even row [0.0]
+            parity = next((k for k, c in enumerate(poly) if c != 0), 0) % 2
             rows.append([float(c) for c in poly[parity::2]][::-1])
             odd.append(bool(parity))
             poly = [k * poly[k] for k in range(1, len(poly))]
@@ -133,7 +135,14 @@ def numpy_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
         [trig[k] for k in TRIG_ROWS], symbols=sp.numbered_symbols("u"), order="none"
     )
     lines = [f"{sym} = {printer.doprint(expr)}" for sym, expr in temps]
-    lines += [f"{k} = {printer.doprint(e)}" for k, e in zip(TRIG_ROWS, reduced)]
+    # a constant row (c'' of degree 2 and below, s'' = 0) as an array of phi's shape: a scalar
+    # would not broadcast in the block path's matrix products
+    lines += [
+        f"{k} = {printer.doprint(e)}"
+        if e.free_symbols
+        else f"{k} = np.full(phi.shape, {float(e)!r})"
+        for k, e in zip(TRIG_ROWS, reduced)
+    ]
     lines.append(f"return {', '.join(TRIG_ROWS)}")
     context = _common(kernel, prefix) | {
         "trig_lines": lines,
@@ -171,6 +180,16 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
     (``<kernel>_*`` without a prefix) and declared with ``linkage`` ("static " where a
     controller embeds them)."""
     lowered = lower(kernel)
+    # H's symmetric twin H[j][i] (the same expression object as H[i][j]) is copied, not computed
+    # again: the emitted code is what lowered.ops counts
+    first: dict[int, int] = {}
+    copy_of: dict[int, int] = {}
+    for o in lowered.outputs:
+        if o.array == "H" and not o.expr.is_Number:
+            if id(o.expr) in first:
+                copy_of[o.index] = first[id(o.expr)]
+            else:
+                first[id(o.expr)] = o.index
     variants = []
     for ctype, suffix in (("double", ""), ("float", "_f")):
         printer = CPrinter(ctype)
@@ -181,7 +200,16 @@ def c_context(kernel: FlexureKernel, prefix: str = "", linkage: str = "") -> dic
                 "temporaries": [
                     (str(sym), printer.doprint(expr)) for sym, expr in lowered.temporaries
                 ],
-                "outputs": [(o.array, o.index, printer.doprint(o.expr)) for o in lowered.outputs],
+                "outputs": [
+                    (
+                        o.array,
+                        o.index,
+                        f"H[{copy_of[o.index]}]"
+                        if o.array == "H" and o.index in copy_of
+                        else printer.doprint(o.expr),
+                    )
+                    for o in lowered.outputs
+                ],
             }
         )
     printer = CPrinter("double")

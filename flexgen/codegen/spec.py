@@ -30,8 +30,9 @@ class KernelSpec:
     degree    poly: interpolation degree (None: the smallest meeting tol).
     nodes     gauss, local: number of nodes (None: the fewest meeting tol on the range, or
               certifying the arc of the range).
-    tol       requested bound on the cos/sin error (poly) or the pose error (gauss, local; a
-              local kernel certifies J to 10 tol and H to 100 tol), units of L.
+    tol       requested bound on the cos/sin error and on the pose error with rounding (poly)
+              or on the pose error (gauss, local; a local kernel certifies J to 10 tol and H to
+              100 tol), units of L; a gauss kernel given nodes ignores it (the CLI refuses both).
     """
 
     modes: int

@@ -82,8 +82,9 @@ def register(sub) -> None:
     how.add_argument(
         "--tol",
         type=float,
-        help="poly: bound on the cos/sin error on the range; gauss: bound on the "
-        "pose error; local: the pose error certified at each q (J: 10x, H: 100x) "
+        help="poly: bound on the cos/sin error on the range, and on the pose error with "
+        "double rounding; gauss: bound on the pose error (not with --nodes); local: the pose "
+        "error certified at each q (J: 10x, H: 100x) "
         f"(default {DEFAULT_TOL:g}, units of the flexure length)",
     )
     gen.add_argument("--nodes", type=integer(), help="gauss, local: number of quadrature nodes")
@@ -165,6 +166,8 @@ def _run_kernels(args) -> int:
     out = args.out if args.out is not None else Path("generated")
     if not args.check:
         check_writable(out)
+    elif out.exists() and not out.is_dir():  # as without --check (it said "stale in", exit 1)
+        raise UsageError(f"--out: {out} is not a folder")
     if args.modes is None:
         # the checked-in set has its own kernels, ranges and tolerances: an option for one
         # kernel is a mistake here, not something to ignore
@@ -188,11 +191,19 @@ def _run_kernels(args) -> int:
     else:
         tol = DEFAULT_TOL if args.tol is None else args.tol
         kernel = "poly" if args.kernel is None else args.kernel
+        if kernel == "gauss" and args.nodes is not None and args.tol is not None:
+            # as poly's --degree with --tol: the nodes fix the bound (it was ignored silently)
+            raise UsageError(
+                "--tol: not allowed with --nodes for --kernel gauss (the nodes fix its error "
+                "bound; without --nodes, the fewest nodes that meet --tol)"
+            )
         specs = (KernelSpec(args.modes, kernel, args.range_deg, args.degree, args.nodes, tol),)
     files: dict[str, str] = {}
     for i, spec in enumerate(specs, 1):
         start = time.perf_counter()
         new = generate_files(spec, args.lang, _kernel_prefix(args.prefix))
+        if not args.check:  # before its progress line: the error is the one line
+            _check_case_clash(new, out, "--out" if args.prefix is None else "--prefix")
         files |= new
         print(
             f"[{i}/{len(specs)}] {', '.join(sorted(new))} ({time.perf_counter() - start:.1f} s)",
@@ -212,6 +223,24 @@ def _run_kernels(args) -> int:
     for path in write_files(files, out):
         print(path)
     return 0
+
+
+def _check_case_clash(files: dict[str, str], out: Path, option: str) -> None:
+    """UsageError if out already holds a file whose name differs from one to be written only
+    in case (`--prefix Arm` beside arm_scm2.h): their macros and header guard, upper case,
+    would be the same, and a case-insensitive file system would take one for the other. As
+    for controllers (docs/controller.md), prefixes must differ in more than case."""
+    for rel in sorted(files):
+        path = out / rel
+        if not path.parent.is_dir():
+            continue
+        for other in sorted(p.name for p in path.parent.iterdir()):
+            if other != path.name and other.lower() == path.name.lower():
+                raise UsageError(
+                    f"{option}: {path.name} and the {other} in {path.parent} differ only in "
+                    "case (they would share macros and header guard); use a prefix that "
+                    "differs in more than case"
+                )
 
 
 def _kernel_prefix(prefix: str | None) -> str:

@@ -72,12 +72,10 @@ class FlexureKernel:
         self.degree: int | None  # poly only: the interpolation degree
         self.trig: trig.TrigInterpolant | None  # poly only: the cos/sin interpolant
         if spec.family == "poly":
-            try:
-                self.degree = spec.degree or trig.degree_for_tolerance(self.a, spec.tol)
-            except ValueError as exc:  # a tolerance no interpolant of degree <= 60 meets
-                raise SpecError(f"--tol: {exc}") from None
-            self.trig = trig.chebyshev_interpolant(self.a, self.degree)
-            self.nodes = max(1, math.ceil((self._poly_degree * N + 1) / 2))
+            if spec.degree is not None:
+                self._use_degree(spec.degree)
+            else:
+                self._degree_for_tolerance(spec.tol)
         elif spec.family == "local":
             self.degree = None
             self.trig = None
@@ -98,8 +96,46 @@ class FlexureKernel:
             self.degree = None
             self.trig = None
             self.nodes = spec.nodes or self._nodes_for_tolerance(spec.tol)
+            if not math.isfinite(self._gauss_bounds(self.nodes).hessian):
+                # the rule is exact for no polynomial of the Hessian's basis weights B_i B_j
+                # (degree 2N): no bound (it was emitted as `inf`, which neither C nor Python reads)
+                raise SpecError(
+                    f"--nodes: {self.nodes} nodes certify no error bound for {N} modes (the "
+                    f"Hessian's needs at least {N + 1})"
+                )
         self.sigma, self.weights = gauss_legendre(self.nodes)
         self.node_basis = [[_poly_at(b, s) for b in self.basis] for s in self.sigma]
+
+    def _use_degree(self, degree: int) -> None:
+        """A poly kernel's interpolant of this degree, and the nodes that integrate it exactly."""
+        self.degree = degree
+        self.trig = trig.chebyshev_interpolant(self.a, degree)
+        self.nodes = max(1, math.ceil((self._poly_degree * self.modes + 1) / 2))
+
+    def _degree_for_tolerance(self, tol: float, max_degree: int = 60) -> None:
+        """The lowest degree whose pose bound, rounding included, is at most tol (from the
+        lowest whose cos/sin error is); SpecError where rounding alone exceeds tol."""
+        try:
+            degree = trig.degree_for_tolerance(self.a, tol, max_degree)
+        except ValueError:  # no interpolant of degree <= max_degree meets it
+            degree = max_degree
+        while True:
+            self._use_degree(degree)
+            pose, rounding = self._poly_pose_bound()
+            if pose <= tol:
+                return
+            if rounding >= tol or degree >= max_degree:
+                raise SpecError(
+                    f"--tol {tol:g}: no polynomial kernel of degree up to {max_degree} certifies "
+                    f"it on this range (double rounding allows about {rounding:.0e})"
+                )
+            degree += 1
+
+    def _poly_pose_bound(self) -> tuple[float, float]:
+        """A poly kernel's pose bound, and its rounding allowance (part of it)."""
+        interp = self.interpolant
+        rounding = (interp.degree + self.modes + self.nodes + 4) * UNIT_ROUNDOFF * math.cosh(self.a)
+        return interp.bound(0) + rounding, rounding
 
     # -- names --------------------------------------------------------------------------
     @property
@@ -191,9 +227,7 @@ class FlexureKernel:
         B = self.basis
         if self.spec.family == "poly":
             interp = self.interpolant
-            D = interp.degree
-            rounding = (D + N + self.nodes + 4) * UNIT_ROUNDOFF * math.cosh(a)
-            pose = interp.bound(0) + rounding
+            pose, rounding = self._poly_pose_bound()
             jac = interp.bound(1) * max(_l2_norm(B[i]) for i in range(N)) + rounding * max(1, a)
             hess = interp.bound(2) * max(
                 _l2_norm(B[i] * B[j]) for i in range(N) for j in range(N)

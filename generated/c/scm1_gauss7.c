@@ -82,44 +82,45 @@ void scm1_gauss7_evaluate_f(const float *q, float *pose, float *J, float *H)
 
 int scm1_gauss7_in_range(const double *q)
 {
-    double worst = 0.0;
-    double v;
+    const double margin = 0.0;
+    double v;  /* double also in a float controller: its test is the double kernel's on q */
     /* clearly inside (most q): |q| . RANGE_BOUND, a bound on the sampled test below, decides in
      * a few multiply-adds; the 1e-12 keeps its rounding from accepting what the test would not */
     if (1.0*fabs(q[0]) <= SCM1_GAUSS7_PHI_MAX * (1.0 - 1e-12)) return 1;
-    v = fabs(0.0); if (v > worst) worst = v;
-    v = fabs(0.03125*q[0]); if (v > worst) worst = v;
-    v = fabs(0.0625*q[0]); if (v > worst) worst = v;
-    v = fabs(0.09375*q[0]); if (v > worst) worst = v;
-    v = fabs(0.125*q[0]); if (v > worst) worst = v;
-    v = fabs(0.15625*q[0]); if (v > worst) worst = v;
-    v = fabs(0.1875*q[0]); if (v > worst) worst = v;
-    v = fabs(0.21875*q[0]); if (v > worst) worst = v;
-    v = fabs(0.25*q[0]); if (v > worst) worst = v;
-    v = fabs(0.28125*q[0]); if (v > worst) worst = v;
-    v = fabs(0.3125*q[0]); if (v > worst) worst = v;
-    v = fabs(0.34375*q[0]); if (v > worst) worst = v;
-    v = fabs(0.375*q[0]); if (v > worst) worst = v;
-    v = fabs(0.40625*q[0]); if (v > worst) worst = v;
-    v = fabs(0.4375*q[0]); if (v > worst) worst = v;
-    v = fabs(0.46875*q[0]); if (v > worst) worst = v;
-    v = fabs(0.5*q[0]); if (v > worst) worst = v;
-    v = fabs(0.53125*q[0]); if (v > worst) worst = v;
-    v = fabs(0.5625*q[0]); if (v > worst) worst = v;
-    v = fabs(0.59375*q[0]); if (v > worst) worst = v;
-    v = fabs(0.625*q[0]); if (v > worst) worst = v;
-    v = fabs(0.65625*q[0]); if (v > worst) worst = v;
-    v = fabs(0.6875*q[0]); if (v > worst) worst = v;
-    v = fabs(0.71875*q[0]); if (v > worst) worst = v;
-    v = fabs(0.75*q[0]); if (v > worst) worst = v;
-    v = fabs(0.78125*q[0]); if (v > worst) worst = v;
-    v = fabs(0.8125*q[0]); if (v > worst) worst = v;
-    v = fabs(0.84375*q[0]); if (v > worst) worst = v;
-    v = fabs(0.875*q[0]); if (v > worst) worst = v;
-    v = fabs(0.90625*q[0]); if (v > worst) worst = v;
-    v = fabs(0.9375*q[0]); if (v > worst) worst = v;
-    v = fabs(0.96875*q[0]); if (v > worst) worst = v;
-    v = fabs(1.0*q[0]); if (v > worst) worst = v;
-    worst += 0.0;
-    return worst <= SCM1_GAUSS7_PHI_MAX;
+    /* every sample, padded by the margin, within PHI_MAX; written !(v <= PHI_MAX) so that a q
+     * that is not finite (a NaN sample or margin) is out of range */
+    v = fabs(0.0); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.03125*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.0625*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.09375*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.125*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.15625*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.1875*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.21875*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.25*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.28125*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.3125*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.34375*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.375*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.40625*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.4375*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.46875*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.5*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.53125*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.5625*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.59375*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.625*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.65625*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.6875*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.71875*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.75*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.78125*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.8125*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.84375*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.875*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.90625*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.9375*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(0.96875*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    v = fabs(1.0*q[0]); v += margin; if (!(v <= SCM1_GAUSS7_PHI_MAX)) return 0;
+    return 1;
 }

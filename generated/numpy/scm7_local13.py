@@ -155,11 +155,17 @@ ALL_WEIGHTS = np.hstack([POSE_WEIGHTS[:, None], JACOBIAN_WEIGHTS, HESSIAN_WEIGHT
 ROW_ORDER = [0, 3, 1, 4, 2, 5]        # c, s | c', s' | c'', s''
 
 
-def evaluate(q):
-    """Tip pose, Jacobian and Hessian of the 7-mode flexure at q (..., 7)."""
+def _checked(q):
+    """q as a float array of shape (..., N), else ValueError (evaluate and in_range alike)."""
     q = np.asarray(q, dtype=float)
     if q.shape[-1:] != (N,):
         raise ValueError(f"q must have shape (..., {N}), got {q.shape}")
+    return q
+
+
+def evaluate(q):
+    """Tip pose, Jacobian and Hessian of the 7-mode flexure at q (..., 7)."""
+    q = _checked(q)
     if q.ndim == 1:
         return _evaluate_one(q)
     lead = q.shape[:-1]
@@ -198,5 +204,5 @@ def in_range(q):
     """True where the error bounds are certified at q: one row of LOCAL_NU @ |q| <= LOCAL_LIMIT
     (the quadrature error at q bounded on a Bernstein ellipse). False for a q that is not finite.
     """
-    q = np.asarray(q, dtype=float)
+    q = _checked(q)
     return np.any(np.abs(q) @ LOCAL_NU.T <= LOCAL_LIMIT, axis=-1)

@@ -271,11 +271,17 @@ ALL_WEIGHTS = np.hstack([POSE_WEIGHTS[:, None], JACOBIAN_WEIGHTS, HESSIAN_WEIGHT
 ROW_ORDER = [0, 3, 1, 4, 2, 5]        # c, s | c', s' | c'', s''
 
 
-def evaluate(q):
-    """Tip pose, Jacobian and Hessian of the 8-mode flexure at q (..., 8)."""
+def _checked(q):
+    """q as a float array of shape (..., N), else ValueError (evaluate and in_range alike)."""
     q = np.asarray(q, dtype=float)
     if q.shape[-1:] != (N,):
         raise ValueError(f"q must have shape (..., {N}), got {q.shape}")
+    return q
+
+
+def evaluate(q):
+    """Tip pose, Jacobian and Hessian of the 8-mode flexure at q (..., 8)."""
+    q = _checked(q)
     if q.ndim == 1:
         return _evaluate_one(q)
     lead = q.shape[:-1]
@@ -319,7 +325,7 @@ def in_range(q):
     RANGE_MARGIN @ |q| of the edge. For one q, |q| @ RANGE_BOUND (a bound on the same test)
     answers first when it is clearly inside.
     """
-    q = np.asarray(q, dtype=float)
+    q = _checked(q)
     if q.ndim == 1 and np.abs(q) @ RANGE_BOUND <= PHI_MAX * (1 - 1e-12):
         return np.True_
     worst = np.max(np.abs(q @ RANGE_SAMPLES.T), axis=-1) + np.abs(q) @ RANGE_MARGIN
