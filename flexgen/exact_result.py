@@ -129,6 +129,7 @@ def solve(scene: Scene):
 
     try:
         sol = solve_exact(scene)
+        sol = _checked(scene, sol, solve_exact)
     except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
         info = {f.name: {"kind": "exact"} for f in scene.flexures}
         return Result(
@@ -145,3 +146,61 @@ def solve(scene: Scene):
             load_factor=0.0,
         ), None
     return to_result(scene, sol), sol
+
+
+# The cross-check of a stable exact answer (``_checked``): a chain model that claims at most
+# CHECK_ESTIMATE and differs from the exact answer by more than CHECK_FACTOR times its estimate
+# (and CHECK_FLOOR) means the exact continuation missed something; its rerun takes steps
+# CHECK_STEP long (the default 0.25 / 5).
+CHECK_MODES = 6
+CHECK_ESTIMATE = 1e-3
+CHECK_FACTOR = 100.0
+CHECK_FLOOR = 1e-6
+CHECK_STEP = 0.05
+
+
+def _difference(scene: Scene, sol, chain: Result) -> float:
+    """The largest pose difference of the output points (position relative to L_p, angle)."""
+    from .estimate import length_scales
+
+    scales = length_scales(scene, list(sol.poses))
+    out = 0.0
+    for ref, pose in sol.poses.items():
+        other = np.asarray(chain.points[ref].pose, dtype=float)
+        pose = np.asarray(pose, dtype=float)
+        dpos = float(np.hypot(*(pose[:2] - other[:2]))) / scales[ref]
+        dth = abs(math.remainder(float(pose[2] - other[2]), 2 * math.pi))
+        out = max(out, dpos, dth)
+    return out
+
+
+def _checked(scene: Scene, sol, solve_exact):
+    """``sol``, or the exact solve rerun with shorter load steps where a chain model (scm6)
+    that claims a small error finds another equilibrium: the exact solver judges stability by
+    the sign of its shooting Jacobian's determinant, which two critical loads crossed in one
+    load step leave unchanged, so it may keep an unstable straight state as stable (review:
+    two columns, each past its Euler load within one step, reported straight and stable). If
+    the rerun still differs, the answer says so."""
+    if not (sol.converged and sol.stable and sol.poses):
+        return sol
+    from .api import override, solve
+
+    try:
+        chain = solve(override(scene, model="scm", modes=CHECK_MODES))
+    except (ValueError, RuntimeError, ArithmeticError):
+        return sol
+    est = chain.error_estimate
+    if not (chain.converged and chain.stable and est is not None and est <= CHECK_ESTIMATE):
+        return sol
+    limit = max(CHECK_FACTOR * est, CHECK_FLOOR)
+    if _difference(scene, sol, chain) <= limit:
+        return sol
+    again = solve_exact(scene, max_step=CHECK_STEP)
+    if again.converged and _difference(scene, again, chain) <= limit:
+        return again
+    sol.warnings.append(
+        f"the exact solver's answer differs from scm{CHECK_MODES}'s (estimated at {est:.2g}) by "
+        f"{_difference(scene, sol, chain):.2g}, also with load steps of {CHECK_STEP}: it may "
+        f"have missed a critical load; check it with fem or more modes"
+    )
+    return sol

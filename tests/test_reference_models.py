@@ -647,3 +647,43 @@ def test_exact_and_chain_models_report_the_same_default_points():
     scene = make_scene([a, b, c], links=[Link("l", "a", {})])
     assert list(flexgen.solve(scene).points) == ["b.tip", "c.tip"]
     assert list(flexgen.solve(scene, model="scm").points) == ["b.tip", "c.tip"]
+
+
+def _buckled_cantilever_tip(P: float, L: float) -> tuple[float, float]:
+    """Tip (x, y) of a cantilever column (EI = 1) buckled under an axial tip force P, to +y:
+    sqrt(P) L = K(k), x = L (2 E(k)/K(k) - 1), y = 2 k L / K(k) (the elastica, m = k^2)."""
+    from scipy.optimize import brentq
+
+    m = brentq(lambda m: ellipk(m) - math.sqrt(P) * L, 0.0, 1.0 - 1e-12)
+    K, E = ellipk(m), ellipe(m)
+    return L * (2 * E / K - 1), 2 * math.sqrt(m) * L / K
+
+
+@pytest.mark.parametrize("second", [1.1, 1.5])
+def test_two_columns_past_their_euler_loads_both_buckle(second):
+    """Two cantilever columns side by side, each past its Euler load (2.47 and 2.04 for
+    lengths 1 and 1.1) at P = 3: with lengths 1 and 1.1 both crossings fell in one default
+    load step, the determinant's sign did not change, and the exact solver reported both
+    straight and stable (review). Each column's notes name its own critical load factor."""
+    P = 3.0
+    scene = {
+        "model": {"kind": "exact"},
+        "flexure": [
+            {"name": "a", "length": 1.0, "EI": 1.0},
+            {"name": "b", "parent": "base", "at": [0.0, 1.0, 0.0], "length": second, "EI": 1.0},
+        ],
+        "load": [
+            {"point": "a.tip", "force": [-P, 0.0]},
+            {"point": "b.tip", "force": [-P, 0.0]},
+        ],
+    }
+    r = flexgen.solve(scene)
+    assert r.converged and r.stable
+    for name, L, y0 in (("a", 1.0, 0.0), ("b", second, 1.0)):
+        x, y = _buckled_cantilever_tip(P, L)
+        assert r.points[f"{name}.tip"].pose[:2] == pytest.approx([x, y0 + y], abs=1e-6)
+    crossings = sorted(
+        float(n.split("load factor ")[1].split(":")[0]) for n in r.notes if "bifurcation" in n
+    )
+    euler = sorted(math.pi**2 / 4 / L**2 / P for L in (1.0, second))  # load factors
+    assert crossings == pytest.approx(euler, rel=1e-6)

@@ -804,18 +804,21 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                 break
             continue
         if s_new != sign:
+            # locate this crossing (every one: review, a second bifurcation's note gave the
+            # first one's load factor); the first is the answer's critical load factor
+            lam_x = lam_new
+            try:
+
+                def dets(l):
+                    zz = z + (z_new - z) * (l - lam) / (lam_new - lam)  # noqa: B023
+                    zz, _ = prob.newton(zz, l)
+                    return np.linalg.det(prob.jacobian(zz, l)[1])
+
+                lam_x = brentq(dets, lam, lam_new, xtol=1e-12)
+            except (ValueError, RuntimeError):
+                pass
             if lam_c is None:
-                lam_c = lam_new
-                try:  # locate the crossing
-
-                    def dets(l):
-                        zz = z + (z_new - z) * (l - lam) / (lam_new - lam)  # noqa: B023
-                        zz, _ = prob.newton(zz, l)
-                        return np.linalg.det(prob.jacobian(zz, l)[1])
-
-                    lam_c = brentq(dets, lam, lam_new, xtol=1e-12)
-                except (ValueError, RuntimeError):
-                    pass
+                lam_c = lam_x
             switched = False
             if s_new != ref_sign:
                 # try branch switching along the null vector
@@ -859,11 +862,11 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                         tips_new = tips_b
                         R_new, J = Rb, Jb
                         warnings.append(
-                            f"bifurcation at load factor {lam_c:.9g}: followed the stable branch"
+                            f"bifurcation at load factor {lam_x:.9g}: followed the stable branch"
                         )
                         break
                 if not switched:
-                    warnings.append(f"equilibrium path lost stability at load factor {lam_c:.9g}")
+                    warnings.append(f"equilibrium path lost stability at load factor {lam_x:.9g}")
             sign = s_new
         hist.append((lam_new, z_new.copy()))
         lam, z, tips_cur = lam_new, z_new, tips_new
