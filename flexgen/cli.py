@@ -20,7 +20,7 @@ import sys
 
 from flexgen.codegen.render import OutputError
 from flexgen.codegen.spec import SpecError
-from flexgen.commands.common import UsageError
+from flexgen.commands.common import MissingExtra, UsageError
 from flexgen.outfiles import UnusableTarget, WriteFailed
 
 # subcommand modules under flexgen/commands/, in the order `flexgen --help` lists them
@@ -124,6 +124,9 @@ def _main(argv) -> int:
         _error(f"error: {exc}")
         _json_failure(argv, args, str(exc))
         return 2
+    except MissingExtra as exc:  # the install, not the input: exit 1, as flexgen plot's
+        _error(f"error: {exc}")
+        return 1
     except KeyboardInterrupt:
         _error("interrupted")
         return 130

@@ -238,3 +238,18 @@ def test_a_core_that_is_not_usable_is_one_line_and_generate_still_runs(tmp_path)
     r = run("generate", "--modes", "2", "--lang", "numpy", "--out", "k")
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "k" / "numpy" / "scm2.py").is_file()
+
+
+def test_a_kernel_of_ones_own_is_not_written_over_the_shipped_ones(monkeypatch, tmp_path):
+    """In an editable checkout ./generated at its root is the package's shipped kernels:
+    `flexgen generate --modes 4 --range 60` there replaced the shipped scm4 (review)."""
+    from flexgen.cli import main
+    from flexgen.kernels import GENERATED
+
+    before = {p: p.read_bytes() for p in GENERATED.rglob("scm4.*")}
+    monkeypatch.chdir(GENERATED.parent)
+    assert main(["generate", "--modes", "4", "--range", "60", "--out", GENERATED.name]) == 2
+    assert {p: p.read_bytes() for p in GENERATED.rglob("scm4.*")} == before
+    monkeypatch.chdir(tmp_path)  # elsewhere the same command writes its own folder
+    assert main(["generate", "--modes", "4", "--range", "60", "--lang", "numpy"]) == 0
+    assert (tmp_path / "generated" / "numpy" / "scm4.py").is_file()

@@ -11,6 +11,11 @@ class UsageError(Exception):
     """Bad command-line input: one line on stderr, exit code 2."""
 
 
+class MissingExtra(Exception):
+    """An optional dependency the command needs is not installed: one line naming the extra
+    to install, exit code 1 (the input may be right: as flexgen plot without matplotlib)."""
+
+
 def output_path(text: str) -> Path:
     """An --out / -o / --plot path: an empty one is refused (Path("") is the current folder,
     which nobody means by it)."""

@@ -99,7 +99,8 @@ def register(sub) -> None:
         "--out",
         type=output_path,
         help="output folder (default: ./generated for kernels, ./NAME for --scene, under the "
-        "current folder; the kernels shipped inside the package are never overwritten)",
+        "current folder; a kernel of your own is never written into the package's shipped "
+        "kernels, which in an editable checkout are its ./generated)",
     )
     gen.add_argument(
         "--check",
@@ -159,6 +160,21 @@ def _run_scene(args) -> int:
     return 0
 
 
+def _refuse_the_shipped_folder(out: Path) -> None:
+    """A kernel of one's own is not written into the package's shipped kernels (in an editable
+    checkout, ./generated at its root *is* them: review, `flexgen generate --modes 4 --range 60`
+    there replaced the shipped scm4 and the core was stale); only the checked-in set is
+    regenerated there (`make regen`)."""
+    from flexgen.kernels import GENERATED
+
+    if out.resolve() == GENERATED.resolve():
+        raise UsageError(
+            f"--out: {out} is flexgen's shipped kernels (flexgen.generated), and a kernel of "
+            "your own there would replace one of them: give another folder (`make regen` "
+            "regenerates the shipped set)"
+        )
+
+
 def _run_kernels(args) -> int:
     from flexgen.codegen.generate import CHECKED_IN, generate_files
     from flexgen.codegen.render import check_writable, stale_files, write_files
@@ -198,6 +214,8 @@ def _run_kernels(args) -> int:
                 "bound; without --nodes, the fewest nodes that meet --tol)"
             )
         specs = (KernelSpec(args.modes, kernel, args.range_deg, args.degree, args.nodes, tol),)
+    if not args.check and (args.modes is not None or args.prefix is not None):
+        _refuse_the_shipped_folder(out)
     files: dict[str, str] = {}
     for i, spec in enumerate(specs, 1):
         start = time.perf_counter()

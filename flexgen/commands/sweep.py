@@ -2,10 +2,11 @@
 
 Exit codes: 0 the study ran (cases without an equilibrium are rows with their reason); 1 the
 work failed (a scheduler that cannot be reached, a full disk: the message names the file, and
-nothing the run created is left behind); 2 bad input: an unknown key, two keys naming one value,
-COUNT < 1, a value the scene refuses, an output that cannot be written, Parquet without pyarrow,
---scheduler without dask or with an address that cannot be one (all checked before anything is
-solved).
+nothing the run created is left behind) or an optional dependency is missing (Parquet without
+pyarrow, --plot without matplotlib, --scheduler without dask: checked before anything is
+solved); 2 bad input: an unknown key, two keys naming one value, COUNT < 1, a value the scene
+refuses, an output that cannot be written, a --scheduler address that cannot be one (all
+checked before anything is solved).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from flexgen.commands.common import UsageError, integer, printable
+from flexgen.commands.common import MissingExtra, UsageError, integer, printable
 from flexgen.outfiles import WriteFailed, write_all
 from flexgen.sweep_plan import CHUNK_SIZE, DISTRIBUTIONS, plan
 
@@ -175,9 +176,9 @@ def run(args) -> int:
     except PlotError as exc:
         raise UsageError(str(exc)) from None
     if out is not None and out.suffix.lower() == ".parquet" and not _has("pyarrow"):
-        raise UsageError("--out: writing Parquet needs pyarrow: pip install 'flexgen[parquet]'")
+        raise MissingExtra("--out: writing Parquet needs pyarrow: pip install 'flexgen[parquet]'")
     if plot is not None and not _has("matplotlib"):
-        raise UsageError("--plot needs matplotlib: pip install 'flexgen[plot]'")
+        raise MissingExtra("--plot needs matplotlib: pip install 'flexgen[plot]'")
     if args.seed is not None and args.samples is None:
         raise UsageError("--seed: only with --samples N (a grid draws nothing)")
     vary = parse_vary(args.vary, args.samples is not None)
@@ -244,7 +245,7 @@ def _client(address: str) -> Any:
     """A dask.distributed Client of the scheduler at ``address``: UsageError (exit 2) for an
     address that cannot be one, SchedulerError (exit 1) for one that cannot be reached."""
     if not _has("distributed"):
-        raise UsageError("--scheduler needs dask.distributed: pip install 'flexgen[cluster]'")
+        raise MissingExtra("--scheduler needs dask.distributed: pip install 'flexgen[cluster]'")
     from distributed import Client
 
     _check_address(address)
