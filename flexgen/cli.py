@@ -18,10 +18,9 @@ import os
 import re
 import sys
 
-from flexgen.codegen.render import OutputError
 from flexgen.codegen.spec import SpecError
 from flexgen.commands.common import MissingExtra, UsageError
-from flexgen.outfiles import UnusableTarget, WriteFailed
+from flexgen.outfiles import OutputError, UnusableTarget, WriteFailed
 
 # subcommand modules under flexgen/commands/, in the order `flexgen --help` lists them
 COMMANDS = ("generate", "solve", "plot", "select", "sweep", "bench", "stability")

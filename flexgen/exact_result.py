@@ -18,6 +18,7 @@ model), so "exact" applies to every flexure of a scene at once. The Result it be
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -183,10 +184,16 @@ def _checked(scene: Scene, sol, solve_exact):
     the rerun still differs, the answer says so."""
     if not (sol.converged and sol.stable and sol.poses):
         return sol
-    from .api import override, solve
+    from dataclasses import replace
 
+    from .solver import Solver  # (not flexgen.api, which imports this module)
+
+    scm: dict[str, Any] = {"kind": "scm", "modes": CHECK_MODES, "tolerance": None}
+    flexures = tuple(replace(f, model=replace(f.model, **scm)) for f in scene.flexures)
     try:
-        chain = solve(override(scene, model="scm", modes=CHECK_MODES))
+        chain = Solver(replace(scene, model=replace(scene.model, **scm), flexures=flexures)).solve(
+            estimate=True
+        )
     except (ValueError, RuntimeError, ArithmeticError):
         return sol
     est = chain.error_estimate

@@ -28,6 +28,11 @@ from pathlib import Path
 Writer = Callable[[Path], None]  # writes a target's content into the file at the path given
 
 
+class OutputError(OSError):
+    """An output folder that cannot be written: one line naming it (nothing was written).
+    Here, not in codegen.render, so that the CLI names it without importing Jinja2."""
+
+
 class WriteFailed(OSError):
     """A target that could not be written: ``path`` names it, ``why`` is the system's reason
     (also OSError's ``filename`` and ``strerror``, so handlers of OSError word it too)."""

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import jinja2
 
-from flexgen.outfiles import UnusableTarget, folder_problem, write_texts
+from flexgen.outfiles import OutputError, UnusableTarget, folder_problem, write_texts
 
 _PACKAGE = Path(__file__).resolve().parents[1]
 # installed: the package's own copy (flexgen/templates); a source checkout: the top-level folder
@@ -42,10 +42,6 @@ def stale_files(files: dict[str, str], out_dir: Path) -> list[str]:
         if not same:
             stale.append(rel)
     return stale
-
-
-class OutputError(OSError):
-    """An output folder that cannot be written: one line naming it (nothing was written)."""
 
 
 def check_writable(out_dir: Path) -> None:
