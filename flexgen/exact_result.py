@@ -96,7 +96,7 @@ def to_result(scene: Scene, sol) -> Result:
             ellipse=ellipse(C2),
             compliance3=C3.tolist(),
         )
-    if not sol.stable:
+    if not sol.stable and not any(w.startswith(UNSTABLE_UNSEEN) for w in warnings):
         warnings.append(
             "the equilibrium is unstable (exact solver: the shooting Jacobian's "
             "determinant changed sign along the load path)"
@@ -158,6 +158,7 @@ CHECK_ESTIMATE = 1e-3
 CHECK_FACTOR = 100.0
 CHECK_FLOOR = 1e-6
 CHECK_STEP = 0.05
+UNSTABLE_UNSEEN = "unstable"
 
 
 def _difference(scene: Scene, sol, chain: Result) -> float:
@@ -175,6 +176,18 @@ def _difference(scene: Scene, sol, chain: Result) -> float:
     return out
 
 
+def _indefinite(sol) -> bool:
+    """Whether an output point's compliance has a clearly negative eigenvalue."""
+    for C in sol.compliance.values():
+        C = np.asarray(C, dtype=float)
+        if not np.all(np.isfinite(C)):
+            continue
+        ev = np.linalg.eigvalsh(0.5 * (C + C.T))
+        if ev[0] < -1e-9 * max(abs(ev[-1]), abs(ev[0])):
+            return True
+    return False
+
+
 def _checked(scene: Scene, sol, solve_exact):
     """``sol``, or the exact solve rerun with shorter load steps where a chain model (scm6)
     that claims a small error finds another equilibrium: the exact solver judges stability by
@@ -183,6 +196,21 @@ def _checked(scene: Scene, sol, solve_exact):
     two columns, each past its Euler load within one step, reported straight and stable). If
     the rerun still differs, the answer says so."""
     if not (sol.converged and sol.stable and sol.poses):
+        return sol
+    if _indefinite(sol):
+        # a stable equilibrium's compliance is positive semidefinite: this one is not stable
+        # (two columns buckling at the same load cross it together: the determinant's sign
+        # never changes, whatever the step). Shorter steps, else the answer says so.
+        again = solve_exact(scene, max_step=CHECK_STEP)
+        if again.converged and again.stable and not _indefinite(again):
+            return again
+        sol.stable = False
+        sol.warnings.append(
+            f"{UNSTABLE_UNSEEN}: a compliance of this equilibrium has a negative eigenvalue, so "
+            "the load passed critical loads the exact solver's stability check (the sign of its "
+            "Jacobian's determinant) cannot see, e.g. two equal critical loads at once; the "
+            "stable branch was not followed"
+        )
         return sol
     from dataclasses import replace
 

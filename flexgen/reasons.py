@@ -31,9 +31,10 @@ def _last_error(solver: Any, a: Any) -> str:
     if e == lib.FG_ERR_STAGNATION:
         return f"Newton stagnates at load factor {lam:.6g} (relative residual {rel:.2e})"
     if e == lib.FG_ERR_NOT_CONVERGED:
-        return (
-            f"Newton did not converge in {a.last_error_iterations} iterations "
-            f"(relative residual {rel:.2e})"
+        # a residual of 0 is one the failed search never evaluated (review: "did not converge
+        # ... (relative residual 0.00e+00)" read as a contradiction): not quoted
+        return f"Newton did not converge in {a.last_error_iterations} iterations" + (
+            f" (relative residual {rel:.2e})" if rel > 0.0 else ""
         )
     if e == lib.FG_ERR_LINE_SEARCH:
         return f"line search failed at load factor {lam:.6g} (relative residual {rel:.2e})"

@@ -687,3 +687,25 @@ def test_two_columns_past_their_euler_loads_both_buckle(second):
     )
     euler = sorted(math.pi**2 / 4 / L**2 / P for L in (1.0, second))  # load factors
     assert crossings == pytest.approx(euler, rel=1e-6)
+
+
+def test_equal_columns_buckling_together_are_not_called_stable():
+    """Two equal columns cross their (equal) Euler loads together: the determinant's sign never
+    changes, and the straight state was reported stable with a negative compliance eigenvalue
+    (review). It is unstable, and the answer says so."""
+    column = {"length": 1.0, "EI": 1.0}
+    scene = {
+        "model": {"kind": "exact"},
+        "flexure": [
+            {"name": "a", **column},
+            {"name": "b", "parent": "base", "at": [0.0, 1.0, 0.0], **column},
+        ],
+        "load": [
+            {"point": "a.tip", "force": [-3.0, 0.0]},
+            {"point": "b.tip", "force": [-3.0, 0.0]},
+        ],
+    }
+    r = flexgen.solve(scene)
+    assert not r.stable
+    assert any("negative eigenvalue" in w for w in r.warnings)
+    assert not any("determinant changed sign" in w for w in r.warnings)
