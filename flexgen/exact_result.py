@@ -158,7 +158,7 @@ CHECK_ESTIMATE = 1e-3
 CHECK_FACTOR = 100.0
 CHECK_FLOOR = 1e-6
 CHECK_STEP = 0.05
-UNSTABLE_UNSEEN = "unstable"
+UNSTABLE_UNSEEN = "unstable: a compliance of this equilibrium has a negative eigenvalue"
 
 
 def _difference(scene: Scene, sol, chain: Result) -> float:
@@ -206,10 +206,9 @@ def _checked(scene: Scene, sol, solve_exact):
             return again
         sol.stable = False
         sol.warnings.append(
-            f"{UNSTABLE_UNSEEN}: a compliance of this equilibrium has a negative eigenvalue, so "
-            "the load passed critical loads the exact solver's stability check (the sign of its "
-            "Jacobian's determinant) cannot see, e.g. two equal critical loads at once; the "
-            "stable branch was not followed"
+            f"{UNSTABLE_UNSEEN}, so the load passed critical loads the exact solver's stability "
+            "check (the sign of its Jacobian's determinant) cannot see, e.g. two equal critical "
+            "loads at once; the stable branch was not followed"
         )
         return sol
     from dataclasses import replace
