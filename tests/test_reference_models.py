@@ -709,3 +709,20 @@ def test_equal_columns_buckling_together_are_not_called_stable():
     assert not r.stable
     assert any("negative eigenvalue" in w for w in r.warnings)
     assert not any("determinant changed sign" in w for w in r.warnings)
+
+
+def test_a_tendon_pulled_to_zero_length_is_named_not_a_snap_through():
+    """A tendon whose link point reaches its anchor stalls the exact solver; it said "limit
+    point: the load would snap through" and printed a critical load factor, where the stiffness
+    is far from singular (review). The chain models name the tendon segment; so does exact."""
+    scene = {
+        "model": {"kind": "exact"},
+        "base": {"points": {"a": [0.3, -0.1]}},
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "link": [{"name": "arm", "parent": "beam", "points": {"p": [0.0, -0.5]}}],
+        "tendon": [{"tension": 10.0, "route": ["base.a", "arm.p"]}],
+    }
+    r = flexgen.solve(scene)
+    assert not r.converged
+    assert "tendon segment 'base.a' -> 'arm.p' has nearly zero length" in r.reason
+    assert "snap through" not in r.reason and not r.critical_load_factors

@@ -704,6 +704,24 @@ def _imperfection_side(J, dR):
     return -work / S[-1] * Vt[-1]
 
 
+# a tendon segment shorter than this fraction of the longest flexure has (nearly) zero length:
+# its direction, the force's, is undefined there and the continuation cannot pass it
+SHORT_TENDON = 1e-3
+
+
+def _short_tendon(prob, z, lam) -> tuple[str, str] | None:
+    """The first tendon segment (its two points' names) of nearly zero length at (z, lam)."""
+    if not prob.tendons:
+        return None
+    _, pts, *_ = prob.evaluate(z[None, :], lam)
+    scale = float(np.max(prob.L))
+    for _, ids in prob.tendons:
+        for a, b in zip(ids[:-1], ids[1:]):
+            if float(np.linalg.norm(pts[0, b] - pts[0, a])) < SHORT_TENDON * scale:
+                return prob.point_names[a], prob.point_names[b]
+    return None
+
+
 def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     """See ``_solve_exact``. Floating-point overflow on the way (a hostile scene's huge or tiny
     numbers) is expected and shows in the answer (not converged, or non-finite compliance, which
@@ -788,18 +806,25 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         if not ok:
             dlam *= 0.5
             if dlam < 1e-6:
+                short = _short_tendon(prob, z, lam)
+                capped = why is not None and why.startswith("nondimensional load beyond")
+                limit = short is None and not capped and lam * level <= SHOOTING_RESOLVED
                 warnings.append(
                     f"continuation stalled at load factor {lam:.6g} "
                     + (
                         f"(the root loads would pass the solver's cap: {why})"
-                        if why is not None and why.startswith("nondimensional load beyond")
+                        if capped
+                        # review: a tendon pulled to zero length read as a snap-through
+                        else f"(tendon segment {short[0]!r} -> {short[1]!r} has nearly zero "
+                        "length: its point has reached the other)"
+                        if short is not None
                         else "(limit point: the load would snap through)"
-                        if lam * level <= SHOOTING_RESOLVED
+                        if limit
                         else "(a limit point, or past what the shooting resolves: a load level of "
                         f"{lam * level:.3g}, above {SHOOTING_RESOLVED:g}; check with fem)"
                     )
                 )
-                if lam_c is None:
+                if lam_c is None and limit:  # only a limit point is a critical load
                     lam_c = lam
                 break
             continue
