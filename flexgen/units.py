@@ -467,10 +467,11 @@ def normalise(
     values = {}
     for path, key, dim, text in found:
         value = quantity(text, dim, system, key)
+        # the unit as a result names it (a stress in MPa, not N/mm^2: review)
+        unit = system.units.label(dim) if dim == "stress" else _symbol(system.unit(dim))
         if abs(value) > max_magnitude:
             raise UnitsError(
-                f"{key}: {_show(text)} is {value:g} {_symbol(system.unit(dim))}, beyond the "
-                f"limit {max_magnitude:g}"
+                f"{key}: {_show(text)} is {value:g} {unit}, beyond the limit {max_magnitude:g}"
             )
-        values[path] = value if wrap is None else wrap(value, text, _symbol(system.unit(dim)))
+        values[path] = value if wrap is None else wrap(value, text, unit)
     return _replaced(d, values) if values else d, system.units

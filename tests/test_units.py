@@ -262,7 +262,7 @@ def test_bad_units_are_one_line_errors_naming_the_key(d, key, words):
         (  # a value that conflicts, as written
             _flexure(E="200 GPa"),
             "flexure[0].E: conflicts with EI (give EI, or E and I, or E, width and thickness), "
-            "got '200 GPa' (200000000000 N/m^2)",
+            "got '200 GPa' (200000000000 Pa)",
         ),
     ],
 )
