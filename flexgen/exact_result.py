@@ -162,18 +162,15 @@ UNSTABLE_UNSEEN = "unstable: a compliance of this equilibrium has a negative eig
 
 
 def _difference(scene: Scene, sol, chain: Result) -> float:
-    """The largest pose difference of the output points (position relative to L_p, angle)."""
-    from .estimate import length_scales
+    """The largest pose difference of the output points (position relative to L_p, angle), as
+    the selection measures it (``select.error_components``, its pose components)."""
+    from .select import error_components, length_scales, outputs_of, outputs_of_exact
 
-    scales = length_scales(scene, list(sol.poses))
-    out = 0.0
-    for ref, pose in sol.poses.items():
-        other = np.asarray(chain.points[ref].pose, dtype=float)
-        pose = np.asarray(pose, dtype=float)
-        dpos = float(np.hypot(*(pose[:2] - other[:2]))) / scales[ref]
-        dth = abs(math.remainder(float(pose[2] - other[2]), 2 * math.pi))
-        out = max(out, dpos, dth)
-    return out
+    ref = outputs_of_exact(sol)
+    got = outputs_of(chain)
+    assert ref is not None and got is not None  # both converged (the caller)
+    comps = error_components(got, ref, length_scales(scene, list(ref))).reshape(-1, 3)
+    return float(comps[:, :2].max()) if comps.size else 0.0
 
 
 def _indefinite(sol) -> bool:

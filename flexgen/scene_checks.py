@@ -87,15 +87,13 @@ SI_MAX_PLAIN_LENGTH = 10.0
 def mixed_units(scene: Scene) -> str | None:
     """The warning of plain numbers read in SI that look written in another system, or None."""
     from .scenepath import thaw
-    from .units import locations
+    from .units import _get, locations
 
     if scene.units is None or scene.source is None or "units" in scene.source:
         return None
     src = thaw(scene.source)  # plain dicts and lists, as locations reads them
     for path, key, dim in locations(src):
-        value: object = src
-        for k in path:
-            value = value[k]  # type: ignore[index]
+        value = _get(src, path)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or value == 0:
             continue
         si = {"stress": "Pa", "length": "m"}.get(dim)

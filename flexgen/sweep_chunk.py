@@ -237,19 +237,20 @@ def _messages(solver: Solver, status: int, est: Any) -> tuple[str, str]:
     the Result built and checked as ``flexgen.Solver``'s answers are, only where a warning or
     note may apply (the usual case reads the core's flags and returns at once)."""
     a = solver.workspace.answer
-    if (  # the usual case, cheapest tests first (about 1 us a case on the finger)
-        a.stable
+    calm = validity_calm(solver, None)  # the core's screen: a flag read (once: see below)
+    if (  # the usual case (about 1 us a case on the finger)
+        calm
+        and a.stable
         and not a.ncritical
         and not a.undefined_compliance
         and (est is None or not est.warning)
         and not solver._scene_warnings
         and not solver._scene_notes
         and not (solver._switchable and 1 in solver.workspace.switched.tolist())
-        and validity_calm(solver, None)
     ):
         return "", ""
     result = solver._result(status, est, stress=False)
-    if not validity_calm(solver, result):
+    if not calm:  # (calm reads the workspace, which _result leaves as it is)
         validity_check(solver.scene, result, solver.models)
     return TEXT_SEPARATOR.join(result.warnings), TEXT_SEPARATOR.join(result.notes)
 
