@@ -130,7 +130,7 @@ def solve(scene: Scene):
 
     try:
         sol = solve_exact(scene)
-        sol = _checked(scene, sol, solve_exact)
+        sol = _checked(scene, sol)
     except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
         info = {f.name: {"kind": "exact"} for f in scene.flexures}
         return Result(
@@ -185,7 +185,7 @@ def _indefinite(sol) -> bool:
     return False
 
 
-def _checked(scene: Scene, sol, solve_exact):
+def _checked(scene: Scene, sol):
     """``sol``, or the exact solve rerun with shorter load steps where a chain model (scm6)
     that claims a small error finds another equilibrium: the exact solver judges stability by
     the sign of its shooting Jacobian's determinant, which two critical loads crossed in one
@@ -194,6 +194,8 @@ def _checked(scene: Scene, sol, solve_exact):
     the rerun still differs, the answer says so."""
     if not (sol.converged and sol.stable and sol.poses):
         return sol
+    from .models.exact import solve_exact
+
     if _indefinite(sol):
         # a stable equilibrium's compliance is positive semidefinite: this one is not stable
         # (two columns buckling at the same load cross it together: the determinant's sign

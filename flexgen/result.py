@@ -42,7 +42,8 @@ class PointResult:
     compliance3: list[list[float]]  # 3x3 d(x, y, angle)/d(fx, fy, moment)
     # the estimated error {"pose": ..., "compliance": ...} (flexgen.estimate; pose relative to
     # the summed flexure length from the base to the point, angle in rad; compliance relative,
-    # spectral norm, covering compliance and compliance3); None for the exact solver and when no estimate was asked for
+    # spectral norm, covering compliance and compliance3); None for the exact solver and when no
+    # estimate was asked for
     error_estimate: dict[str, float] | None = None
 
     # the same numbers as NumPy arrays, for computing with them (the fields above stay plain
