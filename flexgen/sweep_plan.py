@@ -107,7 +107,9 @@ def grid_values(key: str, spec: Any) -> np.ndarray:
         count = spec[2]
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise SceneError(f"{key}: count must be an integer >= 1, got {_fmt(count)}")
-        return np.linspace(start, stop, int(count))
+        # to 15 significant digits: linspace's 0.30000000000000004 (0.1 * 3) is 0.3 in the
+        # table a user reads and keys on, and the solve loads the value the table shows
+        return np.array([float(f"{v:.15g}") for v in np.linspace(start, stop, int(count))])
     values = [_number(v, key, "every value") for v in spec]
     if not values:
         raise SceneError(f"{key}: no values")

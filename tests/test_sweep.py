@@ -195,6 +195,14 @@ def test_load_grid_rows_are_the_single_solves_in_c_order(finger):
         assert_row_is_solve(row, flexgen.solve(scene))
 
 
+def test_a_start_stop_count_grid_holds_the_decimal_values_a_user_reads(finger):
+    # numpy.linspace(0, 1, 11)[3] is 0.30000000000000004: the table's key column (and the
+    # value solved) is 0.3, as a user writing the grid by hand would have it
+    df = flexgen.sweep(finger, {"tendon.0.tension": (0.0, 1.0, 11)}, workers=1, estimate=False)
+    assert df["tendon.0.tension"].tolist() == [i / 10 for i in range(11)]
+    assert repr(float(df["tendon.0.tension"][3])) == "0.3"
+
+
 def test_design_grid_rows_are_the_single_solves(finger):
     vary = {
         "flexure.proximal.thickness": (0.2e-3, 0.3e-3, 2),
