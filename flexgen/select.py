@@ -47,11 +47,11 @@ from typing import Any
 import numpy as np
 
 from . import kernels
+from .codegen.spec import MAX_MODES  # the polynomial kernels shipped: scm1 .. scm8
 from .estimate import _path_owner, length_scales  # noqa: F401  (select.length_scales)
 from .result import Result
 from .scene import Scene, SceneError, _fmt
 
-MAX_MODES = 8  # the polynomial kernels shipped: scm1 .. scm8
 SAFETY = 1.05  # margin on every measured difference (see docs/selection.md)
 
 
@@ -108,17 +108,32 @@ def outputs_of_exact(sol) -> Outputs | None:
     }
 
 
+def pose_parts(pose: Any, pose_ref: Any, scale: float) -> tuple[float, float]:
+    """(position error / scale, angle error in rad, wrapped to [0, pi]) of one pose (x, y,
+    angle) against a reference: the pose part of the error measure, L_p its scale."""
+    dx, dy = float(pose[0]) - float(pose_ref[0]), float(pose[1]) - float(pose_ref[1])
+    return math.hypot(dx, dy) / scale, abs(
+        math.remainder(float(pose[2]) - float(pose_ref[2]), 2 * math.pi)
+    )
+
+
+def compliance_error(C: Any, C_ref: Any) -> float:
+    """||C - C_ref||_2 / ||C_ref||_2 (absolute where C_ref is 0): the compliance part of the
+    error measure; inf where C is not finite (no norm of it)."""
+    C, C_ref = np.asarray(C, dtype=float), np.asarray(C_ref, dtype=float)
+    if not np.all(np.isfinite(C)):
+        return math.inf
+    nr = float(np.linalg.norm(C_ref, 2))
+    dC = float(np.linalg.norm(C - C_ref, 2))
+    return dC / nr if nr > 0 else dC
+
+
 def error_components(got: Outputs, ref: Outputs, scales: Mapping[str, float]) -> np.ndarray:
     """[position/L_p, angle, compliance] error of every output point (in ``ref``'s order)."""
     out = []
     for name, (pose_r, C_r) in ref.items():
         pose, C = got[name]
-        dpos = float(np.hypot(*(pose[:2] - pose_r[:2]))) / scales[name]
-        dth = abs(math.remainder(float(pose[2] - pose_r[2]), 2 * math.pi))
-        nr = float(np.linalg.norm(C_r, 2))
-        dC = float(np.linalg.norm(C - C_r, 2))
-        dC = dC / nr if nr > 0 else dC
-        out.extend([dpos, dth, dC])
+        out.extend([*pose_parts(pose, pose_r, scales[name]), compliance_error(C, C_r)])
     return np.array(out)
 
 
@@ -135,11 +150,19 @@ def error(got: Outputs | None, ref: Outputs, scales: Mapping[str, float]) -> flo
 
 @dataclass
 class Solved:
+    """One choice of modes, solved: what the selection compares (its outputs, kernels and q),
+    not its Result, which holds the answer's arrays (the stiffness: (8 x flexures)^2 numbers)
+    and is made again only for the answer returned (``_Problem.result``): a 100-flexure
+    selection kept 3.8 GB of Results it never read."""
+
     modes: tuple[int, ...]
-    result: Result
+    q0: Mapping[str, Any] | None  # the warm start it was solved from
+    q: dict[str, list[float]]  # its equilibrium (the warm start of the next solves)
+    reason: str | None  # why it has no equilibrium (None: converged)
     outputs: Outputs | None  # None: no stable equilibrium
     kernels: tuple[str, ...]  # kernel used at equilibrium per flexure ("local"/"poly"/"gauss")
     seconds: float
+    made: Result | None = None  # the Result, once _Problem.result made it
 
 
 class _Problem:
@@ -202,9 +225,21 @@ class _Problem:
             q = np.asarray(res.q.get(name, np.zeros(m.n_dof)), float)
             first = m.first(q)  # the local or polynomial kernel, as the core picks them
             used.append(getattr(first, "FAMILY", "poly") if first is not None else "gauss")
-        solved = Solved(modes, res, outs, tuple(used), dt)
+        solved = Solved(modes, q0, res.q, res.reason, outs, tuple(used), dt)
         self.cache[modes] = solved
         return solved
+
+    def result(self, solved: Solved) -> Result:
+        """The Result of a solved choice: solved again as it was (the same models, settings and
+        warm start: the same answer), once."""
+        from .solver import solve_models
+
+        if solved.made is None:
+            solved.made = solve_models(
+                self.scene, self.models(solved.modes), q0=solved.q0, **self.kw
+            )
+            self.solves += 1
+        return solved.made
 
 
 def _kernel_module(N: int, kernel: str):
@@ -268,19 +303,19 @@ def _rich_modes(pb: _Problem) -> tuple[tuple[int, ...], Solved | None, str | Non
         return base, None, "no kernel available"
     pre = pb.solve(base)
     if pre.outputs is None:
-        return base, pre, pre.result.reason or "no stable equilibrium"
+        return base, pre, pre.reason or "no stable equilibrium"
     rich = list(base)
     for i, f in enumerate(pb.flex):
         if pb.kernel_choice(i, MAX_MODES) == "poly" and MAX_MODES > base[i]:
             q = np.zeros(MAX_MODES)
-            qi = pre.result.q[f.name]
+            qi = pre.q[f.name]
             q[: len(qi)] = qi
             if SCMModel(f.length, f.EI, MAX_MODES, "poly").in_range(q):
                 rich[i] = MAX_MODES
     for _ in range(len(rich) + 1):
         if tuple(rich) == base:
             return base, pre, None
-        sol = pb.solve(rich, q0=pre.result.q)
+        sol = pb.solve(rich, q0=pre.q)
         bad = [i for i, n in enumerate(rich) if n != base[i] and sol.kernels[i] == "gauss"]
         if sol.outputs is not None and not bad:
             return tuple(rich), sol, None
@@ -321,7 +356,7 @@ def estimate_table(scene: Scene, stop_at: float | None = None, **solve_kwargs) -
                 continue
             modes = list(M)
             modes[i] = N
-            s = pb.solve(modes, q0=rich.result.q)
+            s = pb.solve(modes, q0=rich.q)
             sols[N] = s.outputs
             ft.kernel[N] = s.kernels[i]
             if N + 2 <= Mi:
@@ -454,7 +489,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
         why = f"no answer to estimate the error of: {table.reason}"
         if table.rich is None:  # no kernel for the rich models: not even a failed result
             raise ValueError(why)
-        res = table.rich.result
+        res = pb.result(table.rich)
         res.tolerance, res.error_estimate = tol, None
         if res.converged:
             res.warnings.append(why)
@@ -474,7 +509,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
     def direct(modes) -> tuple[Solved, np.ndarray]:
         """err(chosen) <= |chosen - rich| + err(rich): measured, plus the rich model's estimate
         (and the bounds of any kernel the rich model does not use)."""
-        s = pb.solve(modes, q0=rich.result.q)
+        s = pb.solve(modes, q0=rich.q)
         if s.outputs is None:
             return s, np.full_like(rich_tot, math.inf)
         extra = [
@@ -520,7 +555,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
                     break
     est = float(np.max(tot)) if np.size(tot) else 0.0
     reached = est <= tol
-    res = chosen.result
+    res = pb.result(chosen)
     choices = {}
     for k, (name, N) in enumerate(zip(pb.names, modes)):
         share = float(np.max(fts[name].total[N])) if np.size(tot) else 0.0
@@ -547,6 +582,10 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
             f"within their range, Gauss kernels up to {pb.gauss_max} past it)"
         )
         res.warnings.append(msg)
+    if res.converged:  # the validity warnings flexgen.solve gives (review: `flexgen select`
+        from .validity import check  # and solve_to_tolerance dropped them)
+
+        check(scene, res)
     return Selection(tol, choices, est, reached, res, pb.solves, time.perf_counter() - t0, msg)
 
 
@@ -558,7 +597,7 @@ def _stress_estimates(pb: _Problem, chosen: Solved) -> None:
     from .solver import Solver, make_settings
     from .stress import safety_warnings
 
-    res = chosen.result
+    res = pb.result(chosen)
     solver = Solver(pb.scene, pb.models(chosen.modes), make_settings(**pb.kw))
     again = solver.solve(q0=res.q, estimate=True)  # the same equilibrium: Newton from it
     if not again.converged:
@@ -641,7 +680,9 @@ __all__ = [
     "SelectionError",
     "scene_tolerance",
     "error",
+    "compliance_error",
     "error_components",
+    "pose_parts",
     "outputs_of",
     "outputs_of_exact",
     "length_scales",

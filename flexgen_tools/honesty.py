@@ -172,7 +172,7 @@ def honesty_cases(
                     fewer = tuple(m - (j == k) for j, m in enumerate(modes))
                     if any(pb.kernel_choice(j, m) is None for j, m in enumerate(fewer)):
                         continue
-                    s = pb.solve(fewer, q0=table.rich.result.q)
+                    s = pb.solve(fewer, q0=table.rich.q)
                     if error(s.outputs, ex, scales) <= tol:
                         cheapest = False
             cases.append(

@@ -298,3 +298,46 @@ def test_a_tolerance_past_the_modes_convergence_is_not_claimed():
     assert pose <= point.error_estimate["pose"], (pose, point.error_estimate)
     assert compliance <= point.error_estimate["compliance"], (compliance, point.error_estimate)
     assert any("out of reach" in w for w in r.warnings), r.warnings
+
+
+def test_a_selection_keeps_the_result_of_its_answer_only(monkeypatch):
+    # review: every solved mode choice kept its Result, and each Result its solver's
+    # workspace and a copy of the stiffness: a 50-flexure chain with a tolerance needed 4.4 GB
+    problems = []
+
+    class Recorded(select._Problem):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            problems.append(self)
+
+    monkeypatch.setattr(select, "_Problem", Recorded)
+    scene = load_scene(EXAMPLES / "two_link_finger.toml")
+    sel = select.select_models(scene, 1e-6)
+    (pb,) = problems
+    kept = [s for s in pb.cache.values() if s.made is not None]
+    assert len(pb.cache) >= 4 and len(kept) == 1 and kept[0].made is sel.result
+    # the Result made again is the answer of that choice as it was solved
+    again = solve_models(scene, pb.models(kept[0].modes), q0=kept[0].q0)
+    for name, point in again.points.items():
+        assert sel.result.points[name].pose == point.pose
+        assert sel.result.points[name].compliance == point.compliance
+    assert kept[0].q == again.q
+
+
+def test_a_tolerance_given_to_solve_counts_eight_modes_a_flexure_against_the_limit(tmp_path):
+    # review: `flexgen solve big.toml --tol 1e-3` (and solve(..., tolerance=)) skipped the
+    # coordinate limit a [model] tolerance meets, and ran out of memory selecting
+    flexures = [{"name": f"f{i}", "length": 0.1, "EI": 1.0} for i in range(257)]
+    scene = scene_from_dict({"flexure": flexures})
+    with pytest.raises(SceneError, match=r"^model: the scene's models have 2056 coordinates"):
+        solve(scene, tolerance=1e-3)
+
+
+def test_a_selections_answer_carries_the_validity_warnings_of_solve():
+    # review: 0.7 % below the Euler load, `flexgen solve --tol` warned that the compliance
+    # amplifies model error 142x; `flexgen select` and solve_to_tolerance said nothing
+    scene = cantilever(force=(-2.45, 0.0))
+    near = [w for w in select.select_models(scene, 1e-4).result.warnings if "near a critical" in w]
+    assert len(near) == 1
+    assert select.solve_to_tolerance(scene, 1e-4).warnings.count(near[0]) == 1
+    assert solve(scene, tolerance=1e-4).warnings.count(near[0]) == 1
