@@ -521,7 +521,7 @@ def estimator_of(solver: Any, solver_class: Any) -> Estimator:
     """The solver's Estimator, prepared on first use and kept on the solver; ``solver_class``
     prepares the richer model (``flexgen.solver.Solver``, passed in by it: this module does not
     import the solver; from outside, ``Solver.estimator()``)."""
-    est = getattr(solver, "_estimator", None)
+    est = solver._estimator
     if est is None:
         est = solver._estimator = Estimator(solver, solver_class)
     return est
@@ -533,7 +533,7 @@ def estimate_answer(solver: Any, status: int, solver_class: Any) -> Estimate:
     Result says inf)."""
     if status != _SOLVED:
         return estimate_of([], [])
-    est = getattr(solver, "_estimator", None)
+    est = solver._estimator
     if est is None:
         try:
             est = estimator_of(solver, solver_class)

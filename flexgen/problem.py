@@ -4,7 +4,9 @@
 tendons, and the solver settings, held in the C structs of ``chain_solver.h`` (filled by field
 name through cffi) and the NumPy arrays they point into. ``Workspace`` is the data: the scratch
 memory and answer buffers of one solve, owned by the caller. Neither holds solver state between
-solves; the answer of a solve is read from the workspace right after it.
+solves; the answer of a solve is read from the workspace right after it. What a ``Solver`` may
+set after building it: the loads and tensions of the next solve, and once, the validity
+screen's bend limits (``fg_problem.bend_limit``, ``near_margin``: ``validity.calm``).
 
 Flexures are listed in body order (every parent before its children, as the core's kinematics
 and its reverse Hessian accumulation need), each with the offset of its coordinates in the packed
@@ -30,12 +32,6 @@ from .settings import SolverSettings
 MAX_CRITICAL = 64
 
 
-def output_points(scene: Scene, chain: Chain) -> list[str]:
-    """The scene's [output] points; else every loaded point; else the tips of the flexures that
-    carry no other flexure (``Scene.output_points``, which the exact solver uses too)."""
-    return list(scene.output_points())
-
-
 class Problem:
     """The constant part of a solve: ``problem.struct`` (an ``fg_problem *``) and what it points
     into. ``loads`` (nloads x 3: fx, fy, moment, world frame) and ``tensions`` are the arrays
@@ -44,7 +40,9 @@ class Problem:
     def __init__(self, scene: Scene, models: Mapping[str, Any], settings: SolverSettings):
         chain = Chain(scene, models)
         self.scene, self.models, self.chain, self.settings = scene, dict(models), chain, settings
-        self.outputs = output_points(scene, chain)
+        # the [output] points; else every loaded point; else the tips of the flexures that
+        # carry no other flexure (Scene.output_points, which the exact solver uses too)
+        self.outputs = list(scene.output_points())
         order = chain.flexure_order
         self.flexure_order = order
         index = {name: i for i, name in enumerate(order)}

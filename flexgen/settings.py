@@ -64,13 +64,17 @@ class SolverSettings:
     # a warm start (q0) accepted only on the load path from the unloaded state (the direct
     # solve's path samples: the answer a cold solve gives, where several stable equilibria hold
     # the load); 0: wherever Newton from q0 converges nearby (it follows q0's branch, as the
-    # emitted controller does on purpose)
-    warm_on_path: int = 1
+    # emitted controller does on purpose). A bool (0 and 1 are read as False and True)
+    warm_on_path: bool = True
 
     def __post_init__(self):
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.type == "int":
+            if f.type == "bool":  # a flag: the core's struct takes it as int 0 or 1
+                if not (isinstance(value, numbers.Integral) and value in (0, 1)):
+                    _bad(f.name, "must be True or False", value)
+                object.__setattr__(self, f.name, bool(value))
+            elif f.type == "int":
                 if isinstance(value, bool) or not isinstance(value, numbers.Integral):
                     _bad(f.name, "must be an integer", value)
                 value = int(value)  # a NumPy integer as the int the core's struct takes
@@ -155,7 +159,6 @@ _ZERO_OK = {
     "elimination_min_size",
     "direct_max_iterations",
     "max_iterations",
-    "warm_on_path",
 }
 
 # float fields: (lower test, upper test, the range in words)

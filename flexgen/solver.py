@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Container, Mapping
-from dataclasses import fields, replace
+from dataclasses import dataclass, fields, replace
 from functools import partial
 from typing import Any
 
@@ -71,7 +71,7 @@ _SOLVED, _MODEL_ERROR = core.SOLVED, core.MODEL_ERROR
 _fg_solve = core.lib.fg_solve
 
 
-def buckling_warning(lam_c: float, why: str) -> str:
+def buckling_note(lam_c: float, why: str) -> str:
     """The warning of a bifurcation crossed at critical load factor ``lam_c``."""
     return (
         f"buckling: bifurcation at critical load factor {lam_c:.10g} (the stiffness "
@@ -80,7 +80,7 @@ def buckling_warning(lam_c: float, why: str) -> str:
     )
 
 
-def snap_warning(lam: float) -> str:
+def snap_note(lam: float) -> str:
     """The warning of a path that ends at a limit point near load factor ``lam``."""
     return (
         f"snap-through: the equilibrium path ends at a limit point near load factor "
@@ -165,6 +165,10 @@ class Solver:
         self._scene_tensions = self.problem.tensions.copy()
         self._changed_loads = self._changed_tensions = False
         self._slices = list(self.problem.chain.slices.items())
+        # what the answers' lazy fields need, without the workspace (AnswerFields)
+        self._fields = AnswerFields(
+            scene, self.models, self.problem, self._slices, self._info, self.workspace.shape
+        )
         ws = self.workspace
         # fg_solve's arguments, made once (the loop path reads no attribute for them)
         self._core_args = (self.problem.struct, ws.work_ptr, ws.iwork_ptr, ws.answer)
@@ -180,6 +184,9 @@ class Solver:
         # with a strength given, every answer computes its stresses at once (its safety-factor
         # warnings belong to the answer); else only when Result.flexures is read
         self._strengths = has_strengths(scene)
+        # made on first use and kept, from the scene and models only (no answer's state):
+        self._validity_screen: Any = None  # validity.calm's bend limits, given to the core
+        self._estimator: Any = None  # the richer model's prepared solver (estimate.estimator_of)
 
     @property
     def outputs(self) -> list[str]:
@@ -310,9 +317,27 @@ class Solver:
             units=None if self._units is None else dict(self._units),
         )
 
+    def quiet(self, est: Any = None) -> bool:
+        """True when the solved answer now in the workspace (with ``est``, its estimate or None)
+        gets no warning and no note from ``_result`` but the safety factors' (``stress=False``)
+        and the validity check's (``validity.calm`` screens those): read from the core's flags
+        without building the Result. Every source of a message in ``_result`` is asked here, so
+        a study's rows (``sweep_chunk``) skip the Result only where it would say nothing."""
+        a = self.workspace.answer
+        return bool(
+            a.stable
+            and not a.ncritical
+            and not a.undefined_compliance
+            and (est is None or not est.warning)
+            and not self._scene_warnings
+            and not self._scene_notes
+            and not (self._switchable and 1 in self.workspace.switched.tolist())
+        )
+
     def _result(self, status: int, est: Any = None, stress: bool = True) -> Result:
         # on every solve (flexgen.solve's loop): written for speed, every field as before;
-        # stress=False: no flexures built, so no safety-factor warnings (a study's rows)
+        # stress=False: no flexures built, so no safety-factor warnings (a study's rows).
+        # A new warning or note here is asked in ``quiet`` too.
         ws = self.workspace
         a = ws.answer
         if status == _MODEL_ERROR:  # the core refused the problem: the answer is not filled
@@ -327,9 +352,9 @@ class Solver:
             for lam, kind in zip(ws.critical[:stored].tolist(), ws.critical_kind[:stored].tolist()):
                 critical.append(lam)
                 notes.append(
-                    snap_warning(lam)
+                    snap_note(lam)
                     if kind == core.SNAP_THROUGH
-                    else buckling_warning(lam, BUCKLING_SIDES[kind - 1])
+                    else buckling_note(lam, BUCKLING_SIDES[kind - 1])
                 )
             if ncritical > stored:
                 notes.append(
@@ -371,11 +396,12 @@ class Solver:
             ws.answer_data.copy(),
             ws.kernel.tolist() if self._kernel_models else (),
             est,
+            None if est is None else self._estimator,  # its curvature estimates
         )
-        r._build = partial(self._lazy_field, snapshot)
+        r._build = partial(self._fields.build, snapshot)
         r.units = None if self._units is None else dict(self._units)
         if self._strengths and stress:
-            r.flexures = self._lazy_field(snapshot, "flexures")
+            r.flexures = self._fields.build(snapshot, "flexures")
             warnings.extend(safety_warnings(self.scene, r.flexures))
         return r
 
@@ -386,51 +412,11 @@ class Solver:
             if flag:
                 sl = p.chain.slices[name]
                 # only models with both kernels switch (SCMModel); the FlexureModel
-                # protocol does not declare switch_warning
+                # protocol does not declare switch_note
                 model: Any = self.models[name]
-                msg = model.switch_warning(q[sl] if solved else None)
+                msg = model.switch_note(q[sl] if solved else None)
                 if msg:
                     notes.append(msg)
-
-    def _lazy_field(self, snapshot: tuple, name: str) -> Any:
-        """One of a LazyResult's fields (``LAZY_FIELDS``) from the answer's arrays."""
-        data, kernel, est = snapshot
-        q, pose, compliance, ellipse, K, bend = answer_views(data, *self.workspace.shape)
-        p = self.problem
-        if name == "q":
-            qs = q.tolist()
-            return {n: qs[sl] for n, sl in self._slices}
-        if name == "points":
-            ests: list = [None] * len(p.outputs)
-            if est is not None:
-                ests = [{"pose": pe, "compliance": ce} for pe, ce in zip(est.pose, est.compliance)]
-            return {
-                ref: point_result(pose_i, c3, ell, e)
-                for ref, pose_i, c3, ell, e in zip(
-                    p.outputs, pose.tolist(), compliance.tolist(), ellipse.tolist(), ests
-                )
-            }
-        if name == "model":
-            return {n: dict(v) for n, v in self._info.items()}
-        if name == "stiffness":
-            return K
-        if name == "bend":
-            return dict(zip(p.flexure_order, bend.tolist()))
-        if name == "stability_margin":
-            return margin_of(p, K)
-        if name == "kernel":
-            return {
-                n: kernel_state(self.models[n], k) for n, k in zip(p.flexure_order, kernel) if k
-            }
-        if name == "flexures":
-            qs = {n: q[sl] for n, sl in self._slices}
-            stresses = flexure_stresses(self.scene, self.models, qs)
-            estimator = getattr(self, "_estimator", None)  # made by the answer's estimate
-            if est is None or estimator is None:
-                return stresses
-            errors = estimator.curvature_estimates(est, stresses)
-            return {n: replace(st, error_estimate=errors.get(n)) for n, st in stresses.items()}
-        raise AttributeError(name)
 
     def estimator(self):
         """The ``flexgen.estimate.Estimator`` of this solver's scene and models (the richer
@@ -461,6 +447,59 @@ class Solver:
         from .reasons import failure_reason
 
         return failure_reason(self, status)
+
+
+@dataclass(frozen=True, eq=False)
+class AnswerFields:
+    """What a Result's lazy fields are built from besides the answer's own arrays: the scene,
+    models and Problem, never the Workspace (a Result kept outlives its solver's scratch
+    memory: model selection keeps one per mode choice, each solver's workspace freed)."""
+
+    scene: Scene
+    models: Mapping[str, FlexureModel]
+    problem: Problem
+    slices: list
+    info: dict
+    shape: tuple
+
+    def build(self, snapshot: tuple, name: str) -> Any:
+        """One of a LazyResult's fields (``LAZY_FIELDS``) from the answer's arrays."""
+        data, kernel, est, estimator = snapshot
+        q, pose, compliance, ellipse, K, bend = answer_views(data, *self.shape)
+        p = self.problem
+        if name == "q":
+            qs = q.tolist()
+            return {n: qs[sl] for n, sl in self.slices}
+        if name == "points":
+            ests: list = [None] * len(p.outputs)
+            if est is not None:
+                ests = [{"pose": pe, "compliance": ce} for pe, ce in zip(est.pose, est.compliance)]
+            return {
+                ref: point_result(pose_i, c3, ell, e)
+                for ref, pose_i, c3, ell, e in zip(
+                    p.outputs, pose.tolist(), compliance.tolist(), ellipse.tolist(), ests
+                )
+            }
+        if name == "model":
+            return {n: dict(v) for n, v in self.info.items()}
+        if name == "stiffness":
+            return K
+        if name == "bend":
+            return dict(zip(p.flexure_order, bend.tolist()))
+        if name == "stability_margin":
+            return margin_of(p, K)
+        if name == "kernel":
+            return {
+                n: kernel_state(self.models[n], k) for n, k in zip(p.flexure_order, kernel) if k
+            }
+        if name == "flexures":
+            qs = {n: q[sl] for n, sl in self.slices}
+            stresses = flexure_stresses(self.scene, self.models, qs)
+            if est is None or estimator is None:
+                return stresses
+            errors = estimator.curvature_estimates(est, stresses)
+            return {n: replace(st, error_estimate=errors.get(n)) for n, st in stresses.items()}
+        raise AttributeError(name)
 
 
 def solve_models(

@@ -236,18 +236,8 @@ def _messages(solver: Solver, status: int, est: Any) -> tuple[str, str]:
     one within its estimate of 1 takes the stress estimate, which a study does not compute):
     the Result built and checked as ``flexgen.Solver``'s answers are, only where a warning or
     note may apply (the usual case reads the core's flags and returns at once)."""
-    a = solver.workspace.answer
     calm = validity_calm(solver, None)  # the core's screen: a flag read (once: see below)
-    if (  # the usual case (about 1 us a case on the finger)
-        calm
-        and a.stable
-        and not a.ncritical
-        and not a.undefined_compliance
-        and (est is None or not est.warning)
-        and not solver._scene_warnings
-        and not solver._scene_notes
-        and not (solver._switchable and 1 in solver.workspace.switched.tolist())
-    ):
+    if calm and solver.quiet(est):  # the usual case (about 1 us a case on the finger)
         return "", ""
     result = solver._result(status, est, stress=False)
     if not calm:  # (calm reads the workspace, which _result leaves as it is)

@@ -310,7 +310,7 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
     """The flexure models a chain-model ``result`` of ``scene`` was solved with, rebuilt:
     ``models``/``model_factory`` as given to solve, else each flexure's ModelSpec with the modes
     and kernel the result reports (a tolerance chooses them per flexure)."""
-    from flexgen.models.registry import build_model, build_models
+    from flexgen.models.registry import as_reported, build_model, build_models
 
     if model_factory is None and models is not None and len(models) == len(scene.flexures):
         return models  # complete (a solver's own): kept as it is, so its context is reused
@@ -318,9 +318,7 @@ def models_of(scene: Scene, result, models: Mapping | None = None, model_factory
         return build_models(scene, models, model_factory)
 
     def factory(f):
-        info = result.model.get(f.name, {})
-        changes = {k: info[k] for k in ("kind", "modes", "elements", "kernel") if k in info}
-        return build_model(replace(f, model=replace(f.model, **changes)))
+        return build_model(replace(f, model=as_reported(f.model, result.model.get(f.name, {}))))
 
     return build_models(scene, None, factory)
 
@@ -398,7 +396,7 @@ def calm(solver, result) -> bool:
     bend within its limit, every smooth curvature kernel within its range and the margin to a
     critical load not small: the core's screen, ``fg_answer.calm``, given the limits on the
     first call), and ``check`` decides."""
-    screen = getattr(solver, "_validity_screen", None)
+    screen = solver._validity_screen
     if screen is not None and screen.by_core:
         return bool(solver.workspace.answer.calm)  # the core screened it (screen_calm)
     if screen is None:  # first answer: the screen made and given to the core, which screens

@@ -32,7 +32,8 @@ def header_fields():
 def test_fields_mirror_the_header():
     declared = header_fields()
     assert [
-        (f.name, {"float": "double", "int": "int"}[f.type]) for f in fields(SolverSettings)
+        (f.name, {"float": "double", "int": "int", "bool": "int"}[f.type])
+        for f in fields(SolverSettings)
     ] == declared
     # and the struct compiled into the core (cffi reads the header) has them in that order
     assert [name for name, _ in ffi.typeof("fg_settings").fields] == [n for n, _ in declared]
@@ -94,6 +95,16 @@ def test_max_lag_is_the_headers():
     assert int(found.group(1)) == settings.MAX_LAG
     with pytest.raises(ValueError, match=r"settings.stagnation_lag: must be at most 64"):
         SolverSettings(stagnation_lag=65, stagnation_after=100)
+
+
+def test_the_ellipse_rounding_is_the_estimates_compliance_rounding():
+    # one number in two languages: the ellipse clamps a minor axis within the compliance's
+    # rounding to 0, the estimate floors a compliance estimate at that rounding
+    from flexgen import estimate
+
+    source = (HEADER.parent / "chain_solver.c").read_text()
+    found = re.search(r"#define FG_ELLIPSE_ROUNDING (\S+)", source)
+    assert float(found.group(1)) == estimate.ROUNDING_COMPLIANCE
 
 
 def test_prepared_solver_refuses_a_warm_start_for_an_unknown_flexure():

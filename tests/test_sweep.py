@@ -977,6 +977,41 @@ def test_a_row_carries_the_warnings_and_notes_of_its_solve(finger):
     )
 
 
+def test_quiet_is_true_exactly_where_the_result_says_nothing(finger):
+    """Solver.quiet (the rows' fast path) against the Result it stands for: quiet exactly where
+    _result(stress=False) has no warning and no note, over answers with each source of one
+    (a bifurcation note, a kernel switch, a scene note, a scene warning)."""
+    from flexgen.solver import Solver
+
+    column = {
+        "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "a.tip", "force": [-1.0, 0.0]}],
+        "output": {"points": ["a.tip"]},
+    }
+    thick = {**column, "flexure": [{"name": "a", "length": 1.0, "EI": 1.0, "thickness": 0.5}]}
+    turned = {**column, "flexure": [{"name": "a", "length": 1.0, "EI": 1.0, "at": [0, 0, 7.0]}]}
+    cases = [
+        (finger, {}),
+        (finger, {"tendon.0.tension": 60.0}),
+        (flexgen.scene_from_dict(column), {}),
+        (flexgen.scene_from_dict(column), {"load.0.force.0": -3.0}),
+        (flexgen.scene_from_dict(thick), {}),
+        (flexgen.scene_from_dict(turned), {}),
+    ]
+    seen = set()
+    for scene, changes in cases:
+        for path, value in changes.items():
+            scene = scene.with_value(path, value)
+        solver = Solver(scene)
+        status = solver.run()
+        est = solver.estimator().estimate(solver)
+        result = solver._result(status, est, stress=False)
+        says = bool(result.warnings or result.notes)
+        assert solver.quiet(est) == (not says), (changes, result.warnings, result.notes)
+        seen.add(says)
+    assert seen == {True, False}
+
+
 def test_a_script_without_the_main_guard_is_told_to_add_it(tmp_path):
     """A script starting a study on worker processes without `if __name__ == "__main__":`
     (each worker imports it and started the study again: 86 lines of multiprocessing's
