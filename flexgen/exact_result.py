@@ -101,7 +101,12 @@ def to_result(scene: Scene, sol) -> Result:
             "the equilibrium is unstable (exact solver: the shooting Jacobian's "
             "determinant changed sign along the load path)"
         )
-    q = {name: [float(x) for x in v] for name, v in sol.root_loads.items()}
+    # in scene order, as the chain models' q (the solver's own order is its traversal's)
+    q = {
+        f.name: [float(x) for x in sol.root_loads[f.name]]
+        for f in scene.flexures
+        if f.name in sol.root_loads
+    }
     flexures = exact_stresses(scene, sol)
     warnings.extend(safety_warnings(scene, flexures))
     return Result(

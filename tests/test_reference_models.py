@@ -726,3 +726,51 @@ def test_a_tendon_pulled_to_zero_length_is_named_not_a_snap_through():
     assert not r.converged
     assert "tendon segment 'base.a' -> 'arm.p' has nearly zero length" in r.reason
     assert "snap through" not in r.reason and not r.critical_load_factors
+
+
+def test_exact_lists_q_in_scene_order_as_the_chain_models_do():
+    # review: a flexure declared before its parent chain came second in exact's q, first in
+    # its model and flexures (docs/solve.md: flexures in scene order)
+    scene = flexgen.scene_from_dict(
+        {
+            "flexure": [
+                {"name": "c", "parent": "L", "length": 0.5, "EI": 1.0},
+                {"name": "a", "parent": "base", "length": 1.0, "EI": 1.0},
+            ],
+            "link": [{"name": "L", "parent": "a", "points": {"p": [0.1, 0.0]}}],
+            "load": [{"point": "c.tip", "force": [0.0, -0.5]}],
+        }
+    )
+    for model in ("scm", "exact"):
+        r = flexgen.solve(scene, model=model)
+        assert list(r.q) == list(r.model) == list(r.flexures) == ["c", "a"], model
+
+
+@pytest.mark.parametrize("ratio", [1.03, 1.1146, 1.3])
+def test_a_tendon_anchored_at_the_root_buckles_as_the_pinned_elastica(ratio):
+    """A tendon from the root to the tip of a clamped flexure: its force passes through the
+    root, so the moment vanishes at both ends, the pinned-pinned elastica of critical load
+    pi^2 EI/L^2: T L^2/EI = 4 K(k)^2, tip angle 2 theta0 (k = sin(theta0/2)), tip at
+    (2E/K - 1) L along the chord at theta0. Review: the exact solver stayed straight and
+    unstable from 1.03 to 1.3 x the critical tension (the pushes along the null vector just
+    past the bifurcation fell back to the straight state)."""
+    from scipy.optimize import brentq
+
+    T = ratio * math.pi**2
+    m = brentq(lambda m: 4 * ellipk(m) ** 2 - T, 1e-12, 0.999)
+    theta0 = 2 * math.asin(math.sqrt(m))
+    chord = 2 * ellipe(m) / ellipk(m) - 1
+    want = [chord * math.cos(theta0), chord * math.sin(theta0), 2 * theta0]
+    scene = flexgen.scene_from_dict(
+        {
+            "base": {"points": {"r0": [0.0, 0.0]}},
+            "flexure": [{"name": "f", "length": 1.0, "EI": 1.0}],
+            "tendon": [{"tension": T, "route": ["base.r0", "f.tip"]}],
+        }
+    )
+    exact = flexgen.solve(scene, model="exact")
+    assert exact.stable and not exact.warnings
+    assert exact.points["f.tip"].pose == pytest.approx(want, abs=1e-9)
+    scm = flexgen.solve(scene, modes=5)
+    err = max(abs(a - b) for a, b in zip(scm.points["f.tip"].pose, want))
+    assert scm.stable and err <= scm.points["f.tip"].error_estimate["pose"]

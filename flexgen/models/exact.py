@@ -685,6 +685,52 @@ def _along_tangent(J, dR, dz) -> bool:
     return bool(np.dot(dz, tangent) >= 0.0)
 
 
+# the next accepted steps on which a branch switch that failed at a crossing is tried again
+LOST_RETRIES = 4
+
+
+def _switch_branch(prob, z_new, lam_new, J, dpts, side, ref_sign):
+    """The stable branch near the state z_new at lam_new, whose shooting Jacobian J is of the
+    wrong sign (past a bifurcation): Newton from pushes of growing size along J's null vector
+    (oriented by the chain models' side rules: the side whose output points lie higher, else
+    counter-clockwise; ``side``, an imperfect structure's, first), the first converged state
+    that is stable and on that side: (z, R, J, tips, Newton iterations) or None."""
+    _, _, Vt = np.linalg.svd(J)
+    v = Vt[-1]
+    mus = v[2::3]
+    k = np.flatnonzero(np.abs(mus) > 1e-3 * np.max(np.abs(v)))
+    if k.size and mus[k[0]] < 0:
+        v = -v
+    # a symmetric structure: the chain models' convention (docs/solver-core.md, the side
+    # rules): the side whose output points lie higher, where the two differ in it (to first
+    # order along v); else counter-clockwise, as above (found by review: a column along -x
+    # bent to -y here and to +y in every chain model, off by 2.8 rad against estimates of 3e-4)
+    rise = prob.output_rise(dpts)
+    if abs(float(np.dot(rise, v))) > 1e-6 * float(np.linalg.norm(rise)) + 1e-12:
+        v = v if float(np.dot(rise, v)) > 0.0 else -v
+    # an imperfect structure: the side its imperfection chose
+    if side is not None and float(np.dot(v, side)) < 0.0:
+        v = -v
+    iters = 0
+    for eps in (0.05, 0.2, 0.5, 1.0, 2.0):
+        try:
+            zb, itb = prob.newton(z_new + eps * v, lam_new)
+        except RuntimeError:
+            continue
+        iters += itb
+        Rb, Jb, _, _, tips_b = prob.jacobian(zb, lam_new)
+        # stable, and on v's side: past the critical load of an imperfect structure z_new may
+        # lie between the two stable branches, and a short push along v can still fall back to
+        # the far one
+        if (
+            np.sign(np.linalg.det(Jb)) == ref_sign
+            and np.max(np.abs(zb - z_new)) > 1e-6
+            and float(np.dot(zb - z_new, v)) > 0.0
+        ):
+            return zb, Rb, Jb, tips_b, iters
+    return None
+
+
 def _imperfection_side(J, dR):
     """The soft mode's part of the path's tangent at a stable state (shooting Jacobian J,
     dR/dlam there), as a vector: the side the load pushes the structure to as it nears a
@@ -768,6 +814,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     iters = 0
     lam_c = None
     sign = ref_sign
+    lost = None  # a crossing whose branch switch failed: (its load factor, side, warning, tries)
     # the scene's own loads past the cap (docs/scene.md, "Limits"): refused before any step
     level = max(scene.load_levels().values(), default=0.0)
     if not level <= MAX_LOAD:
@@ -844,55 +891,43 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
                 pass
             if lam_c is None:
                 lam_c = lam_x
-            switched = False
             if s_new != ref_sign:
-                # try branch switching along the null vector
-                _, _, Vt = np.linalg.svd(J)
-                v = Vt[-1]
-                mus = v[2::3]
-                k = np.flatnonzero(np.abs(mus) > 1e-3 * np.max(np.abs(v)))
-                if k.size and mus[k[0]] < 0:
-                    v = -v
-                # a symmetric structure: the chain models' convention (docs/solver-core.md,
-                # the side rules): the side whose output points lie higher, where the two
-                # differ in it (to first order along v); else counter-clockwise, as above
-                # (found by review: a column along -x bent to -y here and to +y in every
-                # chain model, off by 2.8 rad against estimates of 3e-4)
-                rise = prob.output_rise(dpts)
-                if abs(float(np.dot(rise, v))) > 1e-6 * float(np.linalg.norm(rise)) + 1e-12:
-                    v = v if float(np.dot(rise, v)) > 0.0 else -v
-                # an imperfect structure: the side its imperfection chose
-                side = _imperfection_side(J_cur, dR_cur)
-                if side is not None and float(np.dot(v, side)) < 0.0:
-                    v = -v
-                for eps in (0.05, 0.2, 0.5, 1.0, 2.0):
-                    try:
-                        zb, itb = prob.newton(z_new + eps * v, lam_new)
-                    except RuntimeError:
-                        continue
+                side = _imperfection_side(J_cur, dR_cur)  # from the last state before it
+                found = _switch_branch(prob, z_new, lam_new, J, dpts, side, ref_sign)
+                if found is not None:
+                    z_new, R_new, J, tips_new, itb = found
                     iters += itb
-                    Rb, Jb, _, _, tips_b = prob.jacobian(zb, lam_new)
-                    # stable, and on v's side: past the critical load of an imperfect structure
-                    # z_new may lie between the two stable branches, and a short push along v
-                    # can still fall back to the far one
-                    if (
-                        np.sign(np.linalg.det(Jb)) == ref_sign
-                        and np.max(np.abs(zb - z_new)) > 1e-6
-                        and float(np.dot(zb - z_new, v)) > 0.0
-                    ):
-                        # secant from the last point before the bifurcation: predicts on the
-                        # chosen side of the pitchfork (no jump to the mirror branch)
-                        hist = [(lam, z.copy())]
-                        z_new, s_new, switched = zb, ref_sign, True
-                        tips_new = tips_b
-                        R_new, J = Rb, Jb
-                        warnings.append(
-                            f"bifurcation at load factor {lam_x:.9g}: followed the stable branch"
-                        )
-                        break
-                if not switched:
+                    s_new = ref_sign
+                    # secant from the last point before the bifurcation: predicts on the
+                    # chosen side of the pitchfork (no jump to the mirror branch)
+                    hist = [(lam, z.copy())]
+                    warnings.append(
+                        f"bifurcation at load factor {lam_x:.9g}: followed the stable branch"
+                    )
+                else:
                     warnings.append(f"equilibrium path lost stability at load factor {lam_x:.9g}")
-            sign = s_new
+                    # just past a bifurcation the stable branch lies within the shooting's
+                    # reach of the unstable one: pushes along the null vector fall back to it
+                    # (review: a column under a tendon anchored at its root stayed straight,
+                    # unstable, at 1.1 x its critical tension): tried again on the next steps
+                    lost = (lam_x, side, len(warnings) - 1, LOST_RETRIES)
+            else:
+                lost = None  # stable again on its own
+        elif lost is not None and sign != ref_sign and lost[3] > 0:
+            lam_l, side, at, left = lost
+            lost = (lam_l, side, at, left - 1)
+            found = _switch_branch(prob, z_new, lam_new, J, dpts, side, ref_sign)
+            if found is not None:
+                z_new, R_new, J, tips_new, itb = found
+                iters += itb
+                s_new = ref_sign
+                hist = []  # the states before are on the unstable branch: no secant from them
+                warnings[at] = (
+                    f"bifurcation at load factor {lam_l:.9g}: followed the stable branch "
+                    f"(reached from the unstable one at load factor {lam_new:.6g})"
+                )
+                lost = None
+        sign = s_new
         hist.append((lam_new, z_new.copy()))
         lam, z, tips_cur = lam_new, z_new, tips_new
         J_cur = J
