@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -661,6 +662,31 @@ def _example_json(scene: Path, prefix: str, folder: Path, flags: tuple[str, ...]
     return json.loads(subprocess.check_output([str(exe), "--no-timing"], text=True))
 
 
+@NEEDS_GCC
+def test_the_example_says_why_it_found_no_equilibrium_and_refuses_unknown_arguments(tmp_path):
+    # review: a failed solve printed only "reason": "no equilibrium" (no failure kind, load
+    # factor or notes), and a mistyped --no-timing was ignored (a timing run of ~20 ms a solve)
+    scene = tmp_path / "nogo.toml"
+    text = (ROOT / "examples" / "two_link_finger.toml").read_text()
+    scene.write_text(re.sub(r"(?m)^tension = .*$", "tension = 100.0", text))
+    library = flexgen.solve(scene)
+    assert not library.converged and "beyond load factor 0.651" in library.reason
+    write_files(controller_files(scene, "nogo"), tmp_path)
+    sources = [str(tmp_path / "nogo.c"), str(tmp_path / "nogo_example.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(tmp_path / "nogo")], check=True)
+    run = subprocess.run([str(tmp_path / "nogo"), "--no-timing"], capture_output=True, text=True)
+    assert run.returncode == 1 and run.stderr == ""
+    out = json.loads(run.stdout)
+    assert out["converged"] is False
+    assert out["reason"].startswith("no equilibrium found beyond this load factor (the load path")
+    assert out["reason"].endswith("; load factor 0.651235")
+    assert out["notes"] == [
+        "a flexure left its polynomial kernel's range and its Gauss kernel took over"
+    ]
+    r = subprocess.run([str(tmp_path / "nogo"), "--no-timming"], capture_output=True, text=True)
+    assert r.returncode == 2 and r.stdout == "" and r.stderr.startswith("usage: ")
+
+
 HOSTILE_NAME = 'cantilever at 50% "mk2" */ v2 ??/ \\ /* end'
 
 
@@ -778,6 +804,35 @@ def test_prb_claims_follow_the_run_time_moment(tmp_path, scene_moment, moment):
         bool(flags & 8) == any("pseudo-rigid-body" in w for w in library.warnings) == (moment != 0)
     )
     assert overflow == 2  # BAD_INPUT: the library refuses a load above MAX_MAGNITUDE (1e100)
+
+
+FLOAT_OVERFLOW = r"""
+#include <stdio.h>
+#include "fl.h"
+int main(void) {
+    fl_inputs in; static fl_state st; fl_outputs out;
+    fl_inputs_default(&in);
+    printf("%d ", fl_solve(&in, &st, &out));
+    in.load[0][0] = 3e27f;  /* finite in float, but its square is not: bad input */
+    printf("%d %d\n", fl_solve(&in, &st, &out), (int)out.failure);
+    return 0;
+}
+"""
+
+
+@NEEDS_GCC
+def test_the_float_twin_refuses_loads_its_arithmetic_cannot_hold(tmp_path):
+    # review: a load of 3e27 overflowed inside the float solve, reported as NO_EQUILIBRIUM at
+    # a limit point; the float header announced the double's limit, 1e100
+    scene = ROOT / "examples" / "cantilever_tip_load.toml"
+    files = controller_files(scene, "fl", single=True)
+    assert "#define FL_MAX_MAGNITUDE 1000000000000.0\n" in files["fl.h"]
+    write_files(files, tmp_path)
+    (tmp_path / "main.c").write_text(FLOAT_OVERFLOW)
+    exe = tmp_path / "fl"
+    sources = [str(tmp_path / "fl.c"), str(tmp_path / "main.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    assert subprocess.check_output([str(exe)], text=True).split() == ["0", "2", "0"]
 
 
 def test_kernel_prefix_links_beside_the_shipped_kernel(tmp_path):
@@ -1350,7 +1405,15 @@ def test_a_file_name_that_is_no_prefix_is_named_as_the_file_name(tmp_path):
     """Without --prefix the prefix is the scene file's stem: a stem that cannot be one is named
     as the file name, with the way out (--prefix), not as a --prefix that was not given."""
     scene = (ROOT / "examples" / "cantilever_tip_load.toml").read_text()
-    for stem, why in (("int", "a C keyword"), ("direct", "direct_solve"), ("_x", "starts with _")):
+    cases = (
+        ("int", "a C keyword"),
+        ("direct", "direct_solve"),
+        ("_x", "starts with _"),
+        # review: math.h in the folder hid <math.h> from the emitted math.c (CMake, NAME.mk)
+        ("math", "would hide the system header <math.h>"),
+        ("Stddef", "would hide the system header <stddef.h>"),
+    )
+    for stem, why in cases:
         (tmp_path / f"{stem}.toml").write_text(scene)
         r = _emit(["--scene", f"{stem}.toml"], tmp_path)
         assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr

@@ -54,6 +54,11 @@ class Options:
 # and cold"). Found by review: following history by default, a warm answer sat on the other
 # side of a buckled column than flexgen.solve's, with no flag
 CONTROLLER = DEFAULT
+# The float twin's largest load value and tension: MAX_MAGNITUDE (1e100) keeps a product of
+# three of the solver's numbers finite in double (1e300); 1e12 does so in float (FLT_MAX 3.4e38;
+# review: a load of 3e27 overflowed inside the float solve and was reported as a limit point)
+SINGLE_MAX_MAGNITUDE = 1e12
+
 # The single-precision twin's settings: the tolerances of CONTROLLER that are relative to double
 # rounding (1e-12 .. 1e-14) raised to what float arithmetic (eps 1.2e-7) can meet; the rest as
 # CONTROLLER. Its accuracy is measured, not derived: tests/test_scene_controller.py.
@@ -81,6 +86,19 @@ RESERVED = frozenset(
     "union unsigned void volatile while fg main".split()
 )
 
+# the C standard's headers (C11) and POSIX's: the folder's NAME.h is on the include path of
+# everything built with it (CMake's PUBLIC include directory, NAME.mk's -I), where math.h of
+# --prefix math hides <math.h> (review: the emitted math.c did not compile); compared in lower
+# case (NAME.h and Math.h are one file on a case-insensitive file system)
+SYSTEM_HEADERS = frozenset(
+    "assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal "
+    "stdalign stdarg stdatomic stdbool stddef stdint stdio stdlib stdnoreturn string tgmath "
+    "threads time uchar wchar wctype "
+    "aio cpio dirent dlfcn fcntl fmtmsg fnmatch ftw glob grp iconv langinfo libgen monetary "
+    "mqueue ndbm netdb nl_types poll pthread pwd regex sched search semaphore spawn strings "
+    "syslog tar termios trace ulimit unistd utime utmpx wordexp".split()
+)
+
 
 def default_prefix(path: Path) -> str:
     """The scene file's stem as a C identifier (``two-link finger.toml`` -> ``two_link_finger``)."""
@@ -105,6 +123,11 @@ def _prefix_problem(prefix: str) -> str | None:
         )
     if prefix.lower() in RESERVED:
         return f"{prefix.lower()!r}, which the emitted code uses itself"
+    if prefix.lower() in SYSTEM_HEADERS:
+        return (
+            f"its header {prefix}.h would hide the system header <{prefix.lower()}.h> from "
+            "every file compiled with the folder on its include path"
+        )
     return None
 
 
@@ -638,8 +661,9 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "near_critical": f"{NEAR_SINGULAR!r}",
         "near_critical_percent": f"{NEAR_SINGULAR:.0%}",
         "near_critical_factor": f"{1 / NEAR_SINGULAR:.3g}",
-        # the library's limit on every load value and tension (flexgen/scene.py: _number)
-        "max_magnitude": c_double(MAX_MAGNITUDE),
+        # the library's limit on every load value and tension (flexgen/scene.py: _number); the
+        # float twin's is its float counterpart (SINGLE_MAX_MAGNITUDE)
+        "max_magnitude": c_double(SINGLE_MAX_MAGNITUDE if options.single else MAX_MAGNITUDE),
         "units": _units(scene),
         "q_meaning": _q_meaning(models),
         "kinds": sorted({_kind(m) for m in models.values()}),
