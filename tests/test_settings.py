@@ -131,3 +131,13 @@ def test_numpy_integers_are_integers():
 
     s = SolverSettings(max_steps=np.int64(50))
     assert s.max_steps == 50 and type(s.max_steps) is int
+
+
+def test_warm_on_path_is_a_flag():
+    # review: SolverSettings(warm_on_path=False), as solve.md's loading-history recipe writes
+    # it, was refused ("must be an integer, got False")
+    assert SolverSettings(warm_on_path=False).warm_on_path is False
+    assert SolverSettings(warm_on_path=1).warm_on_path is True
+    for bad in (2, 0.0, "no", None):
+        with pytest.raises(ValueError, match=r"^settings.warm_on_path: must be True or False"):
+            SolverSettings(warm_on_path=bad)
