@@ -17,9 +17,11 @@ See docs/solve.md, docs/scene.md and docs/sweep.md.
 
 from __future__ import annotations
 
+import re
 from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
+from .codegen.spec import DEFAULT_TOL
 from .scene import SceneError, load_scene, scene_from_dict
 from .settings import SolverSettings
 
@@ -57,17 +59,37 @@ def generate(
     range_deg: float | None = None,
     degree: int | None = None,
     nodes: int | None = None,
-    tol: float = 1e-10,
+    tol: float = DEFAULT_TOL,
     langs: Sequence[str] = ("numpy", "c"),
 ) -> dict[str, str]:
     """Generate one flexure kernel: {relative path: source text} (nothing is written).
 
     Same arguments as ``flexgen generate`` (``kernel`` "poly", "gauss" or "local"; ``langs`` from
-    "numpy", "c"). Imports SymPy, so only when called."""
+    "numpy", "c"). Imports SymPy, so only when called. A request that cannot be generated is a
+    ``ValueError`` naming the argument."""
     from .codegen.generate import generate_files
-    from .codegen.spec import KernelSpec
+    from .codegen.spec import BACKENDS, KernelSpec
 
-    return generate_files(KernelSpec(modes, kernel, range_deg, degree, nodes, tol), tuple(langs))
+    unknown = [lang for lang in langs if lang not in BACKENDS]
+    if isinstance(langs, str) or unknown or not langs:
+        raise ValueError(f"langs: a sequence of {', '.join(map(repr, BACKENDS))}, got {langs!r}")
+    try:
+        spec = KernelSpec(modes, kernel, range_deg, degree, nodes, tol)
+        return generate_files(spec, tuple(langs))
+    except ValueError as exc:  # the messages name the CLI's options: here, the arguments
+        raise type(exc)(_ARGUMENT_OF_OPTION.sub(lambda m: _ARGUMENTS[m[1]], str(exc))) from None
+
+
+# flexgen generate's option -> flexgen.generate's argument, for the shared messages
+_ARGUMENTS = {
+    "modes": "modes",
+    "kernel": "kernel",
+    "range": "range_deg",
+    "degree": "degree",
+    "nodes": "nodes",
+    "tol": "tol",
+}
+_ARGUMENT_OF_OPTION = re.compile(r"--(" + "|".join(_ARGUMENTS) + r")\b")
 
 
 def plot(

@@ -37,7 +37,6 @@ from .models.base import FlexureModel
 from .scene import Scene
 
 BASE = "base"
-_S = np.array([[0.0, -1.0], [1.0, 0.0]])  # rotation by +90 degrees
 
 
 class ChainError(ValueError):

@@ -4,9 +4,12 @@ messages and exit codes.
 Exit codes: 0 success, 1 the work ran but failed (stale files, no equilibrium), 2 bad input.
 With `solve --json` or `select --json`, a scene that cannot be solved at all (bad input, or a bug)
 still prints the contract's object on stdout: ``"converged": false`` and the ``"reason"``.
-Nothing below this module prints errors or exits: the commands raise, and main() reports, always
-as one line on stderr with control characters escaped; an unexpected exception is reported the
-same way ("internal error", exit 1) rather than as a traceback (FLEXGEN_TRACEBACK=1 re-raises).
+Bad input, a missing optional extra, an unusable or failed output file: the commands raise and
+main() reports, as one line on stderr with control characters escaped; an unexpected exception is
+reported the same way ("internal error", exit 1) rather than as a traceback (FLEXGEN_TRACEBACK=1
+re-raises). Work that ran and failed (no equilibrium, stale generated files, a sweep's worker or
+scheduler lost) is the command's own outcome: it prints one line the same way and returns 1.
+Nothing below this module exits.
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .models.registry import as_reported
 from .result import Result
 from .scene import BASE, Scene
 
@@ -106,11 +107,8 @@ def as_solved(scene: Scene, result: Result) -> Scene:
     ``--elements`` and ``--tol`` change them), so that its q rebuilds the same shapes."""
     flexures = []
     for f in scene.flexures:
-        spec = result.model.get(f.name, {})
-        changes = {k: spec[k] for k in ("kind", "modes", "elements") if k in spec}
-        if any(getattr(f.model, k) != v for k, v in changes.items()):
-            f = replace(f, model=replace(f.model, **changes, tolerance=None))
-        flexures.append(f)
+        model = as_reported(f.model, result.model.get(f.name, {}))
+        flexures.append(f if model is f.model else replace(f, model=model))
     return replace(scene, flexures=tuple(flexures))
 
 

@@ -24,6 +24,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from .codegen.spec import MAX_MODES  # the shipped kernels: scm1 .. scm8
 from .models.registry import MODEL_KINDS
 from .tomlorder import array_order
 from .units import Units, UnitsError, normalise
@@ -61,7 +62,6 @@ TABLE_KEYS = {
 
 # Limits that keep a scene's memory and time bounded (docs/scene.md, "Limits"), checked before
 # any work: a solve at the limits takes seconds, not minutes.
-MAX_MODES = 8  # the shipped kernels: scm1 .. scm8
 MAX_ELEMENTS = 512  # fem elements per flexure
 MAX_BODIES = 512  # flexures and links together
 MAX_COORDINATES = 2048  # generalized coordinates of the whole scene (the solver's matrices)

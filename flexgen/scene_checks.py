@@ -92,22 +92,28 @@ def mixed_units(scene: Scene) -> str | None:
     if scene.units is None or scene.source is None or "units" in scene.source:
         return None
     src = thaw(scene.source)  # plain dicts and lists, as locations reads them
+    found = []  # (key, value, SI unit) of every such plain number, in scene order
     for path, key, dim in locations(src):
         value = _get(src, path)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or value == 0:
             continue
-        si = {"stress": "Pa", "length": "m"}.get(dim)
         if (dim == "stress" and abs(value) < SI_MIN_PLAIN_STRESS) or (
             dim == "length" and abs(value) > SI_MAX_PLAIN_LENGTH
         ):
-            name = key if path[-1] == key.split(".")[-1] else f"{key}.{path[-1]}"
-            return (
-                f"{name} = {value:g} is a plain number in a scene whose other values carry units "
-                f"and which declares no units, so it is read in SI: {value:g} {si}; if the plain "
-                f'numbers are in other units, declare them (units = {{length = "mm", force = '
-                f'"N"}}) or give each a unit'
-            )
-    return None
+            found.append((key, value, {"stress": "Pa", "length": "m"}[dim]))
+    if not found:
+        return None
+    key, value, si = found[0]
+    more = ""
+    if len(found) > 1:
+        others = ", ".join(f"{k} = {v:g} {u}" for k, v, u in found[1:4])
+        more = f" (so are {others}{', ...' if len(found) > 4 else ''})"
+    return (
+        f"{key} = {value:g} is a plain number in a scene whose other values carry units "
+        f"and which declares no units, so it is read in SI: {value:g} {si}{more}; if the plain "
+        f'numbers are in other units, declare them (units = {{length = "mm", force = '
+        f'"N"}}) or give each a unit'
+    )
 
 
 def scene_warnings(scene: Scene) -> list[str]:

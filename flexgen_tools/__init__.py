@@ -9,6 +9,9 @@ the tests, the scripts under ``benchmarks/`` and, lazily, by the commands ``flex
                              loads (``flexgen stability``)
     flexgen_tools.honesty    the seeded suite that measures the mode selection (flexgen.select)
                              against the exact elastica (benchmarks/selection.py, the tests)
+    flexgen_tools.estimate_honesty
+                             every answer's error estimate against the exact elastica
+                             (benchmarks/estimate.py --honesty, tests/test_estimate.py)
     flexgen_tools.timing     how a solve is timed: through ``flexgen.solve``, a prepared
                              ``Solver.solve()``, the bare core call
 

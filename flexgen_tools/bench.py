@@ -39,8 +39,10 @@ from typing import Any
 
 import numpy as np
 
+from flexgen.estimate import length_scales
 from flexgen.outfiles import write_all
 from flexgen.scene import Scene, load_scene, scene_from_dict
+from flexgen.select import compliance_error, pose_parts  # noqa: F401  (stability imports it)
 from flexgen_tools import repo_path
 from flexgen_tools.timing import (  # noqa: F401
     core_call,
@@ -271,22 +273,13 @@ def suite(quick: bool = False, n_random: int | None = None) -> list[tuple[str, S
 
 
 def path_length(scene: Scene, ref: str) -> float:
-    body = ref.split(".")[0]
-    total = sum(scene.flexure(name).length for name in scene.flexure_path(body))
-    return total if total > 0 else 1.0
+    """L_p of a point: the scale the estimate and the selection measure its position error by
+    (``flexgen.estimate.length_scales``)."""
+    return length_scales(scene, [ref])[ref]
 
 
 def _pose_error(scene: Scene, ref: str, pose, exact_pose) -> float:
-    d = np.asarray(pose, dtype=float) - np.asarray(exact_pose, dtype=float)
-    ang = abs((d[2] + math.pi) % (2 * math.pi) - math.pi)
-    return max(float(np.hypot(d[0], d[1])) / path_length(scene, ref), ang)
-
-
-def compliance_error(C, C_exact) -> float:
-    C, Ce = np.asarray(C, dtype=float), np.asarray(C_exact, dtype=float)
-    if not np.all(np.isfinite(C)):
-        return math.inf
-    return float(np.linalg.norm(C - Ce, 2) / np.linalg.norm(Ce, 2))
+    return max(pose_parts(pose, exact_pose, path_length(scene, ref)))
 
 
 @dataclass
@@ -428,27 +421,34 @@ def measure(scene: Scene, md: ModelDef, repeats: int = 7, budget_s: float = 2.0)
 
 
 class Progress:
-    """A one-line progress bar on stderr (no dependency)."""
+    """Progress on stderr: a tqdm bar on a terminal; elsewhere (a log file, CI) one plain line
+    at each tenth of the work, so a redirected log has no carriage-return-joined line."""
 
     def __init__(self, total: int, label: str, stream=None, enabled: bool = True):
         self.total, self.label, self.done = max(total, 1), label, 0
         self.stream = stream or sys.stderr
         self.enabled = enabled
         self.t0 = time.perf_counter()
+        self.bar = None
+        if enabled and getattr(self.stream, "isatty", lambda: False)():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=self.total, desc=label, file=self.stream, unit="solve")
 
     def step(self, what: str = "") -> None:
         self.done += 1
         if not self.enabled:
             return
-        frac = min(self.done / self.total, 1.0)
-        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
-        el = time.perf_counter() - self.t0
-        self.stream.write(
-            f"\r[{self.label}] [{bar}] {self.done}/{self.total} {el:5.0f} s {what[:40]:<40}"
-        )
-        if self.done >= self.total:
-            self.stream.write("\n")
-        self.stream.flush()
+        if self.bar is not None:
+            self.bar.set_postfix_str(what[:40], refresh=False)
+            self.bar.update(1)
+            if self.done >= self.total:
+                self.bar.close()
+            return
+        if self.done * 10 // self.total > (self.done - 1) * 10 // self.total:
+            el = time.perf_counter() - self.t0
+            self.stream.write(f"[{self.label}] {self.done}/{self.total} {el:.0f} s {what[:40]}\n")
+            self.stream.flush()
 
 
 # -- Pareto ----------------------------------------------------------------------------------
@@ -691,6 +691,24 @@ def compute_targets(data: BenchData, rounds: int, exact_repeats: int) -> dict:
                 t_fem / best if best and math.isfinite(best) else math.nan
             )
     return tg
+
+
+def timing_inconsistencies(data: Any) -> list[str]:
+    """The timings of a run that contradict each other (a part timed slower than the whole
+    that contains it): what a busy machine does to a timing run, which the page then states."""
+    out = []
+    for md in data.models:
+        s = data.summary[md.label]
+        if math.isfinite(s["overhead"]) and s["overhead"] < 0:
+            out.append(f"{md.label}: core call slower than Solver.solve(), which contains it")
+    tg = data.targets
+    for key, what in (
+        ("finger_overhead_s", "Solver.solve()"),
+        ("finger_run_overhead_s", "Solver.run()"),
+    ):
+        if key in tg and tg[key] < 0:
+            out.append(f"finger scm3: core call slower than {what}, which contains it")
+    return out
 
 
 def run_bench(
@@ -951,10 +969,21 @@ def render_markdown(data: BenchData) -> str:
             f"{_count(s['evals_tip'])} | {s['failures']} | "
             f"{'-' if cns is None else f'{cns:.0f}'} |"
         )
+    busy = timing_inconsistencies(data)
     L += [
         "",
         "Bold: on the Pareto front of (Solver.solve() time, median pose error).",
         "",
+        *(
+            [
+                f"**The times of this run are not consistent** ({'; '.join(busy)}): the "
+                "machine was busy while it ran, so no time on this page, and no timing target "
+                "below, can be relied on; run `flexgen bench` again on an idle machine.",
+                "",
+            ]
+            if busy
+            else []
+        ),
         *estimate_section(data),
         "",
         "## Per scene (pose error / Solver.solve() us / core call us)",

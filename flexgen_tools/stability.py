@@ -54,6 +54,7 @@ from flexgen_tools.bench import (
     format_error,
     model_def,
     model_defs,
+    pose_parts,
 )
 
 
@@ -282,10 +283,7 @@ def _errors_of(scene: Scene, r, ref) -> tuple[float, float, float]:
     pe = ce = ratio = 0.0
     for name, p in r.points.items():
         est = p.error_estimate or {"pose": math.nan, "compliance": math.nan}
-        d = np.asarray(p.pose, dtype=float) - np.asarray(ref.poses[name], dtype=float)
-        e_pose = max(
-            float(np.hypot(d[0], d[1])) / scales[name], abs(math.remainder(d[2], 2 * math.pi))
-        )
+        e_pose = max(pose_parts(p.pose, ref.poses[name], scales[name]))
         e_comp = compliance_error(p.compliance, ref.compliance[name])
         pe, ce = max(pe, e_pose), max(ce, e_comp)
         for true, stated, floor in (

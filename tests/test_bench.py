@@ -266,3 +266,35 @@ def test_a_site_packages_look_alike_is_not_a_checkout(monkeypatch, tmp_path):
         bench._kernel_bench_module()
     assert not marker.exists()
     assert flexgen_tools.is_checkout(Path(__file__).resolve().parents[1])
+
+
+def test_timings_that_contradict_each_other_are_named():
+    # review: on a busy machine the page showed "Result overhead -32.0 us" (the core call
+    # slower than Solver.solve(), which contains it) and its targets "met", unflagged
+    from types import SimpleNamespace
+
+    def data(overhead, finger_overhead):
+        return SimpleNamespace(
+            models=[SimpleNamespace(label="scm3"), SimpleNamespace(label="exact")],
+            summary={"scm3": {"overhead": overhead}, "exact": {"overhead": math.nan}},
+            targets={"finger_overhead_s": finger_overhead, "finger_run_overhead_s": 1e-6},
+        )
+
+    assert bench.timing_inconsistencies(data(2e-6, 3e-6)) == []
+    assert bench.timing_inconsistencies(data(-32e-6, -1e-6)) == [
+        "scm3: core call slower than Solver.solve(), which contains it",
+        "finger scm3: core call slower than Solver.solve(), which contains it",
+    ]
+
+
+def test_progress_in_a_log_is_plain_lines():
+    # review: redirected to a file, the bar was one line of \r-joined updates
+    import io
+
+    log = io.StringIO()
+    bar = bench.Progress(25, "bench", stream=log)
+    for i in range(25):
+        bar.step(f"case {i}")
+    lines = log.getvalue().splitlines()
+    assert "\r" not in log.getvalue() and len(lines) == 10
+    assert lines[-1].startswith("[bench] 25/25 ") and lines[-1].endswith("case 24")

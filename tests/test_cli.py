@@ -175,14 +175,27 @@ def test_an_unwritable_out_fails_before_the_run(tmp_path, command):
         assert len(result.stderr.strip().splitlines()) == 1 and "--out" in result.stderr
 
 
+FINGER_TOML = str(Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml")
+STUDY = ["sweep", FINGER_TOML, "--vary", "tendon.0.tension=1,2"]
+
+
 @pytest.mark.parametrize(
     "args",
-    [["stability", "--quick"], ["bench", "--quick"], ["generate", "--modes", "2"]],
-    ids=["stability", "bench", "generate"],
+    [
+        ["stability", "--quick", "--out"],
+        ["bench", "--quick", "--out"],
+        ["generate", "--modes", "2", "--out"],
+        [*STUDY, "--out"],
+        [*STUDY, "--plot"],
+        ["plot", FINGER_TOML, "-o"],
+    ],
+    ids=["stability", "bench", "generate", "sweep-out", "sweep-plot", "plot"],
 )
 def test_an_empty_out_is_refused_not_taken_as_the_current_folder(tmp_path, args):
+    # one message for every output option (review: sweep and plot said "the file must end in
+    # .csv ..., got '.'")
     result = subprocess.run(
-        [sys.executable, "-m", "flexgen", *args, "--out", ""],
+        [sys.executable, "-m", "flexgen", *args, ""],
         capture_output=True,
         text=True,
         cwd=tmp_path,

@@ -51,3 +51,14 @@ def test_the_quoted_numbers_are_the_answer(answers):
     # page states between the statics at the drawn pose and the model
     hand = 6 * 10.0 * pad.pose[0] / (10.0 * 0.3**2)
     assert prox.max_stress == pytest.approx(hand, rel=5e-3)
+
+
+def test_the_transcripts_units_and_warning_lines_are_the_commands(answers):
+    # review: the page's units line lacked the compliance3 blocks' units and its warnings the
+    # stress unit, after both changed in the output
+    text, mm, _ = answers
+    lines = mm.table().splitlines()
+    want = [ln for ln in lines if ln.startswith("units:") or "warning:" in ln]
+    assert len(want) == 3
+    for line in want:
+        assert line in text, line

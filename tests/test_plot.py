@@ -107,6 +107,23 @@ def test_bad_suffix_is_one_line_exit_2_before_solving(tmp_path, capsys, monkeypa
     assert list(tmp_path.iterdir()) == []
 
 
+def test_plot_without_matplotlib_is_one_line_exit_1_naming_the_extra(tmp_path, capsys, monkeypatch):
+    import importlib.util
+
+    import flexgen.commands.plot as command
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "matplotlib" else real(name)
+    )
+    monkeypatch.setattr(command, "solve_args", lambda args: pytest.fail("solved for no plot"))
+    assert main(["plot", str(FINGER), "-o", str(tmp_path / "finger.png")]) == 1
+    captured = capsys.readouterr()
+    assert captured.out == "" and len(captured.err.splitlines()) == 1
+    assert "needs matplotlib" in captured.err and "flexgen[plot]" in captured.err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_plot_returns_an_axes_and_writes_nothing(tmp_path, monkeypatch):
     from matplotlib.axes import Axes
 

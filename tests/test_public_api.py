@@ -115,3 +115,25 @@ def test_one_name_per_model(options, name):
     models = validity.models_of(flexgen.load_scene(path), r)
     assert {registry.label(registry.model_info(m)) for m in models.values()} == {name}
     assert {validity.model_label(m).split()[0] for m in models.values()} == {name}
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (
+            {"modes": 2, "range_deg": 200},
+            "range_deg: the polynomial kernel needs a range below 180",
+        ),
+        ({"modes": 9}, "modes: must be an integer from 1 to 8"),
+        ({"modes": 2, "nodes": 5}, "nodes: only for kernel gauss or local"),
+        ({"modes": 2, "tol": 5.0}, "tol: must be in (0, 1)"),
+        ({"modes": 2, "langs": ("rust",)}, "langs: a sequence of 'numpy', 'c'"),
+        ({"modes": 2, "langs": "c"}, "langs: a sequence of 'numpy', 'c'"),
+    ],
+)
+def test_generate_names_its_own_arguments_not_the_clis_options(kwargs, message):
+    # review: flexgen.generate(modes=2, range_deg=200) said "--range: ...", an option a
+    # Python caller never wrote; an unknown language was a bare KeyError
+    with pytest.raises(ValueError) as exc:
+        flexgen.generate(**kwargs)
+    assert str(exc.value).startswith(message) and "--" not in str(exc.value)

@@ -367,7 +367,14 @@ def test_plain_numbers_read_in_si_that_look_like_another_system_warn():
         "load": [{"point": "a.tip", "force": [0, -2]}],
     }
     r = flexgen.solve(mm)
-    assert any("flexure[0].length = 20 is a plain number" in w for w in r.warnings)
+    (mixed,) = [w for w in r.warnings if "plain number" in w]
+    assert mixed.startswith("flexure[0].length = 20 is a plain number")
+    # every such number is named, as scene errors name keys (review: the first only, and
+    # an at coordinate as "flexure[0].at[0].0")
+    assert "(so are flexure[0].E = 200000 Pa)" in mixed
+    at = {**mm, "flexure": [{**mm["flexure"][0], "at": [11, 0, 0]}]}
+    (mixed,) = [w for w in flexgen.solve(at).warnings if "plain number" in w]
+    assert "flexure[0].at[0] = 11 m" in mixed and "at[0].0" not in mixed
     si = {**mm, "flexure": [{"name": "a", "length": 0.02, "E": 2e11, "width": 0.01,
                               "thickness": 0.0003}]}  # fmt: skip
     assert not [w for w in flexgen.solve(si).warnings if "plain number" in w]

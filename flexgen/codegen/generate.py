@@ -14,7 +14,7 @@ import sympy as sp
 from flexgen.codegen.lower import count_ops, lower
 from flexgen.codegen.printers import CPrinter, NumPyPrinter, numpy_array
 from flexgen.codegen.render import render
-from flexgen.codegen.spec import BACKENDS, CConfig, KernelSpec, NumPyConfig
+from flexgen.codegen.spec import BACKENDS, MAX_MODES, CConfig, KernelSpec, NumPyConfig
 from flexgen.kernels import name_parts
 from flexgen.symbolic.flexure import RANGE_SAMPLES, FlexureKernel
 
@@ -25,9 +25,9 @@ from flexgen.symbolic.flexure import RANGE_SAMPLES, FlexureKernel
 # kernel's time), their pose error certified at each q to 1e-11 (the polynomial kernels': 1.3e-11).
 LOCAL_TOL = 1e-11
 CHECKED_IN = (
-    tuple(KernelSpec(n) for n in range(1, 9))
-    + tuple(KernelSpec(n, "gauss") for n in range(1, 9))
-    + tuple(KernelSpec(n, "local", tol=LOCAL_TOL) for n in range(1, 9))
+    tuple(KernelSpec(n) for n in range(1, MAX_MODES + 1))
+    + tuple(KernelSpec(n, "gauss") for n in range(1, MAX_MODES + 1))
+    + tuple(KernelSpec(n, "local", tol=LOCAL_TOL) for n in range(1, MAX_MODES + 1))
 )
 
 

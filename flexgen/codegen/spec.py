@@ -6,7 +6,9 @@ import math
 from dataclasses import dataclass
 
 FAMILIES = ("poly", "gauss", "local")
-MAX_MODES = 8
+MAX_MODES = 8  # the most modes generated, and shipped (scm1 .. scm8): scenes, selection, CLI
+MAX_NODES = 200  # the most Gauss nodes a kernel may have (given or searched for)
+MAX_DEGREE = 60  # the highest polynomial interpolation degree (given or searched for)
 DEFAULT_RANGE_DEG = {"poly": 90.0, "gauss": 180.0, "local": 270.0}
 DEFAULT_TOL = 1e-10
 
@@ -63,11 +65,15 @@ class KernelSpec:
         if not (math.isfinite(self.tol) and 0 < self.tol < 1):
             raise SpecError(f"--tol: must be in (0, 1), got {self.tol}")
         if self.degree is not None and not (
-            isinstance(self.degree, int) and 1 <= self.degree <= 60
+            isinstance(self.degree, int) and 1 <= self.degree <= MAX_DEGREE
         ):
-            raise SpecError(f"--degree: must be an integer from 1 to 60, got {self.degree}")
-        if self.nodes is not None and not (isinstance(self.nodes, int) and 1 <= self.nodes <= 200):
-            raise SpecError(f"--nodes: must be an integer from 1 to 200, got {self.nodes}")
+            raise SpecError(
+                f"--degree: must be an integer from 1 to {MAX_DEGREE}, got {self.degree}"
+            )
+        if self.nodes is not None and not (
+            isinstance(self.nodes, int) and 1 <= self.nodes <= MAX_NODES
+        ):
+            raise SpecError(f"--nodes: must be an integer from 1 to {MAX_NODES}, got {self.nodes}")
         if self.family == "poly" and self.nodes is not None:
             raise SpecError("--nodes: only for --kernel gauss or local")
         if self.family != "poly" and self.degree is not None:

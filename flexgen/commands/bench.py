@@ -22,7 +22,7 @@ def register(sub) -> None:
             "the API, a prepared Solver.solve(), the bare core call), the kernel evaluations per "
             "solve where the core counts them, and ns per C kernel call; write "
             "accuracy-vs-speed.png (log-log, Pareto fronts) and accuracy-vs-speed.md into --out. "
-            "Needs a source checkout (examples/). About 75 s on 2 cores; set "
+            "Needs a source checkout (examples/). About a minute on an idle 2-core machine; set "
             "OPENBLAS_NUM_THREADS=1 (make bench-models does) for stable timings."
         ),
     )
@@ -51,7 +51,7 @@ def register(sub) -> None:
 def run(args) -> int:
     try:
         from flexgen_tools import NeedsCheckout
-        from flexgen_tools.bench import TIMINGS, run_bench
+        from flexgen_tools.bench import TIMINGS, run_bench, timing_inconsistencies
     except ImportError as exc:
         raise UsageError(
             f"flexgen bench needs the flexgen_tools package of a source checkout ({exc})"
@@ -82,4 +82,12 @@ def run(args) -> int:
         f"Solver.solve() - core call {tg['finger_overhead_s'] * 1e6:.1f} us",
         file=sys.stderr,
     )
+    busy = timing_inconsistencies(data)
+    if busy:
+        print(
+            f"flexgen: warning: the times of this run are not consistent ({busy[0]}"
+            f"{f' and {len(busy) - 1} more' if len(busy) > 1 else ''}): the machine was busy; "
+            "run again on an idle machine before quoting them",
+            file=sys.stderr,
+        )
     return 0

@@ -8,7 +8,8 @@ import sys
 import time
 from pathlib import Path
 
-from flexgen.codegen.spec import BACKENDS, DEFAULT_TOL, FAMILIES, KernelSpec
+from flexgen.codegen.spec import BACKENDS, DEFAULT_TOL, FAMILIES, MAX_MODES, KernelSpec
+from flexgen.codegen.spec import DEFAULT_RANGE_DEG as RANGE
 from flexgen.commands.common import UsageError, integer, output_path
 
 LANGS = tuple(BACKENDS)  # each with its config (codegen/spec.py) and emitter (codegen/generate.py)
@@ -31,9 +32,9 @@ def register(sub) -> None:
         description=(
             "Emit the kernel of one flexure: tip pose, Jacobian and Hessian in closed form. "
             "Without "
-            "--modes, regenerates the checked-in set (scm1..scm8 polynomial at 90 degrees, Gauss "
-            "kernels for 1..8 modes certified on 180 degrees, and local Gauss kernels for 1..8 "
-            "modes, which certify their error at each q). With --check, writes nothing and exits 1 naming the files in "
+            f"--modes, regenerates the checked-in set (scm1..scm{MAX_MODES} polynomial at 90 "
+            f"degrees, Gauss kernels for 1..{MAX_MODES} modes certified on 180 degrees, and local "
+            f"Gauss kernels for 1..{MAX_MODES} modes, which certify their error at each q). With --check, writes nothing and exits 1 naming the files in "
             "--out that differ from a fresh generation. With --scene, emits instead a "
             "self-contained C99 solver of that mechanism for a controller: NAME.h, NAME.c, "
             "NAME_example.c, CMakeLists.txt and NAME.mk (docs/controller.md)."
@@ -58,7 +59,7 @@ def register(sub) -> None:
         action="store_true",
         help="--scene: the single-precision twin (its accuracy is stated in NAME.h)",
     )
-    gen.add_argument("--modes", type=integer(), help="Legendre curvature modes N (1..8)")
+    gen.add_argument("--modes", type=integer(), help=f"Legendre curvature modes N (1..{MAX_MODES})")
     gen.add_argument(
         "--kernel",
         choices=FAMILIES,
@@ -73,9 +74,9 @@ def register(sub) -> None:
         dest="range_deg",
         metavar="DEG",
         help="angle range in degrees: poly kernels are valid on |phi| <= DEG "
-        "(default 90, must be < 180); gauss kernels certify their bound there "
-        "(default 180); local kernels take the nodes that certify the constant-curvature "
-        "arc of this bend (default 270)",
+        f"(default {RANGE['poly']:g}, must be < 180); gauss kernels certify their bound there "
+        f"(default {RANGE['gauss']:g}); local kernels take the nodes that certify the "
+        f"constant-curvature arc of this bend (default {RANGE['local']:g})",
     )
     how = gen.add_mutually_exclusive_group()
     how.add_argument("--degree", type=integer(), help="poly: interpolation degree of cos and sin")

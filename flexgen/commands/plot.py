@@ -6,9 +6,8 @@ symbolic link, a FIFO, or has another suffix than .png/.svg/.pdf), checked befor
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-from flexgen.commands.common import UsageError, printable
+from flexgen.commands.common import MissingExtra, UsageError, output_path, printable
 from flexgen.commands.solve import add_model_options, one_line, solve_args
 
 
@@ -34,7 +33,7 @@ def register(sub) -> None:
         "-o",
         "--output",
         required=True,
-        type=Path,
+        type=output_path,
         metavar="FILE",
         help="output file; the suffix picks the format: .png, .svg or .pdf",
     )
@@ -51,8 +50,7 @@ def run(args) -> int:
     except PlotError as exc:
         raise UsageError(str(exc)) from None
     if importlib.util.find_spec("matplotlib") is None:
-        print(f"flexgen: {INSTALL_HINT}", file=sys.stderr)
-        return 1
+        raise MissingExtra(INSTALL_HINT)
     scene, result, exact = solve_args(args)
     if not result.converged:
         print(f"flexgen: no equilibrium: {one_line(result.reason)}", file=sys.stderr)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from flexgen.codegen.spec import MAX_MODES
 from flexgen.commands.common import integer, printable, tolerance
 from flexgen.commands.solve import one_line
 
@@ -21,7 +22,8 @@ def register(sub) -> None:
         "select",
         help="choose the fewest modes per flexure that meet a tolerance",
         description=(
-            "Choose, per flexure, the fewest smooth curvature modes (1..8) and the kernel whose "
+            f"Choose, per flexure, the fewest smooth curvature modes (1..{MAX_MODES}) and the "
+            "kernel whose "
             "a-posteriori error estimate on the output points' poses (relative to length) and "
             "compliances (relative, spectral norm) is <= TOL, and print the choice with its "
             "estimate and cost. Exit 1 if TOL is out of reach (the best estimate is printed)."

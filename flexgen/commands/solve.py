@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 
 from flexgen.commands.common import UsageError, integer, printable, tolerance
-from flexgen.models.registry import MODEL_KINDS as KINDS
+from flexgen.models.registry import MODEL_KINDS
 from flexgen.scene import MAX_ELEMENTS, MAX_MODES
 
 
@@ -22,7 +22,7 @@ def add_model_options(p) -> None:
     p.add_argument("scene", metavar="SCENE", help="scene file (TOML; see docs/scene.md)")
     p.add_argument(
         "--model",
-        choices=KINDS,
+        choices=MODEL_KINDS,
         metavar="KIND",
         help="model of every flexure, overriding the scene's [model] and per-flexure "
         "kinds: scm (smooth curvature, Legendre modes), cc (constant curvature, "
@@ -34,7 +34,7 @@ def add_model_options(p) -> None:
         type=integer(1, MAX_MODES),
         metavar="N",
         help="scm: Legendre curvature modes of every flexure (overrides the scene; "
-        "1..8 with the checked-in kernels)",
+        f"1..{MAX_MODES} with the checked-in kernels)",
     )
     p.add_argument(
         "--elements",

@@ -18,8 +18,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from flexgen.commands.common import MissingExtra, UsageError, integer, printable
-from flexgen.outfiles import WriteFailed, write_all
+from flexgen.commands.common import MissingExtra, UsageError, integer, output_path, printable
+from flexgen.outfiles import write_all
 from flexgen.sweep_plan import CHUNK_SIZE, DISTRIBUTIONS, plan
 
 TABLES = (".parquet", ".csv")
@@ -65,13 +65,13 @@ def register(sub) -> None:
     p.add_argument("--seed", type=integer(0), metavar="S", help="Monte-Carlo: the random seed")
     p.add_argument(
         "--out",
-        type=Path,
+        type=output_path,
         metavar="FILE",
         help="write the table to FILE.parquet (needs pyarrow) or FILE.csv (default: CSV on stdout)",
     )
     p.add_argument(
         "--plot",
-        type=Path,
+        type=output_path,
         metavar="FILE",
         help="draw the study (.png, .svg or .pdf): outputs against one key, heatmaps for two, "
         "histograms for Monte-Carlo",
@@ -225,11 +225,7 @@ def run(args) -> int:
 
         draw_study(df, list(vary), args.samples is not None, path, scene.units)
 
-    try:
-        write_outputs(df, out, plot, draw)
-    except WriteFailed as exc:  # e.g. a full disk: nothing this run made is left behind
-        print(f"flexgen: cannot write {printable(str(exc.path))}: {exc.why}", file=sys.stderr)
-        return 1
+    write_outputs(df, out, plot, draw)  # a WriteFailed (a full disk): the CLI's exit 1
     if out is None:
         df.to_csv(sys.stdout, index=False)
     else:

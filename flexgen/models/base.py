@@ -23,7 +23,7 @@ class TipKinematics:
 
 
 class FlexureModel(Protocol):
-    kind: str  # "scm", "cc", "prb", "fem"
+    kind: str  # "scm" (cc is scm with one mode), "prb", "fem": a KINDS entry of registry.py
     n_dof: int
     length: float
     EI: float

@@ -133,6 +133,22 @@ def build_model(flexure: Flexure) -> FlexureModel:
     return kind.build(flexure, _class(kind, flexure))
 
 
+# the keys of a Result's model entry (``model_info`` and the kernel) that name a flexure's model
+REPORTED_KEYS = ("kind", "modes", "elements", "kernel")
+
+
+def as_reported(spec: Any, info: Mapping[str, Any]) -> Any:
+    """The ModelSpec ``spec`` changed to the model a Result reports for its flexure (``info``:
+    ``Result.model[name]``), its tolerance dropped (the modes it chose are in ``info``): the
+    model that rebuilds the Result's shapes and checks. ``spec`` itself where nothing differs."""
+    from dataclasses import replace
+
+    changes = {k: info[k] for k in REPORTED_KEYS if k in info}
+    if all(getattr(spec, k) == v for k, v in changes.items()) and spec.tolerance is None:
+        return spec
+    return replace(spec, **changes, tolerance=None)
+
+
 def kind_of(model: Any) -> ModelKind:
     """The registry row of a built model (by its ``kind`` attribute)."""
     kind = KINDS.get(getattr(model, "kind", None))  # type: ignore[arg-type]

@@ -153,7 +153,7 @@ class SCMModel:
             raise ValueError(self.range_error())
         return self.gauss
 
-    def switch_warning(self, q=None) -> str | None:
+    def switch_note(self, q=None) -> str | None:
         """The note for a solve in which this flexure left its first kernels' set (the core
         reports that it did); ``q`` is the equilibrium, if one was found."""
         if self.local is None and self.poly is None:

@@ -34,6 +34,7 @@ from functools import cache
 import mpmath
 import sympy as sp
 
+from flexgen.codegen.spec import MAX_NODES
 from flexgen.symbolic.basis import DIGITS, angle_basis, gauss_rounding, sigma
 
 # the ellipse parameters tried, one in_range inequality each: a large rho suits small bends (the
@@ -158,7 +159,7 @@ def certified(rows: tuple[Row, ...], q) -> bool:
     return any(sum(n * x for n, x in zip(row.nu, a)) <= row.limit for row in rows)
 
 
-def nodes_for_arc(modes: int, bend: float, tol: float, max_nodes: int = 200) -> int:
+def nodes_for_arc(modes: int, bend: float, tol: float, max_nodes: int = MAX_NODES) -> int:
     """The fewest nodes whose certificate covers the constant-curvature arc of ``bend`` radians
     (q = (bend, 0, ..., 0))."""
     q = [bend] + [0.0] * (modes - 1)

@@ -34,7 +34,7 @@ from functools import cached_property
 import mpmath
 import sympy as sp
 
-from flexgen.codegen.spec import KernelSpec, SpecError
+from flexgen.codegen.spec import MAX_DEGREE, MAX_NODES, KernelSpec, SpecError
 from flexgen.symbolic import certificate, trig
 from flexgen.symbolic.basis import (
     UNIT_ROUNDOFF,
@@ -83,7 +83,7 @@ class FlexureKernel:
                 self.nodes = spec.nodes or certificate.nodes_for_arc(N, self.a, spec.tol)
             except ValueError:
                 raise SpecError(
-                    f"--tol {spec.tol:g}: no local kernel of up to 200 nodes certifies the arc of "
+                    f"--tol {spec.tol:g}: no local kernel of up to {MAX_NODES} nodes certifies the arc of "
                     f"{spec.range_deg:g} degrees to it (double rounding allows about 1e-14)"
                 ) from None
             if not self.local_rows:
@@ -112,7 +112,7 @@ class FlexureKernel:
         self.trig = trig.chebyshev_interpolant(self.a, degree)
         self.nodes = max(1, math.ceil((self._poly_degree * self.modes + 1) / 2))
 
-    def _degree_for_tolerance(self, tol: float, max_degree: int = 60) -> None:
+    def _degree_for_tolerance(self, tol: float, max_degree: int = MAX_DEGREE) -> None:
         """The lowest degree whose pose bound, rounding included, is at most tol (from the
         lowest whose cos/sin error is); SpecError where rounding alone exceeds tol."""
         try:
@@ -267,7 +267,7 @@ class FlexureKernel:
         hess = max(term(B[i] * B[j], i + j + 2) for i in range(N) for j in range(i, N)) + rounding
         return ErrorBounds(pose, jac, hess)
 
-    def _nodes_for_tolerance(self, tol: float, max_nodes: int = 200) -> int:
+    def _nodes_for_tolerance(self, tol: float, max_nodes: int = MAX_NODES) -> int:
         for G in range(1, max_nodes + 1):
             if gauss_rounding(self.modes, G) >= tol:
                 break  # the rounding allowance alone exceeds tol: more nodes cannot help
