@@ -141,3 +141,20 @@ def test_warm_on_path_is_a_flag():
     for bad in (2, 0.0, "no", None):
         with pytest.raises(ValueError, match=r"^settings.warm_on_path: must be True or False"):
             SolverSettings(warm_on_path=bad)
+
+
+def test_the_docs_settings_table_is_the_dataclass():
+    # docs/solver-core.md lists every field with its default: the same fields, in order, with
+    # the defaults SolverSettings has (review: three copies of every setting, one tied by test)
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "solver-core.md").read_text()
+    table = doc[doc.index("| field | default | accepted | what it sets |") :]
+    rows = re.findall(r"^\| `(\w+)` \| ([^|]+) \|", table, flags=re.M)
+    names = [f.name for f in fields(SolverSettings)]
+    assert [name for name, _ in rows[: len(names)]] == names
+    for name, default in rows[: len(names)]:
+        value = getattr(DEFAULT, name)
+        shown = {"True": True, "False": False}.get(default.strip(), default.strip())
+        if isinstance(value, bool):
+            assert shown is value, name
+        else:
+            assert float(shown) == value, name
