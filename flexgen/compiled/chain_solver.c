@@ -1822,6 +1822,38 @@ static int end_factor_of(fg_ws *w, const fg_state *st)
     return cholesky(w, st->K, w->lb);
 }
 
+/* The largest change d makes to an angle along a flexure, over the flexures: a fem flexure's
+ * coordinates are its joints' angles, each a small part of its bend, so its angles along it
+ * change by the sums of d over its first joints (the largest of them); a kernel flexure's and
+ * a pseudo-rigid body's coordinates are each a bend of their own (|d| per coordinate). The
+ * measure of the path checks' steps (on_load_path, the warm start): per coordinate, a fem
+ * chain of 16 elements could move its tip by 16 times the bound (review: warm fem solves
+ * accepted the other branch of a buckled column, 1.3 L away). */
+static fg_real angle_change(const fg_ws *w, const fg_real *d)
+{
+    const fg_problem *p = w->p;
+    fg_real most = 0.0;
+    int i, j;
+    for (i = 0; i < FG_NFLEX(p); ++i) {
+        const fg_flexure *f = &p->flex[i];
+        int k = FG_FLEX_NDOF(f);
+        const fg_real *di = d + f->offset;
+        if (f->kind == FG_MODEL_FEM) {
+            fg_real sum = 0.0;
+            for (j = 0; j < k; ++j) {
+                sum += di[j];
+                if (!(fabs(sum) <= most))    /* also a NaN: it is the result */
+                    most = fabs(sum);
+            }
+        } else {
+            for (j = 0; j < k; ++j)
+                if (!(fabs(di[j]) <= most))
+                    most = fabs(di[j]);
+        }
+    }
+    return most;
+}
+
 /* 1 if the equilibrium *c at the full load (w->lb: the Cholesky factor of c->K) is on the load
  * path from the unloaded state *st0 (K(q0, 0) diagonal, positive definite), as far as
  * direct_samples points of the cubic Hermite path between the two (its end tangents dq/dlam
@@ -1861,7 +1893,7 @@ static int on_load_path(fg_ws *w, const fg_state *st0, const fg_state *c, fg_sta
                 return 0;
             cholesky_solve(w, w->la, smp->r, corr);
         }
-        if (!(norm_inf(corr, n) <= set->direct_correction * set->max_dq))
+        if (!(angle_change(w, corr) <= set->direct_correction * set->max_dq))
             return 0;
     }
     return 1;
@@ -2981,7 +3013,7 @@ FG_API int fg_solve(const fg_problem *p, fg_real *work, int *iwork, fg_answer *o
         if (warm) {
             for (i = 0; i < n; ++i)
                 w->vec4[i] = cur->q[i] - p->q0[i];
-            warm = norm_inf(w->vec4, n) <= p->settings.max_dq;
+            warm = angle_change(w, w->vec4) <= p->settings.max_dq;
         }
         if (warm && p->settings.warm_on_path) {
             fg_errors saved;      /* the samples are no part of the answer: flags as before */
