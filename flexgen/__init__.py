@@ -22,6 +22,7 @@ from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
 from .codegen.spec import DEFAULT_TOL
+from .result import PointResult, Result
 from .scene import SceneError, load_scene, scene_from_dict
 from .settings import SolverSettings
 
@@ -44,7 +45,6 @@ if TYPE_CHECKING:  # the annotations' names only: not the package's namespace
     import os
     from collections.abc import Mapping, Sequence
 
-    from .result import Result
     from .scene import Scene
 
 try:
@@ -119,5 +119,7 @@ __all__ = [
     "generate",
     "plot",
     "SceneError",
+    "Result",
+    "PointResult",
     "__version__",
 ]

@@ -235,10 +235,10 @@ class _Problem:
         from .solver import solve_models
 
         if solved.made is None:
+            # not counted in solves: the same solve again, for its Result (its time counts)
             solved.made = solve_models(
                 self.scene, self.models(solved.modes), q0=solved.q0, **self.kw
             )
-            self.solves += 1
         return solved.made
 
 

@@ -19,6 +19,7 @@ object again costs the core call and the Result.
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Container, Mapping
 from dataclasses import dataclass, fields, replace
 from functools import partial
@@ -137,6 +138,21 @@ def checked_q0(q0: Any, flexures: Container[str]) -> dict[str, np.ndarray]:
     return out
 
 
+def _has_bool(values: Any) -> bool:
+    """Whether nested lists or tuples hold a bool (which NumPy reads as an integer)."""
+    if isinstance(values, bool):
+        return True
+    if isinstance(values, (list, tuple)):
+        return any(_has_bool(v) for v in values)
+    return False
+
+
+CONCURRENT = (
+    "flexgen.Solver: called while this Solver is solving in another thread; use one Solver "
+    "per thread (each has its own workspace)"
+)
+
+
 class Solver:
     """A scene prepared for repeated solves: its ``Problem`` and a ``Workspace``.
 
@@ -187,6 +203,10 @@ class Solver:
         # made on first use and kept, from the scene and models only (no answer's state):
         self._validity_screen: Any = None  # validity.calm's bend limits, given to the core
         self._estimator: Any = None  # the richer model's prepared solver (estimate.estimator_of)
+        # one solve at a time: a second thread's call is refused, not interleaved (a shared
+        # Solver gave 28 wrong poses in 6000 from 4 threads, silently: review)
+        self._in_use = threading.Lock()
+        self._solved = False  # the workspace holds an answer (margin, margin_above read it)
 
     @property
     def outputs(self) -> list[str]:
@@ -213,8 +233,21 @@ class Solver:
         for it by default): ``Result.error_estimate`` and each point's ``error_estimate``."""
         if estimate is not False and estimate is not True:  # the usual bools cost nothing more
             check_flag(estimate, "estimate")
-        status = self.run(loads, tensions, q0)
-        return self._result(status, estimate_answer(self, status, Solver) if estimate else None)
+        if not self._in_use.acquire(blocking=False):
+            raise RuntimeError(CONCURRENT)
+        try:  # the answer read from the workspace before another solve may overwrite it
+            status = self._run(loads, tensions, q0)
+            result = self._result(
+                status, estimate_answer(self, status, Solver) if estimate else None
+            )
+            self._check(result)
+            return result
+        finally:
+            self._in_use.release()
+
+    def _check(self, result: Result) -> None:
+        """What a solve adds to its Result while the workspace still holds its answer (nothing
+        here; ``flexgen.api.CheckedSolver``: the validity check)."""
 
     def run(
         self, loads: Any = None, tensions: Any = None, q0: Mapping[str, Any] | None = None
@@ -224,6 +257,14 @@ class Solver:
         ``self.workspace`` (``q``, ``pose`` (noutputs x 3), ``compliance`` (noutputs x 3 x 3),
         ``ellipse``, ``K``; ``answer.stable``, ``answer.iterations``), overwritten by the next
         call. Outputs in the order of ``self.outputs``, q packed in the scene's flexure order."""
+        if not self._in_use.acquire(blocking=False):
+            raise RuntimeError(CONCURRENT)
+        try:
+            return self._run(loads, tensions, q0)
+        finally:
+            self._in_use.release()
+
+    def _run(self, loads: Any, tensions: Any, q0: Mapping[str, Any] | None) -> int:
         p = self.problem
         if loads is not None or self._changed_loads:  # None: the scene's own
             self._changed_loads = loads is not None
@@ -246,7 +287,9 @@ class Solver:
         elif self._warm:
             p.struct.q0 = core.ffi.NULL
             self._warm = False
+        self._solved = False  # (a ValueError below leaves no answer either)
         status: int = _fg_solve(*self._core_args)
+        self._solved = status == _SOLVED
         if status == _MODEL_ERROR:  # the core checks the loads are finite, off Python's path
             for what, given in (("loads", p.loads), ("tensions", p.tensions)):
                 if not np.all(np.isfinite(given)):
@@ -270,6 +313,9 @@ class Solver:
                 f"{what}: expected {target.shape} numbers (the scene's "
                 f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), got {got}"
             )
+        if a.dtype.kind in "iu" and not isinstance(values, np.ndarray) and _has_bool(values):
+            # NumPy reads [True, 0, 0] as integers; booleans are no numbers (review)
+            raise ValueError(f"{what}: every value must be a number, got {_fmt(values)}")
         a = a.astype(float, copy=False)
         # the scene's rule for these values (scene._number: every value finite and within
         # MAX_MAGNITUDE, a tension zero or positive: a tendon cannot push, and the core would
@@ -364,7 +410,7 @@ class Solver:
         if self._switchable:
             switched = ws.switched.tolist()
             if any(switched):
-                self._switch_notes(switched, solved, notes)
+                self._switch_notes(switched, solved, notes, bool(a.warm))
         if not solved:
             return self._failed(status, a.iterations, notes, critical, a.failure_load_factor, est)
         stable = bool(a.stable)
@@ -405,8 +451,13 @@ class Solver:
             warnings.extend(safety_warnings(self.scene, r.flexures))
         return r
 
-    def _switch_notes(self, switched: list[int], solved: bool, notes: list[str]) -> None:
-        """The notes of the flexures whose kernel the core switched (``fg_answer.switched``)."""
+    def _switch_notes(
+        self, switched: list[int], solved: bool, notes: list[str], warm: bool = False
+    ) -> None:
+        """The notes of the flexures whose kernel the core switched (``fg_answer.switched``).
+        A warm answer followed no load path, only Newton from the previous answer: a switch
+        there and back is no fact of its answer (review: the same answer, warm, had a note the
+        cold solve had not), so it notes only a flexure still past its first kernels."""
         p, q = self.problem, self.workspace.q
         for name, flag in zip(p.flexure_order, switched):
             if flag:
@@ -414,6 +465,8 @@ class Solver:
                 # only models with both kernels switch (SCMModel); the FlexureModel
                 # protocol does not declare switch_note
                 model: Any = self.models[name]
+                if warm and solved and model.in_range(q[sl]):
+                    continue
                 msg = model.switch_note(q[sl] if solved else None)
                 if msg:
                     notes.append(msg)
@@ -427,7 +480,10 @@ class Solver:
 
     def margin_above(self, margin: float) -> bool:
         """Whether the last solve's answer's margin to a critical load (``margin()``) exceeds
-        ``margin``: one Cholesky factorization (``fg_margin_above``), not the eigenvalue."""
+        ``margin``: one Cholesky factorization (``fg_margin_above``), not the eigenvalue. False
+        when the last solve found no equilibrium, or before any solve (no answer is safe)."""
+        if not self._solved:
+            return False
         ws = self.workspace
         return bool(
             core.lib.fg_margin_above(
@@ -439,7 +495,11 @@ class Solver:
         """The margin to a critical load of the last solve's answer (``fg_margin``: the
         smallest eigenvalue of the stiffness scaled by the elastic energy's Hessian; 1 unloaded,
         1 - P/P_cr on an axial load, < 0 unstable). Eigenvalues, O(n^3): not part of ``solve``;
-        each Result computes its own ``stability_margin`` the same way on first access."""
+        each Result computes its own ``stability_margin`` the same way on first access. NaN when
+        the last solve found no equilibrium, or before any solve (review: the workspace's stale
+        stiffness gave the previous answer's margin after a failed solve, 0 before any)."""
+        if not self._solved:
+            return math.nan
         ws = self.workspace
         return float(core.lib.fg_margin(self.problem.struct, ws.K_ptr, ws.work_ptr, ws.iwork_ptr))
 

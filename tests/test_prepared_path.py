@@ -141,3 +141,30 @@ def test_a_prepared_solvers_answers_warn_as_flexgen_solves(fy):
     direct = flexgen.solve(scene)
     assert prepared.warnings == direct.warnings
     assert bool(direct.warnings) == (fy < -6.0)
+
+
+@pytest.mark.parametrize("modes", [3, 8])
+def test_a_warm_answer_says_what_the_cold_answer_says(modes):
+    # review: along a random load walk on a two-flexure chain the warm answer carried a
+    # kernel-switch note ("during the solve (the equilibrium is back in range)") from its
+    # Newton from the previous answer, where the cold solve of the same loads had none
+    import numpy as np
+
+    scene = {
+        "flexure": [
+            {"name": "a", "length": 0.6, "EI": 1.0},
+            {"name": "b", "parent": "a", "length": 0.4, "EI": 0.7},
+        ],
+        "load": [{"point": "b.tip", "force": [0.0, 0.0]}],
+    }
+    solver = flexgen.Solver(scene, modes=modes)
+    rng = np.random.default_rng(9)
+    force, previous = np.zeros(3), None
+    for _ in range(300):
+        force = np.clip(force + rng.normal(0.0, [1.0, 1.0, 0.5]), -8, 8)
+        warm = solver.solve(loads=[force.tolist()], q0=previous)
+        cold = solver.solve(loads=[force.tolist()])
+        assert warm.converged == cold.converged
+        if cold.converged:
+            previous = warm.q
+            assert (warm.notes, warm.warnings) == (cold.notes, cold.warnings), force

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import flexgen
+from flexgen.models import registry
 from flexgen.scene import scene_from_dict
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -137,3 +138,74 @@ def test_generate_names_its_own_arguments_not_the_clis_options(kwargs, message):
     with pytest.raises(ValueError) as exc:
         flexgen.generate(**kwargs)
     assert str(exc.value).startswith(message) and "--" not in str(exc.value)
+
+
+def test_a_prepared_solver_checks_the_loads_it_solved_not_the_scenes():
+    # review: Solver.solve(loads=...) read the scene's own loads in its validity checks: a
+    # moment given to a prb solve missed the pseudo-rigid-body caveat, 5000 N the units
+    # warning, and a Solver of a 5000 N scene solved at 1 N still warned of 5000 N
+    one = {"name": "c", "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}]}
+    at_1 = {**one, "load": [{"point": "beam.tip", "force": [0.0, -1.0]}]}
+    at_5000 = {**one, "load": [{"point": "beam.tip", "force": [0.0, -5000.0]}]}
+    with_moment = {**one, "load": [{"point": "beam.tip", "force": [0.0, -1.0], "moment": 0.8}]}
+    cases = [
+        (at_1, {"model": "prb"}, [[0.0, -1.0, 0.8]], with_moment),
+        (at_1, {}, [[0.0, -5000.0, 0.0]], at_5000),
+        (at_5000, {}, [[0.0, -1.0, 0.0]], at_1),
+        (with_moment, {"model": "prb"}, [[0.0, -1.0, 0.0]], at_1),
+    ]
+    for prepared, options, loads, same in cases:
+        got = flexgen.Solver(prepared, **options).solve(loads=loads)
+        want = flexgen.solve(same, **options)
+        assert got.warnings == want.warnings, (loads, got.warnings, want.warnings)
+    assert any("pseudo-rigid-body" in w for w in flexgen.solve(with_moment, model="prb").warnings)
+    assert any("load level 5e+03" in w for w in flexgen.solve(at_5000).warnings)
+
+
+def test_margin_of_no_answer_is_nan_and_not_above_anything():
+    # review: margin() was 0.0 before any solve and the previous answer's after a failed one,
+    # so margin_above told a controller that a mechanism with no equilibrium was safe
+    s = flexgen.Solver(EXAMPLES / "two_link_finger.toml")
+    assert math.isnan(s.margin()) and not s.margin_above(0.05)
+    s.solve()
+    assert s.margin() == pytest.approx(s.solve().stability_margin) and s.margin_above(0.05)
+    failed = s.solve(tensions=[100.0])
+    assert not failed.converged
+    assert math.isnan(s.margin()) and not s.margin_above(0.05)
+
+
+def test_a_solver_solving_is_not_entered_from_another_thread():
+    # review: one Solver shared by 4 threads gave 28 wrong poses in 6000, with no error
+    s = flexgen.Solver(EXAMPLES / "two_link_finger.toml")
+    s._in_use.acquire()  # as while another thread is inside solve or run
+    try:
+        for call in (s.solve, s.run):
+            with pytest.raises(RuntimeError, match="use one Solver per thread"):
+                call()
+    finally:
+        s._in_use.release()
+    assert s.solve().converged
+
+
+@pytest.mark.parametrize("model, label", [("fem", "fem16"), ("cc", "cc"), ("prb", "prb")])
+def test_a_model_kind_given_replaces_the_scenes_tolerance(model, label):
+    # review: a Solver of a scene with [model] tolerance and model="fem" said "give modes
+    # instead", which fem refuses, and flexgen.solve raised SelectionError: no way to solve it
+    scene = {
+        "model": {"tolerance": 1e-4},
+        "flexure": [{"name": "b", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "b.tip", "force": [0.0, -1.0]}],
+    }
+    for result in (flexgen.solve(scene, model=model), flexgen.Solver(scene, model=model).solve()):
+        assert result.converged and registry.label(result.model["b"]) == label
+    assert flexgen.solve(scene).model["b"]["kind"] == "scm"  # the tolerance's own selection
+
+
+def test_a_boolean_load_or_tension_is_no_number():
+    # review: loads=[[True, 0, 0]] solved as a force of 1 (NumPy reads the row as integers)
+    s = flexgen.Solver(EXAMPLES / "two_link_finger.toml")
+    with pytest.raises(ValueError, match=r"^loads: every value must be a number, got"):
+        s.solve(loads=[[True, 0, 0]])
+    with pytest.raises(ValueError, match=r"^tensions: .*got \[True\]"):
+        s.solve(tensions=[True])  # (an all-bool array is refused by its dtype)
+    assert s.solve(loads=[[0, -1, 0]]).converged  # integers are numbers
