@@ -169,7 +169,7 @@ def speed_row(case: Case, repeats: int, budget_s: float, rounds: int = ROUNDS) -
             "overhead_us": None,
             "converged": bool(r.converged),
             "stable": bool(r.stable),
-            "critical": len(r.critical_load_factors),
+            "critical": list(r.critical_load_factors),
             "iterations": None,
             "evaluations": None,
         }
@@ -190,7 +190,7 @@ def speed_row(case: Case, repeats: int, budget_s: float, rounds: int = ROUNDS) -
         "overhead_us": 1e6 * (t_prep - t_core),
         "converged": bool(r.converged),
         "stable": bool(r.stable),
-        "critical": len(r.critical_load_factors),
+        "critical": list(r.critical_load_factors),
         "iterations": int(r.iterations),
         "evaluations": evals,
     }
@@ -346,13 +346,16 @@ def render_markdown(
             "**No equilibrium** for " + ", ".join(notes) + " (the times are those of the "
             "failed solve).",
         ]
-    buckled = [name for name, r in speed.items() if r["critical"]]
+    buckled = [
+        f"{name}: {', '.join(f'{x:.4g}' for x in r['critical'])}"
+        for name, r in speed.items()
+        if r["critical"]
+    ]
     if buckled:
         L += [
             "",
-            "Critical load factors on the path (bifurcations crossed, snap-throughs) in "
-            + ", ".join(buckled)
-            + ".",
+            "Critical load factors on the load path (bifurcations crossed, snap-throughs), "
+            "a fraction of the scene's loads: " + "; ".join(buckled) + ".",
         ]
     L += [
         "",
