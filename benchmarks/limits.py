@@ -1,13 +1,16 @@
 """Time and memory of a solve at the scene limits (docs/scene.md, "Limits").
 
-    python benchmarks/limits.py          # about 2 minutes on this project's machine
+    python benchmarks/limits.py          # about 4 minutes on this project's machine
 
 Each scene is a chain of flexures (2 mm long, EI = 1e-3) under a small tip force, solved by
 `flexgen solve SCENE --json` in a child process; printed: the wall time and the child's peak
 resident memory (getrusage). The scenes sit at the limits docs/scene.md states:
 
 - fem: 256 flexures of 8 elements, 2048 generalized coordinates (the coordinate limit);
-- scm3: 512 flexures (the flexure limit), 1536 coordinates.
+- fem: 4 flexures of 512 elements (the element limit), 2048 coordinates;
+- scm3: 512 flexures (the flexure limit), 1536 coordinates;
+- scm with a tolerance (the modes chosen per flexure): 64 and 128 flexures (at most 8 modes
+  each: 512 and 1024 coordinates; 256 flexures, the coordinate limit's, take minutes).
 
 The exact solver at these sizes is not timed: it takes minutes (512 flexures: still running
 after 250 s in a review), which docs/scene.md says.
@@ -26,7 +29,15 @@ SCENES = {
         256,
         '[model]\nkind = "fem"\nelements = 8\n',
     ),
+    "fem, 4 flexures x 512 elements (2048 coordinates)": (
+        4,
+        '[model]\nkind = "fem"\nelements = 512\n',
+    ),
     "scm3, 512 flexures (1536 coordinates)": (512, ""),
+    # a tolerance chooses the modes flexure by flexure, each choice a solve of the whole
+    # chain: its time grows about as the square of the flexures (docs/scene.md, Limits)
+    "scm, tolerance 1e-3, 64 flexures": (64, "[model]\ntolerance = 1e-3\n"),
+    "scm, tolerance 1e-3, 128 flexures": (128, "[model]\ntolerance = 1e-3\n"),
 }
 
 

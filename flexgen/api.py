@@ -332,12 +332,6 @@ def _solve_scene(
             raise ValueError("solve: tolerance chooses the models; do not also pass models")
         from .select import solve_to_tolerance
 
-        # a tolerance may choose up to MAX_MODES modes per flexure: the limit on coordinates
-        # counts them so (docs/scene.md, Limits), whether the scene or the caller gave it
-        tried = tuple(
-            replace(f, model=replace(f.model, tolerance=tolerance)) for f in scene.flexures
-        )
-        check_limits(replace(scene, flexures=tried))
         return solve_to_tolerance(scene, tolerance, settings=settings), None  # checked there
     if models is not None:
         result = CheckedSolver(scene, models, settings).solve(q0=q0, estimate=estimate)

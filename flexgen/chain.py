@@ -57,6 +57,14 @@ def _rot(th: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
+def _moved(pose: np.ndarray, v0: float, v1: float, phi: float) -> np.ndarray:
+    """The pose of a frame at (v0, v1), turned by phi, in the frame ``pose``: ``_compose``'s
+    pose, the same arithmetic, without its derivatives."""
+    th = float(pose[2])
+    c, s = math.cos(th), math.sin(th)
+    return np.array([pose[0] + (c * v0 - s * v1), pose[1] + (s * v0 + c * v1), th + phi])
+
+
 def _compose(
     parent: PointKinematics, v, phi: float = 0.0, tip=None, sl: slice | None = None
 ) -> PointKinematics:
@@ -255,6 +263,28 @@ class Chain:
             frames[body] = _compose(root, (tp[0], tp[1]), float(tp[2]), tk, sl)
         return frames, roots
 
+    def frame_poses(self, q) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """The world pose (x, y, angle) of every body frame and of every flexure's root frame at
+        ``q``: ``_frames_and_roots``' poses, the same numbers, without their Jacobians and
+        Hessians, which a drawing does not read (3 n^2 numbers a frame: 54 MB each on a
+        512-flexure chain, where flexgen plot ran out of memory; review)."""
+        q = self._check_q(q)
+        frames: dict[str, np.ndarray] = {BASE: np.zeros(3)}
+        roots: dict[str, np.ndarray] = {}
+        for body in self._order:
+            parent_name = self.body_parent(body)
+            assert parent_name is not None  # _order holds flexures and links: they have parents
+            parent = frames[parent_name]
+            if body in self.links:
+                frames[body] = parent
+                continue
+            flex = self.flexures[body]
+            ax, ay, ath = (float(v) for v in flex.at)
+            root = roots[body] = _moved(parent, ax, ay, ath)
+            tp = np.asarray(self.models[body].tip(q[self.slices[body]]).pose, dtype=float)
+            frames[body] = _moved(root, float(tp[0]), float(tp[1]), float(tp[2]))
+        return frames, roots
+
     def _resolve(self, ref: str) -> tuple[str, tuple[float, float]]:
         got = self._resolved.get(ref)
         if got is None:
@@ -341,12 +371,12 @@ class Chain:
     def shapes(self, q, num: int = 64) -> dict[str, np.ndarray]:
         """Each flexure's centreline in the world frame, (num, 2), root first."""
         q = self._check_q(q)
-        roots = self._frames_and_roots(q)[1]
+        roots = self.frame_poses(q)[1]
         out = {}
         for name, sl in self.slices.items():
             root = roots[name]
             local = np.asarray(self.models[name].shape(q[sl], num), dtype=float)
-            out[name] = root.pose[:2] + local @ _rot(root.pose[2]).T
+            out[name] = root[:2] + local @ _rot(root[2]).T
         return out
 
 

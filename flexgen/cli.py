@@ -85,6 +85,15 @@ def _user_errors() -> tuple[type[Exception], ...]:
 
 
 def main(argv=None) -> int:
+    # a name the output's encoding cannot write (a Japanese scene name on a cp1252 stdout, the
+    # default of a redirected stdout on Windows) is written as an escape, not an internal error
+    # (review); stderr does so by default
+    reconfigure = getattr(sys.stdout, "reconfigure", None)
+    if reconfigure is not None:
+        try:
+            reconfigure(errors="backslashreplace")
+        except (ValueError, OSError):  # a stream that cannot change now: left as it is
+            pass
     try:
         return _main(argv)
     except (MemoryError, RecursionError) as exc:  # pragma: no cover - the limits prevent them

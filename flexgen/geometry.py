@@ -98,7 +98,7 @@ def loaded(scene: Scene, result: Result, exact_solution=None, num: int = 64) -> 
     scene = as_solved(scene, result)
     chain = Chain(scene, build_models(scene))
     q = chain.pack(result.q)
-    frames = {b: np.asarray(k.pose, float) for b, k in chain.frames(q).items()}
+    frames = chain.frame_poses(q)[0]
     return Geometry(frames, _roots(scene, frames), chain.shapes(q, num))
 
 

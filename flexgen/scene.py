@@ -406,7 +406,9 @@ def scene_name_of(path: str) -> str:
     reads as TOML with a string ``name``, else the file's stem (as ``load_scene`` defaults it).
     Never raises (found by review: the JSON of a bad scene named it by its file name)."""
     try:
-        d = tomllib.loads(_read_regular_file(Path(path)).decode("utf-8"))
+        text = _read_regular_file(Path(path)).decode("utf-8")
+        _check_toml_text(text, Path(path))
+        d = tomllib.loads(text)
         name = d.get("name")
         if isinstance(name, str) and name.strip():
             return name
@@ -416,6 +418,25 @@ def scene_name_of(path: str) -> str:
         return Path(path).stem or str(path)
     except TypeError:
         return str(path)
+
+
+# The most '.' characters a line of a scene file may hold: a dotted key or table header of k
+# parts costs tomllib time and memory growing as k^2 (review: a 40 KB file of one 20,000-part
+# key took 12 s and 1.6 GB, 40,000 parts 54 s and 6.3 GB); a scene's keys have at most 4
+MAX_DOTS_PER_LINE = 512
+
+
+def _check_toml_text(text: str, path: Path) -> None:
+    """SceneError for text tomllib would take more than linear time over (MAX_DOTS_PER_LINE)."""
+    if text.count(".") <= MAX_DOTS_PER_LINE:
+        return  # the usual file: no line can hold more
+    for number, line in enumerate(text.splitlines(), 1):
+        if line.count(".") > MAX_DOTS_PER_LINE:
+            raise SceneError(
+                f"{path}: line {number} holds more than {MAX_DOTS_PER_LINE} dots: a dotted key "
+                "or table header that long is refused (parsing it grows with its square; scene "
+                "keys have at most 4 parts)"
+            )
 
 
 def load_scene(path: str | os.PathLike[str]) -> Scene:
@@ -429,6 +450,7 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as e:
         raise SceneError(f"{path}: not UTF-8 text: {e}") from None
+    _check_toml_text(text, path)
     try:
         d = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -1067,20 +1089,23 @@ class _Parser:
         return tuple(dict.fromkeys(refs))
 
 
-def coordinates(spec: ModelSpec) -> int:
-    """The generalized coordinates of one flexure with this model (exact: its 3 root loads)."""
+def coordinates(spec: ModelSpec, choosing_modes: bool = False) -> int:
+    """The generalized coordinates of one flexure with this model (exact: its 3 root loads);
+    ``choosing_modes``: as if it had a tolerance."""
     if spec.kind == "fem":
         return spec.elements
     if spec.kind == "scm":
         # a tolerance may choose any modes up to MAX_MODES
-        return MAX_MODES if spec.tolerance is not None else spec.modes
+        return MAX_MODES if spec.tolerance is not None or choosing_modes else spec.modes
     return 3 if spec.kind == "exact" else 1
 
 
-def check_limits(scene: Scene) -> None:
+def check_limits(scene: Scene, choosing_modes: bool = False) -> None:
     """SceneError if the scene's models ask for more than the limits (docs/scene.md, Limits):
     the modes and elements of every flexure and the coordinates of the whole scene. Run on every
-    scene parsed and again after command-line or API overrides of the models."""
+    scene parsed and again after command-line or API overrides of the models; with
+    ``choosing_modes`` (a tolerance given to the selection, not by the scene), every scm
+    flexure counts the MAX_MODES the tolerance may choose."""
     total = 0
     for i, f in enumerate(scene.flexures):
         m = f.model
@@ -1092,7 +1117,7 @@ def check_limits(scene: Scene) -> None:
                 f"must be an integer in [1, {MAX_ELEMENTS}]",
                 m.elements,
             )
-        total += coordinates(m)
+        total += coordinates(m, choosing_modes)
     if total > MAX_COORDINATES:
         raise _fail(
             "model",

@@ -50,7 +50,7 @@ from . import kernels
 from .codegen.spec import MAX_MODES  # the polynomial kernels shipped: scm1 .. scm8
 from .estimate import _path_owner, length_scales  # noqa: F401  (select.length_scales)
 from .result import Result
-from .scene import Scene, SceneError, _fmt
+from .scene import Scene, SceneError, _fmt, check_limits
 
 SAFETY = 1.05  # margin on every measured difference (see docs/selection.md)
 
@@ -175,6 +175,10 @@ class _Problem:
                     f"flexure[{i}].kind: a tolerance chooses smooth curvature modes, so every "
                     f"flexure must be kind 'scm', got {f.model.kind!r} for {f.name!r}"
                 )
+        # a tolerance may choose up to MAX_MODES modes per flexure: the limit on coordinates
+        # counts them so (docs/scene.md, Limits), whoever gave it (review: flexgen select and
+        # solve --tol skipped the check a [model] tolerance meets, and ran out of memory)
+        check_limits(scene, choosing_modes=True)
         self.scene = scene
         self.names = tuple(f.name for f in scene.flexures)
         self.flex = scene.flexures

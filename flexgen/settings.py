@@ -85,6 +85,10 @@ class SolverSettings:
             else:
                 if isinstance(value, bool) or not isinstance(value, (int, float)):
                     _bad(f.name, "must be a finite number", value)
+                try:  # an int beyond a float's range (10**400) is no finite number either
+                    float(value)
+                except OverflowError:
+                    _bad(f.name, "must be a finite number", value)
                 lo, hi, what = _RANGES[f.name]
                 if not (math.isfinite(value) and lo(value) and hi(value)):
                     _bad(f.name, f"must be a finite number {what}", value)

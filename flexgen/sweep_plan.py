@@ -75,7 +75,10 @@ def load_target(path: str) -> tuple[str, int, int] | None:
 def _number(v: Any, key: str, what: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
         raise SceneError(f"{key}: {what} must be a number, got {_fmt(v)}")
-    x = float(v)
+    try:
+        x = float(v)
+    except OverflowError:  # an int beyond a float's range (10**400)
+        x = math.inf
     if not math.isfinite(x):
         raise SceneError(f"{key}: {what} must be finite, got {_fmt(v)}")
     return x
@@ -109,7 +112,13 @@ def grid_values(key: str, spec: Any) -> np.ndarray:
             raise SceneError(f"{key}: count must be an integer >= 1, got {_fmt(count)}")
         # to 15 significant digits: linspace's 0.30000000000000004 (0.1 * 3) is 0.3 in the
         # table a user reads and keys on, and the solve loads the value the table shows
-        return np.array([float(f"{v:.15g}") for v in np.linspace(start, stop, int(count))])
+        with np.errstate(all="ignore"):  # (-1e308, 1e308): the step overflows, refused below
+            grid = np.linspace(start, stop, int(count))
+        if not np.all(np.isfinite(grid)):
+            raise SceneError(
+                f"{key}: (start, stop, count) = {_fmt(spec)} gives values beyond a float's range"
+            )
+        return np.array([float(f"{v:.15g}") for v in grid])
     values = [_number(v, key, "every value") for v in spec]
     if not values:
         raise SceneError(f"{key}: no values")

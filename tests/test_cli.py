@@ -1,6 +1,7 @@
 """The command line as a whole: help for every subcommand, quiet exit on a closed pipe."""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -266,3 +267,49 @@ def test_a_kernel_of_ones_own_is_not_written_over_the_shipped_ones(monkeypatch, 
     monkeypatch.chdir(tmp_path)  # elsewhere the same command writes its own folder
     assert main(["generate", "--modes", "4", "--range", "60", "--lang", "numpy"]) == 0
     assert (tmp_path / "generated" / "numpy" / "scm4.py").is_file()
+
+
+def test_hostile_inputs_of_the_third_review_keep_the_contract(tmp_path):
+    """One line, exit 2, nothing written, no traceback, within a second or two: a 40,000-part
+    dotted key (tomllib took 54 s and 6.3 GB), select --repeat 1e8 (ran on for minutes),
+    a 250-character prefix (the whole generation ran, then exit 1: file name too long), a
+    grid of (-1e308, 1e308, 3) (NumPy's overflow warnings printed before the message)."""
+    scene = tmp_path / "dotted.toml"
+    scene.write_text("x" + ".x" * 40000 + " = 1\n")
+    finger = str(Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml")
+    cases = [
+        (["solve", str(scene)], "line 1 holds more than 512 dots"),
+        (["select", finger, "--tol", "1e-3", "--repeat", "100000000"], "[0, 1000]"),
+        (["generate", "--scene", finger, "--prefix", "a" * 250, "--out", "d"], "longer than 64"),
+        (["sweep", finger, "--vary", "load.0.moment=-1e308:1e308:3", "--out", "t.csv"], "range"),
+    ]
+    for args, message in cases:
+        r = subprocess.run(
+            [sys.executable, "-m", "flexgen", *args],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+            timeout=60,
+        )
+        assert r.returncode == 2 and r.stdout == "", (args, r.stderr)
+        assert len(r.stderr.splitlines()) == 1 and message in r.stderr, (args, r.stderr)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dotted.toml"]
+
+
+def test_a_name_the_output_encoding_cannot_write_is_escaped(tmp_path):
+    # review: a Japanese scene name on a cp1252 stdout (Windows' default for a redirected
+    # stdout) was "internal error: UnicodeEncodeError", exit 1
+    scene = tmp_path / "jp.toml"
+    scene.write_text(
+        'name = "ばね"\n[[flexure]]\nname = "f"\nlength = 1.0\nEI = 1.0\n'
+        '[[load]]\npoint = "f.tip"\nforce = [0.0, -0.5]\n',
+        encoding="utf-8",
+    )
+    env = {**os.environ, "PYTHONIOENCODING": "cp1252"}
+    r = subprocess.run(
+        [sys.executable, "-m", "flexgen", "solve", str(scene)],
+        capture_output=True,
+        env=env,
+    )
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.decode("cp1252").startswith("scene: \\u3070\\u306d\n")

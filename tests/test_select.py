@@ -331,6 +331,8 @@ def test_a_tolerance_given_to_solve_counts_eight_modes_a_flexure_against_the_lim
     scene = scene_from_dict({"flexure": flexures})
     with pytest.raises(SceneError, match=r"^model: the scene's models have 2056 coordinates"):
         solve(scene, tolerance=1e-3)
+    with pytest.raises(SceneError, match=r"^model: the scene's models have 2056 coordinates"):
+        select.select_models(scene, 1e-3)  # flexgen select (review: it ran on, unbounded)
 
 
 def test_a_selections_answer_carries_the_validity_warnings_of_solve():

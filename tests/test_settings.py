@@ -158,3 +158,9 @@ def test_the_docs_settings_table_is_the_dataclass():
             assert shown is value, name
         else:
             assert float(shown) == value, name
+
+
+def test_an_integer_beyond_a_floats_range_is_a_value_error_naming_the_field():
+    # review: SolverSettings(tol=10**400) raised a bare OverflowError (int too large)
+    with pytest.raises(ValueError, match=r"^settings.max_step: must be a finite number"):
+        SolverSettings(max_step=10**400)

@@ -67,7 +67,7 @@ def test_cases_have_their_model(sb, scenes):
 def test_speed_row_fields(speed):
     r = speed["cantilever scm3"]
     assert r["us_api"] > 0 and r["us_prepared"] > 0 and r["us_core"] > 0
-    assert r["converged"] and r["stable"] and r["critical"] == 0
+    assert r["converged"] and r["stable"] and r["critical"] == []
     assert r["iterations"] >= 1
     assert r["evaluations"] is None or r["evaluations"] >= r["iterations"]
 
@@ -75,7 +75,7 @@ def test_speed_row_fields(speed):
 def test_speed_row_buckling(speed):
     """The rectangular elastica buckles on the way: solved, with its critical load factor."""
     r = speed["elastica scm3 (buckling)"]
-    assert r["converged"] and r["stable"] and r["critical"] >= 1
+    assert r["converged"] and r["stable"] and len(r["critical"]) >= 1 and 0 < r["critical"][0] < 1
     assert r["us_core"] > 0 and r["us_prepared"] > 0 and r["us_api"] > 0
 
 

@@ -1066,3 +1066,12 @@ def test_digits_that_name_another_flexure_are_ambiguous():
     df = flexgen.sweep(scene, {"flexure[1].length": [1.0, 1.5]}, workers=1)
     assert list(df["flexure[1].length"]) == [1.0, 1.5]
     assert df["2.tip.y"].iloc[1] < df["2.tip.y"].iloc[0]
+
+
+@pytest.mark.parametrize("values", [[10**400], (0, 10**400, 2), (-1e308, 1e308, 3)])
+def test_values_beyond_a_floats_range_are_scene_errors(finger, values, recwarn):
+    # review: an int of 401 digits raised a bare OverflowError; a grid whose step overflows
+    # printed NumPy's RuntimeWarnings before the one-line message
+    with pytest.raises(SceneError, match=r"^tendon.0.tension: "):
+        flexgen.sweep(finger, {"tendon.0.tension": values}, workers=1)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]

@@ -78,6 +78,7 @@ SINGLE = replace(
     linearized_step=0.0,
 )
 
+MAX_PREFIX = 64  # characters: names of files and identifiers stay far below the systems' limits
 C_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # names C99 reserves or the emitted code uses itself, which a prefix must not take
 RESERVED = frozenset(
@@ -115,6 +116,8 @@ def _prefix_problem(prefix: str) -> str | None:
         return "not a C identifier: letters, digits and _, not starting with a digit"
     if prefix.startswith("_"):
         return "it starts with _, which C reserves"
+    if len(prefix) > MAX_PREFIX:  # (250 characters: the files' names too long, after the work)
+        return f"longer than {MAX_PREFIX} characters"
     if prefix.lower() in KEYWORDS:
         return (
             "a C keyword"
