@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -239,13 +240,17 @@ class Chain:
         Chain keeps no state of an evaluation, so one Problem's chain may serve any caller)."""
         return self._frames_and_roots(self._check_q(q))[0]
 
-    def _frames_and_roots(
-        self, q: np.ndarray
-    ) -> tuple[dict[str, PointKinematics], dict[str, PointKinematics]]:
-        """Every body frame and every flexure's root frame at ``q``."""
+    def _frames_and_roots(self, q: np.ndarray, derivatives: bool = True) -> tuple[dict, dict]:
+        """Every body frame and every flexure's root frame at ``q``: PointKinematics (pose,
+        Jacobian, Hessian), or with ``derivatives`` False their poses only (``frame_poses``)."""
         n = self.ndof
-        frames = {BASE: PointKinematics(np.zeros(3), np.zeros((3, n)), np.zeros((3, n, n)))}
-        roots: dict[str, PointKinematics] = {}
+        base = (
+            PointKinematics(np.zeros(3), np.zeros((3, n)), np.zeros((3, n, n)))
+            if derivatives
+            else np.zeros(3)
+        )
+        frames: dict[str, Any] = {BASE: base}
+        roots: dict[str, Any] = {}
         for body in self._order:
             parent_name = self.body_parent(body)
             assert parent_name is not None  # _order holds flexures and links: they have parents
@@ -255,35 +260,25 @@ class Chain:
                 continue
             flex = self.flexures[body]
             ax, ay, ath = (float(v) for v in flex.at)
-            root = _compose(parent, (ax, ay), ath)
-            roots[body] = root
             sl = self.slices[body]
             tk = self.models[body].tip(q[sl])
             tp = np.asarray(tk.pose, dtype=float)
-            frames[body] = _compose(root, (tp[0], tp[1]), float(tp[2]), tk, sl)
+            root: Any
+            if derivatives:
+                root = _compose(parent, (ax, ay), ath)
+                frames[body] = _compose(root, (tp[0], tp[1]), float(tp[2]), tk, sl)
+            else:
+                root = _moved(parent, ax, ay, ath)
+                frames[body] = _moved(root, float(tp[0]), float(tp[1]), float(tp[2]))
+            roots[body] = root
         return frames, roots
 
     def frame_poses(self, q) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """The world pose (x, y, angle) of every body frame and of every flexure's root frame at
-        ``q``: ``_frames_and_roots``' poses, the same numbers, without their Jacobians and
-        Hessians, which a drawing does not read (3 n^2 numbers a frame: 54 MB each on a
-        512-flexure chain, where flexgen plot ran out of memory; review)."""
-        q = self._check_q(q)
-        frames: dict[str, np.ndarray] = {BASE: np.zeros(3)}
-        roots: dict[str, np.ndarray] = {}
-        for body in self._order:
-            parent_name = self.body_parent(body)
-            assert parent_name is not None  # _order holds flexures and links: they have parents
-            parent = frames[parent_name]
-            if body in self.links:
-                frames[body] = parent
-                continue
-            flex = self.flexures[body]
-            ax, ay, ath = (float(v) for v in flex.at)
-            root = roots[body] = _moved(parent, ax, ay, ath)
-            tp = np.asarray(self.models[body].tip(q[self.slices[body]]).pose, dtype=float)
-            frames[body] = _moved(root, float(tp[0]), float(tp[1]), float(tp[2]))
-        return frames, roots
+        ``q``: ``frames``' poses, the same numbers, without their Jacobians and Hessians, which
+        a drawing does not read (3 n^2 numbers a frame: 54 MB each on a 512-flexure chain,
+        where flexgen plot ran out of memory; review)."""
+        return self._frames_and_roots(self._check_q(q), derivatives=False)
 
     def _resolve(self, ref: str) -> tuple[str, tuple[float, float]]:
         got = self._resolved.get(ref)
