@@ -73,6 +73,14 @@ def folder_problem(folder: Path) -> str | None:
     return None
 
 
+def check_writable(out_dir: Path) -> None:
+    """OutputError unless out_dir is, or can be created as, a folder this user may write (so
+    that a bad --out fails before any work: generate, bench, stability)."""
+    problem = folder_problem(out_dir)
+    if problem is not None:
+        raise OutputError(f"--out: cannot write {out_dir}: {problem}")
+
+
 def write_all(targets: Sequence[tuple[Path, Writer]]) -> None:
     """Each ``(target, writer)``: ``writer(temporary)`` fills a temporary file beside the target
     (hidden, with the target's suffix: writers that pick a format by it see the right one),

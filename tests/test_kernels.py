@@ -532,3 +532,12 @@ def test_check_against_a_file_is_bad_input(tmp_path):
     result = _cli("generate", "--modes", "2", "--check", "--out", str(tmp_path / "afile"))
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
     assert "--out" in result.stderr and "not a folder" in result.stderr
+
+
+def test_a_check_of_one_kernel_says_only_its_outcome(tmp_path):
+    # review: `generate --modes 2 --check --out nonexist` printed a progress line, then the
+    # stale message: two lines for one outcome
+    result = _cli("generate", "--modes", "2", "--check", "--out", str(tmp_path / "none"))
+    assert result.returncode == 1
+    (line,) = result.stderr.strip().splitlines()
+    assert line.startswith("flexgen: stale in ")

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import jinja2
 
-from flexgen.outfiles import OutputError, UnusableTarget, folder_problem, write_texts
+from flexgen.outfiles import OutputError, UnusableTarget, write_texts
 
 _PACKAGE = Path(__file__).resolve().parents[1]
 # installed: the package's own copy (flexgen/templates); a source checkout: the top-level folder
@@ -42,14 +42,6 @@ def stale_files(files: dict[str, str], out_dir: Path) -> list[str]:
         if not same:
             stale.append(rel)
     return stale
-
-
-def check_writable(out_dir: Path) -> None:
-    """OutputError unless out_dir is, or can be created as, a folder this user may write (so
-    that a bad --out fails before any work)."""
-    problem = folder_problem(out_dir)
-    if problem is not None:
-        raise OutputError(f"--out: cannot write {out_dir}: {problem}")
 
 
 def write_files(files: dict[str, str], out_dir: Path) -> list[str]:

@@ -121,7 +121,8 @@ def run(args) -> int:
 
 def _run_scene(args) -> int:
     from flexgen.codegen.controller import check_prefix, controller_files, default_prefix
-    from flexgen.codegen.render import check_writable, stale_files, write_files
+    from flexgen.codegen.render import stale_files, write_files
+    from flexgen.outfiles import check_writable
 
     given = [
         f"--{n}"
@@ -178,7 +179,8 @@ def _refuse_the_shipped_folder(out: Path) -> None:
 
 def _run_kernels(args) -> int:
     from flexgen.codegen.generate import CHECKED_IN, generate_files
-    from flexgen.codegen.render import check_writable, stale_files, write_files
+    from flexgen.codegen.render import stale_files, write_files
+    from flexgen.outfiles import check_writable
 
     out = args.out if args.out is not None else Path("generated")
     if not args.check:
@@ -224,10 +226,12 @@ def _run_kernels(args) -> int:
         if not args.check:  # before its progress line: the error is the one line
             _check_case_clash(new, out, "--out" if args.prefix is None else "--prefix")
         files |= new
-        print(
-            f"[{i}/{len(specs)}] {', '.join(sorted(new))} ({time.perf_counter() - start:.1f} s)",
-            file=sys.stderr,
-        )
+        if len(specs) > 1:  # progress through the shipped set (minutes); one kernel: no line
+            print(
+                f"[{i}/{len(specs)}] {', '.join(sorted(new))} "
+                f"({time.perf_counter() - start:.1f} s)",
+                file=sys.stderr,
+            )
     if args.check:
         stale = stale_files(files, out)
         if stale:

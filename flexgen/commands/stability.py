@@ -44,7 +44,7 @@ def run(args) -> int:
         raise UsageError(
             f"flexgen stability needs the flexgen_tools package of a source checkout ({exc})"
         ) from None
-    from flexgen.codegen.render import check_writable
+    from flexgen.outfiles import check_writable
 
     check_writable(args.out)  # before minutes of solving, not after
     try:
