@@ -32,7 +32,6 @@ load near a critical one); those warnings are appended to ``Result.warnings``.
 
 from __future__ import annotations
 
-import math
 import os
 import threading
 from collections import OrderedDict
@@ -42,7 +41,6 @@ from typing import Any
 
 import numpy as np
 
-from .models.registry import model_info
 from .result import Result
 from .scene import (
     MAX_ELEMENTS,
@@ -56,8 +54,8 @@ from .scene import (
 )
 from .settings import DEFAULT, SolverSettings
 from .solver import Solver, check_flag, checked_q0, make_settings
-from .validity import UNITS_LOAD_LEVEL, check, units_reason
 from .validity import calm as validity_calm
+from .validity import check, loads_scene, units_reason
 
 
 def _count(value, key: str, maximum: int) -> int | None:
@@ -179,50 +177,14 @@ class CheckedSolver(Solver):
     finds that a warning may apply (the usual answer: one flag read, about 0.5 us on the
     finger). The internal solvers of selection, studies and benchmarks are plain ``Solver``s."""
 
-    def __init__(self, *args: Any, **kwargs: Any):
-        super().__init__(*args, **kwargs)
-        # what the checks read of the loads beyond the answer: a prb flexure's fitted case (no
-        # moment) and the load level (UNITS_LOAD_LEVEL); the level's factors per flexure
-        self._prb = any(model_info(m)["kind"] == "prb" for m in self.models.values())
-        self._level_factors = [(f.length**2 / f.EI, f.length / f.EI) for f in self.scene.flexures]
-        self._scene_level_high = max(self.scene.load_levels().values(), default=0.0) > (
-            UNITS_LOAD_LEVEL
-        )
-
     def _check(self, result: Result) -> None:
         # in Solver.solve, while the workspace holds this answer (validity.calm reads it)
-        scene = self._scene_solved()
+        scene = loads_scene(self)
         if result.converged:
             if scene is not self.scene or not validity_calm(self, result):
                 check(scene, result, self.models)
         else:
             _units_hint(scene, result)
-
-    def _scene_solved(self) -> Scene:
-        """The scene with the loads and tensions this solve was given, where the checks could
-        read them differently from the scene's own (review: a Solver's answers at a moment
-        missed prb's no-moment caveat, at 5000 N the units warning, and a Solver of a 5000 N
-        scene warned of that load level at 1 N); else the scene itself (no Scene is built)."""
-        p = self.problem
-        if not (self._changed_loads or self._changed_tensions):
-            return self.scene
-        if not self._prb and not self._scene_level_high:
-            forces = 2.0 * float(p.tensions.sum()) if p.tensions.size else 0.0
-            moments = 0.0
-            for fx, fy, m in p.loads.tolist():
-                forces += math.hypot(fx, fy)
-                moments += abs(m)
-            level = max((a * forces + b * moments for a, b in self._level_factors), default=0.0)
-            if level <= UNITS_LOAD_LEVEL:
-                return self.scene  # the checks read these loads as they read the scene's
-        loads = tuple(
-            replace(ld, force=(fx, fy), moment=m)
-            for ld, (fx, fy, m) in zip(self.scene.loads, p.loads.tolist())
-        )
-        tendons = tuple(
-            replace(t, tension=x) for t, x in zip(self.scene.tendons, p.tensions.tolist())
-        )
-        return replace(self.scene, loads=loads, tendons=tendons)
 
 
 def _cached_solver(scene: Scene, settings: SolverSettings) -> Solver:

@@ -281,6 +281,42 @@ def curvature_difference(s: np.ndarray, kappa: np.ndarray, other: Any, other_q: 
     return d / peak if peak > 0.0 else 0.0
 
 
+class CurvatureEstimates(NamedTuple):
+    """What the curvature (so stress) estimates of an answer read of its Estimator: the richer
+    models and their coordinates, the margin, the fem element lengths; no workspace (a Result
+    keeps this, not the Estimator and the two workspaces it holds: review)."""
+
+    rich_models: dict[str, Any]
+    rich_slices: dict[str, slice]
+    factor: float
+    fem_h: dict[str, float]
+
+    def of(self, est: Estimate, stresses: dict[str, Any]) -> dict[str, float]:
+        """Per flexure of ``stresses`` (``flexgen.stress.FlexureStress``: the answer's curvature
+        profile), the estimated error of that profile relative to its largest |kappa| (and so of
+        its largest strain and stress, which are kappa times constants): factor x the relative
+        difference to the richer model's profile at its equilibrium (``est.rich_q``) on the same
+        arc lengths (``curvature_difference``), plus ``ROUNDING_CURVATURE``; inf where the
+        richer model has no equilibrium, and for a fem chain whose joint turns by more than
+        ``FEM_COARSE_TURN`` (too coarse to resolve the curvature)."""
+        out: dict[str, float] = {}
+        for name, st in stresses.items():
+            rich: Any = self.rich_models.get(name)
+            if not hasattr(rich, "curvature"):
+                continue
+            if est.rich_q is None:
+                out[name] = math.inf
+                continue
+            h = self.fem_h.get(name)
+            if h is not None and float(np.max(np.abs(st.curvature))) * h > FEM_COARSE_TURN:
+                out[name] = math.inf  # the chain does not resolve the curvature
+                continue
+            rq = est.rich_q[self.rich_slices[name]]
+            d = curvature_difference(st.s, st.curvature, rich, rq)
+            out[name] = self.factor * d + ROUNDING_CURVATURE
+        return out
+
+
 class Estimator:
     """The richer model of a prepared ``Solver``'s scene and models, prepared once: its
     ``Problem`` (sharing the answer's load and tension arrays), a ``Workspace``, the q map and
@@ -373,6 +409,7 @@ class Estimator:
             rw.iwork_ptr,
             double_ptr(self.out),
         )
+        self.curvature = CurvatureEstimates(rich, self.rich_slices, self.factor, self._fem_h)
         self._solved_args = (
             rp.struct,
             double_ptr(self._identity),
@@ -426,29 +463,8 @@ class Estimator:
         )
 
     def curvature_estimates(self, est: Estimate, stresses: dict[str, Any]) -> dict[str, float]:
-        """Per flexure of ``stresses`` (``flexgen.stress.FlexureStress``: the answer's curvature
-        profile), the estimated error of that profile relative to its largest |kappa| (and so of
-        its largest strain and stress, which are kappa times constants): factor x the relative
-        difference to the richer model's profile at its equilibrium (``est.rich_q``) on the same
-        arc lengths (``curvature_difference``), plus ``ROUNDING_CURVATURE``; inf where the
-        richer model has no equilibrium, and for a fem chain whose joint turns by more than
-        ``FEM_COARSE_TURN`` (too coarse to resolve the curvature)."""
-        out: dict[str, float] = {}
-        for name, st in stresses.items():
-            rich: Any = self.rich_models.get(name)
-            if not hasattr(rich, "curvature"):
-                continue
-            if est.rich_q is None:
-                out[name] = math.inf
-                continue
-            h = self._fem_h.get(name)
-            if h is not None and float(np.max(np.abs(st.curvature))) * h > FEM_COARSE_TURN:
-                out[name] = math.inf  # the chain does not resolve the curvature
-                continue
-            rq = est.rich_q[self.rich_slices[name]]
-            d = curvature_difference(st.s, st.curvature, rich, rq)
-            out[name] = self.factor * d + ROUNDING_CURVATURE
-        return out
+        """``CurvatureEstimates.of`` (``self.curvature``, what a Result keeps of this)."""
+        return self.curvature.of(est, stresses)
 
     def _branch_warning(self, snap: float | None, rich_snap: float | None) -> str | None:
         """The warning when the richer model's load path snapped through (at load factor

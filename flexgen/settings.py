@@ -20,7 +20,10 @@ MAX_LAG = 64  # chain_solver.h: FG_MAX_LAG (Newton keeps that many residuals)
 @dataclass(frozen=True)
 class SolverSettings:
     tol: float = 1e-12  # relative residual of an accepted equilibrium
-    max_dq: float = 0.5  # largest change of a coordinate in one step along the path
+    # largest change of a coordinate in one step along the path; a warm start's distance from q0
+    # and the path samples' corrections are the largest change of an angle along a flexure
+    # (chain_solver.c: angle_change, a fem flexure's joint angles summed)
+    max_dq: float = 0.5
     max_iterations: int = 50  # Newton iterations per load step
     max_steps: int = 500  # continuation steps (0: the solve fails at once)
     initial_step: float = 0.1  # first load-factor step of the continuation
@@ -71,7 +74,8 @@ class SolverSettings:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.type == "bool":  # a flag: the core's struct takes it as int 0 or 1
-                if not (isinstance(value, numbers.Integral) and value in (0, 1)):
+                flag = isinstance(value, numbers.Integral) or type(value).__name__ == "bool"
+                if not (flag and value in (0, 1)):  # (NumPy's bool is no Integral)
                     _bad(f.name, "must be True or False", value)
                 object.__setattr__(self, f.name, bool(value))
             elif f.type == "int":

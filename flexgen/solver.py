@@ -245,6 +245,12 @@ class Solver:
         finally:
             self._in_use.release()
 
+    @property
+    def loads_changed(self) -> bool:
+        """Whether the last solve was given loads or tensions other than the scene's own
+        (``validity.loads_scene`` then checks the answer against them)."""
+        return self._changed_loads or self._changed_tensions
+
     def _check(self, result: Result) -> None:
         """What a solve adds to its Result while the workspace still holds its answer (nothing
         here; ``flexgen.api.CheckedSolver``: the validity check)."""
@@ -306,6 +312,10 @@ class Solver:
             a = None
         if a is not None and a.size == 0 and target.size == 0 and a.dtype.kind in "iuf":
             return  # loads=[] for a scene without loads (NumPy reads it as shape (0,))
+        if a is not None and (
+            a.dtype.kind == "b" or (not isinstance(values, np.ndarray) and _has_bool(values))
+        ):  # NumPy reads [True, 0.5, 0] as numbers; booleans are none (review)
+            raise ValueError(f"{what}: every value must be a number, got {_fmt(values)}")
         # the exact shape: a (3, 2) array for (2, 3) loads, reshaped, would be other loads
         if a is None or a.dtype.kind not in "iuf" or a.shape != target.shape:
             got = f"shape {a.shape}" if a is not None and a.dtype.kind in "iuf" else _fmt(values)
@@ -313,9 +323,6 @@ class Solver:
                 f"{what}: expected {target.shape} numbers (the scene's "
                 f"{'[[load]]' if what == 'loads' else '[[tendon]]'} entries), got {got}"
             )
-        if a.dtype.kind in "iu" and not isinstance(values, np.ndarray) and _has_bool(values):
-            # NumPy reads [True, 0, 0] as integers; booleans are no numbers (review)
-            raise ValueError(f"{what}: every value must be a number, got {_fmt(values)}")
         a = a.astype(float, copy=False)
         # the scene's rule for these values (scene._number: every value finite and within
         # MAX_MAGNITUDE, a tension zero or positive: a tendon cannot push, and the core would
@@ -442,7 +449,7 @@ class Solver:
             ws.answer_data.copy(),
             ws.kernel.tolist() if self._kernel_models else (),
             est,
-            None if est is None else self._estimator,  # its curvature estimates
+            None if est is None else self._estimator.curvature,  # no workspace held
         )
         r._build = partial(self._fields.build, snapshot)
         r.units = None if self._units is None else dict(self._units)
@@ -557,7 +564,7 @@ class AnswerFields:
             stresses = flexure_stresses(self.scene, self.models, qs)
             if est is None or estimator is None:
                 return stresses
-            errors = estimator.curvature_estimates(est, stresses)
+            errors = estimator.of(est, stresses)
             return {n: replace(st, error_estimate=errors.get(n)) for n, st in stresses.items()}
         raise AttributeError(name)
 

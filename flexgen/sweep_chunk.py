@@ -38,6 +38,7 @@ from .solver import Solver
 from .stress import peak_stress
 from .validity import calm as validity_calm
 from .validity import check as validity_check
+from .validity import loads_scene as validity_loads_scene
 from .warm import inputs_close, values_close
 
 POINT_FIELDS = ("x", "y", "angle", "major", "minor", "ellipse_angle", "error_estimate")
@@ -236,12 +237,15 @@ def _messages(solver: Solver, status: int, est: Any) -> tuple[str, str]:
     one within its estimate of 1 takes the stress estimate, which a study does not compute):
     the Result built and checked as ``flexgen.Solver``'s answers are, only where a warning or
     note may apply (the usual case reads the core's flags and returns at once)."""
-    calm = validity_calm(solver, None)  # the core's screen: a flag read (once: see below)
+    # the checks read the case's own loads where they could differ from the scene's (a
+    # moment at a prb flexure, a load level that suggests the wrong units: review)
+    scene = validity_loads_scene(solver)
+    calm = scene is solver.scene and validity_calm(solver, None)  # a flag read (once)
     if calm and solver.quiet(est):  # the usual case (about 1 us a case on the finger)
         return "", ""
     result = solver._result(status, est, stress=False)
     if not calm:  # (calm reads the workspace, which _result leaves as it is)
-        validity_check(solver.scene, result, solver.models)
+        validity_check(scene, result, solver.models)
     return TEXT_SEPARATOR.join(result.warnings), TEXT_SEPARATOR.join(result.notes)
 
 

@@ -118,7 +118,10 @@ def grid_values(key: str, spec: Any) -> np.ndarray:
             raise SceneError(
                 f"{key}: (start, stop, count) = {_fmt(spec)} gives values beyond a float's range"
             )
-        return np.array([float(f"{v:.15g}") for v in grid])
+        rounded = np.array([float(f"{v:.15g}") for v in grid])
+        # where rounding would merge distinct grid points (steps near 1e-15 relative), the
+        # points themselves: one key value per row (review)
+        return rounded if len(set(rounded.tolist())) == len(set(grid.tolist())) else grid
     values = [_number(v, key, "every value") for v in spec]
     if not values:
         raise SceneError(f"{key}: no values")

@@ -278,7 +278,7 @@ def test_hostile_inputs_of_the_third_review_keep_the_contract(tmp_path):
     scene.write_text("x" + ".x" * 40000 + " = 1\n")
     finger = str(Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml")
     cases = [
-        (["solve", str(scene)], "line 1 holds more than 512 dots"),
+        (["solve", str(scene)], "line 1 holds a dotted key or table header of more than 512"),
         (["select", finger, "--tol", "1e-3", "--repeat", "100000000"], "[0, 1000]"),
         (["generate", "--scene", finger, "--prefix", "a" * 250, "--out", "d"], "longer than 64"),
         (["sweep", finger, "--vary", "load.0.moment=-1e308:1e308:3", "--out", "t.csv"], "range"),
@@ -313,3 +313,14 @@ def test_a_name_the_output_encoding_cannot_write_is_escaped(tmp_path):
     )
     assert r.returncode == 0, r.stderr
     assert r.stdout.decode("cp1252").startswith("scene: \\u3070\\u306d\n")
+    # a table of data is not escaped: CSV on stdout is UTF-8, its columns the flexure's name
+    scene.write_text(scene.read_text(encoding="utf-8").replace('"f"', '"ばね"').replace(
+        '"f.tip"', '"ばね.tip"'), encoding="utf-8")  # fmt: skip
+    r = subprocess.run(
+        [sys.executable, "-m", "flexgen", "sweep", str(scene), "--vary",
+         "load.0.force.1=-0.5:-1:2", "--workers", "1", "--no-estimate"],
+        capture_output=True,
+        env=env,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "ばね.tip.x" in r.stdout.decode("utf-8").splitlines()[0]

@@ -480,3 +480,21 @@ def exact_compliance3():
         minus = flexgen.solve(scene(u0 - e), model="exact").points["a.tip"].pose
         C[:, j] = (np.array(plus) - np.array(minus)) / (2 * h)
     return {"scene": scene(u0), "C3": 0.5 * (C + C.T)}
+
+
+def test_a_result_keeps_neither_workspace_of_its_solver():
+    # review of the change: a Result with an error estimate held the Estimator, so its own
+    # workspace and the richer model's (4x as large) lived as long as the Result
+    import gc
+    import weakref
+
+    solver = flexgen.Solver(EX / "steel_finger.toml")
+    result = solver.solve(estimate=True)
+    own, rich = weakref.ref(solver.workspace), weakref.ref(solver._estimator.workspace)
+    del solver
+    gc.collect()
+    assert own() is None and rich() is None
+    # and the stress estimates, built lazily from what the Result kept, are those of a solve
+    want = flexgen.solve(EX / "steel_finger.toml").flexures
+    for name, stress in result.flexures.items():
+        assert stress.error_estimate == pytest.approx(want[name].error_estimate, rel=1e-9)

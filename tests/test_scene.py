@@ -824,3 +824,18 @@ def test_nan_is_reported_not_compared():
     assert math.isnan(NAN)
     with pytest.raises(SceneError):
         scene_from_dict(d)
+
+
+def test_a_line_of_many_numbers_is_no_dotted_key(tmp_path):
+    # review of the change: the dotted-key guard counted every dot of a line, so a link with 300
+    # points on its one inline-table line (inside the limits) was refused
+    points = ", ".join(f"p{i} = [0.{i:03d}, 0.5]" for i in range(300))
+    path = tmp_path / "many.toml"
+    path.write_text(
+        '[[flexure]]\nname = "f"\nlength = 1.0\nEI = 1.0\n'
+        f'[[link]]\nname = "L"\nparent = "f"\npoints = {{ {points} }}\n'
+    )
+    assert len(load_scene(path).link("L").points) == 300
+    path.write_text("x" + ".x" * 600 + " = 1\n")
+    with pytest.raises(SceneError, match="dotted key or table header of more than 512"):
+        load_scene(path)

@@ -6,6 +6,7 @@ import re
 from dataclasses import fields
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from flexgen.core import SOURCES, ffi
@@ -138,6 +139,7 @@ def test_warm_on_path_is_a_flag():
     # it, was refused ("must be an integer, got False")
     assert SolverSettings(warm_on_path=False).warm_on_path is False
     assert SolverSettings(warm_on_path=1).warm_on_path is True
+    assert SolverSettings(warm_on_path=np.False_).warm_on_path is False  # NumPy's bool too
     for bad in (2, 0.0, "no", None):
         with pytest.raises(ValueError, match=r"^settings.warm_on_path: must be True or False"):
             SolverSettings(warm_on_path=bad)

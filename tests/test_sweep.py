@@ -201,6 +201,11 @@ def test_a_start_stop_count_grid_holds_the_decimal_values_a_user_reads(finger):
     df = flexgen.sweep(finger, {"tendon.0.tension": (0.0, 1.0, 11)}, workers=1, estimate=False)
     assert df["tendon.0.tension"].tolist() == [i / 10 for i in range(11)]
     assert repr(float(df["tendon.0.tension"][3])) == "0.3"
+    # where 15 digits would merge distinct points (a step of 4e-15), the points themselves
+    fine = flexgen.sweep(
+        finger, {"tendon.0.tension": (2.0, 2.00000000000002, 6)}, workers=1, estimate=False
+    )
+    assert fine["tendon.0.tension"].nunique() == 6
 
 
 def test_design_grid_rows_are_the_single_solves(finger):
@@ -1075,3 +1080,24 @@ def test_values_beyond_a_floats_range_are_scene_errors(finger, values, recwarn):
     with pytest.raises(SceneError, match=r"^tendon.0.tension: "):
         flexgen.sweep(finger, {"tendon.0.tension": values}, workers=1)
     assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+
+
+def test_a_rows_checks_read_its_own_loads():
+    # review of the change: a study of load keys checked each row against the scene's own
+    # loads: a moment at a prb flexure and 5000 N (units) left the rows' warnings empty, where
+    # flexgen.Solver and flexgen.solve warn
+    beam = {
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "beam.tip", "force": [0.0, -0.5]}],
+    }
+    prb = flexgen.scene_from_dict({**beam, "model": {"kind": "prb"}})
+    df = flexgen.sweep(prb, {"load.0.moment": [0.0, 0.5]}, workers=1, estimate=False)
+    assert df["warnings"].tolist()[0] == ""
+    assert "pseudo-rigid-body" in df["warnings"].tolist()[1]
+    scm = flexgen.scene_from_dict(beam)
+    df = flexgen.sweep(scm, {"load.0.force.1": [-2.0, -5000.0]}, workers=1, estimate=False)
+    assert df["warnings"].tolist()[0] == ""
+    assert "load level 5e+03" in df["warnings"].tolist()[1]
+    for row, fy in zip(df.to_dict("records"), (-2.0, -5000.0)):
+        solved = flexgen.solve(scm.with_value("load.0.force.1", fy), estimate=False)
+        assert row["warnings"] == "\n".join(solved.warnings)

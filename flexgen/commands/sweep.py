@@ -227,6 +227,11 @@ def run(args) -> int:
 
     write_outputs(df, out, plot, draw)  # a WriteFailed (a full disk): the CLI's exit 1
     if out is None:
+        # data, not text for a reader: UTF-8 whatever the terminal's encoding (the CLI escapes
+        # what stdout cannot write, which would change a column's name: review)
+        reconfigure = getattr(sys.stdout, "reconfigure", None)
+        if reconfigure is not None:
+            reconfigure(encoding="utf-8", errors="strict")
         df.to_csv(sys.stdout, index=False)
     else:
         print(printable(str(out)))

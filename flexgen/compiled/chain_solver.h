@@ -121,7 +121,8 @@ typedef struct {
 #define FG_MAX_LAG 64
 typedef struct {
     double tol;                     /* relative residual of an accepted equilibrium */
-    double max_dq;                  /* largest change of a coordinate in one step along the path */
+    double max_dq;                  /* largest change of a coordinate in one step along the path
+                                     * (a warm start: of an angle along a flexure, angle_change) */
     int max_iterations;             /* Newton iterations per load step */
     int max_steps;                  /* continuation steps */
     double initial_step;            /* load-factor step of the continuation: first, */

@@ -215,7 +215,8 @@ typedef struct {
 #define FG_MAX_LAG 64
 typedef struct {
     double tol;                     /* relative residual of an accepted equilibrium */
-    double max_dq;                  /* largest change of a coordinate in one step along the path */
+    double max_dq;                  /* largest change of a coordinate in one step along the path
+                                     * (a warm start: of an angle along a flexure, angle_change) */
     int max_iterations;             /* Newton iterations per load step */
     int max_steps;                  /* continuation steps */
     double initial_step;            /* load-factor step of the continuation: first, */
@@ -2219,13 +2220,19 @@ static fg_real angle_change(const fg_ws *w, const fg_real *d)
             fg_real sum = 0.0;
             for (j = 0; j < k; ++j) {
                 sum += di[j];
-                if (!(fabs(sum) <= most))    /* also a NaN: it is the result */
+                if (!(fabs(sum) <= most)) {
                     most = fabs(sum);
+                    if (isnan(most))     /* a NaN is the result (no later value undoes it) */
+                        return most;
+                }
             }
         } else {
             for (j = 0; j < k; ++j)
-                if (!(fabs(di[j]) <= most))
+                if (!(fabs(di[j]) <= most)) {
                     most = fabs(di[j]);
+                    if (isnan(most))
+                        return most;
+                }
         }
     }
     return most;
@@ -2815,19 +2822,21 @@ static int bend_monotone(const fg_real *q, int k, fg_real h, fg_real *b)
     return 1;
 }
 
-/* the largest |phi| near the interior sample sigma of a grid of step h whose largest |phi| is
- * most there: the vertex of the parabola through sigma and its two neighbours, taken as the new
- * middle of a grid a quarter as fine, FG_BEND_REFINE times (the samples alone were up to 1.7e-4
- * rad short of the largest angle at 65 samples, review; each refinement divides that error by
- * about 16), the vertex kept within the grid's span; never less than most */
+/* the largest |phi| near the sample sigma of a grid of step h whose largest |phi| is most
+ * there: the vertex of the parabola through three samples about it (kept within [0, 1]: at
+ * sigma = 1 the two before it), taken as the new middle of a grid a quarter as fine,
+ * FG_BEND_REFINE times (the samples alone were up to 1.7e-4 rad short of the largest angle at
+ * 65 samples, review, also where it lies between the last two; each refinement divides that
+ * error by about 16), the vertex kept within the stencil's span; never less than most */
 static fg_real bend_refined(const fg_real *q, int k, fg_real sigma, fg_real h, fg_real most,
                             fg_real *P)
 {
     int r;
     for (r = 0; r < FG_BEND_REFINE; ++r) {
-        fg_real lo = fabs(legendre_phi(q, k, sigma - h, P));
-        fg_real mid = fabs(legendre_phi(q, k, sigma, P));
-        fg_real hi = fabs(legendre_phi(q, k, sigma + h, P));
+        fg_real c = sigma < h ? h : sigma > 1.0 - h ? 1.0 - h : sigma;   /* the stencil's middle */
+        fg_real lo = fabs(legendre_phi(q, k, c - h, P));
+        fg_real mid = fabs(legendre_phi(q, k, c, P));
+        fg_real hi = fabs(legendre_phi(q, k, c + h, P));
         fg_real curve = lo - 2.0 * mid + hi, shift;
         if (mid > most)
             most = mid;
@@ -2842,14 +2851,8 @@ static fg_real bend_refined(const fg_real *q, int k, fg_real sigma, fg_real h, f
             shift = h;
         if (shift < -h)
             shift = -h;
-        sigma += shift;
-        if (sigma < 0.0)
-            sigma = 0.0;
-        if (sigma > 1.0)
-            sigma = 1.0;
+        sigma = c + shift;
         h *= 0.25;
-        if (sigma - h < 0.0 || sigma + h > 1.0)
-            break;
     }
     {
         fg_real phi = fabs(legendre_phi(q, k, sigma, P));
@@ -2882,7 +2885,7 @@ static fg_real flexure_bend(const fg_flexure *f, const fg_real *q, int samples, 
                 at = i;
             }
         }
-        if (samples >= 3 && at > 0 && at < samples - 1)
+        if (samples >= 3 && at > 0)   /* (phi(0) = 0: the largest is never at the root) */
             most = bend_refined(q, k, (fg_real)at / (fg_real)(samples - 1),
                                 (fg_real)1.0 / (fg_real)(samples - 1), most, P);
         return most;
