@@ -1246,6 +1246,13 @@ def test_a_rank_one_compliance_has_a_minor_axis_of_zero_not_minus_rounding():
     r = flexgen.solve(EXAMPLES / "arc_moment.toml", model="prb")
     for p in r.points.values():
         assert p.ellipse["minor"] == 0.0 and p.ellipse["major"] > 0.0
+    # and +8.4e-20 under a force and a moment (a study's row showed it: review)
+    beam = {
+        "model": {"kind": "prb"},
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "beam.tip", "force": [0.0, -0.5], "moment": 0.5}],
+    }
+    assert flexgen.solve(beam).points["beam.tip"].ellipse["minor"] == 0.0
 
 
 def test_no_loads_given_as_an_empty_list_for_a_scene_without_loads():

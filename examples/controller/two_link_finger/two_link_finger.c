@@ -2744,9 +2744,10 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out)
     major = mean + half;
     minor = major > 0.0 && mean > 0.0 ? (a * d - b * b) / major : mean - half;
     /* a rank-one compliance (one coordinate: prb, a link on one pin) has minor 0, which
-     * rounding may put at -1e-17: 0 within the compliance's rounding, so that sqrt(minor) and
-     * a semi-axis drawn from it stay real (an unstable state's truly negative minor is kept) */
-    if (minor < 0.0 && -minor <= FG_ELLIPSE_ROUNDING * major)
+     * rounding may put at -1e-17 or +8e-20: 0 within the compliance's rounding, so that
+     * sqrt(minor) and a semi-axis drawn from it stay real and a rank-one answer reads as one
+     * (an unstable state's truly negative minor is kept) */
+    if (fabs(minor) <= FG_ELLIPSE_ROUNDING * major)
         minor = 0.0;
     big = fabs(major) > fabs(minor) ? fabs(major) : fabs(minor);
     out[0] = major;
