@@ -302,10 +302,11 @@ class Scene:
         """How far each flexure's loads are from small deflection (nondimensional): L^2/EI x
         (the forces + twice the tendon tensions) + L/EI x the moments, every load of the scene
         counted on every flexure (an upper bound of what the flexure carries)."""
-        forces = sum(math.hypot(*ld.force) for ld in self.loads)
-        forces += 2.0 * sum(t.tension for t in self.tendons)
-        moments = sum(abs(ld.moment) for ld in self.loads)
-        return {f.name: f.length * (f.length * forces + moments) / f.EI for f in self.flexures}
+        return load_levels(
+            self.flexures,
+            [(*ld.force, ld.moment) for ld in self.loads],
+            [t.tension for t in self.tendons],
+        )
 
     def flexure_path(self, body: str) -> tuple[str, ...]:
         """Names of the flexures between the base and ``body``, root first; ``body`` itself is
@@ -1094,6 +1095,17 @@ class _Parser:
         else:
             refs = [ld.point for ld in loads]
         return tuple(dict.fromkeys(refs))
+
+
+def load_levels(
+    flexures: Sequence[Flexure], loads: Sequence[Sequence[float]], tensions: Sequence[float]
+) -> dict[str, float]:
+    """``Scene.load_levels`` of these flexures under loads (fx, fy, moment rows) and tendon
+    tensions: also what a solve given other loads is checked at (``validity.loads_scene``)."""
+    forces = sum(math.hypot(fx, fy) for fx, fy, _ in loads)
+    forces += 2.0 * sum(tensions)
+    moments = sum(abs(m) for _, _, m in loads)
+    return {f.name: f.length * (f.length * forces + moments) / f.EI for f in flexures}
 
 
 def coordinates(spec: ModelSpec, choosing_modes: bool = False) -> int:

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from flexgen.scene import Scene
+from flexgen.scene import Scene, load_levels
 
 PRB_LIMIT = math.radians(64.0)
 NEAR_SINGULAR = 0.05
@@ -208,9 +208,7 @@ class _Context:
     scm: tuple[str, ...]  # smooth curvature flexures
     prb: tuple[str, ...]
     prb_problem: str | None
-    # the load level's factors per flexure (L^2/EI, L/EI: Scene.load_levels) and whether the
-    # scene's own loads are above UNITS_LOAD_LEVEL (loads_scene)
-    level_factors: tuple[tuple[float, float], ...] = ()
+    # whether the scene's own loads are above UNITS_LOAD_LEVEL (loads_scene)
     level_high: bool = False
 
 
@@ -229,7 +227,6 @@ def _context(scene: Scene, models: Mapping, label: str | None) -> _Context:
         tuple(n for n, m in models.items() if getattr(m, "kind", "") == "scm"),
         tuple(n for n, m in models.items() if getattr(m, "kind", "") == "prb"),
         _scene_constants(scene),
-        tuple((f.length**2 / f.EI, f.length / f.EI) for f in scene.flexures),
         max(scene.load_levels().values(), default=0.0) > UNITS_LOAD_LEVEL,
     )
     if len(_CONTEXTS) >= 64:
@@ -406,13 +403,9 @@ def loads_scene(solver) -> Scene:
     ctx = _context(scene, solver.models, None)
     p = solver.problem
     if not ctx.prb and not ctx.level_high:
-        forces = 2.0 * sum(p.tensions.tolist())  # (lists: NumPy's calls cost more here)
-        moments = 0.0
-        for fx, fy, m in p.loads.tolist():
-            forces += math.hypot(fx, fy)
-            moments += abs(m)
-        level = max((a * forces + b * moments for a, b in ctx.level_factors), default=0.0)
-        if level <= UNITS_LOAD_LEVEL:
+        # (lists: NumPy's calls cost more here)
+        levels = load_levels(scene.flexures, p.loads.tolist(), p.tensions.tolist())
+        if max(levels.values(), default=0.0) <= UNITS_LOAD_LEVEL:
             return scene  # the checks read these loads as they read the scene's
     loads = tuple(
         replace(ld, force=(fx, fy), moment=m)
