@@ -306,6 +306,13 @@ class Solver:
     def _set(target: np.ndarray, values: Any, what: str) -> None:
         if values is target:
             return
+        if not isinstance(values, np.ndarray) and hasattr(values, "magnitude"):
+            # a pint Quantity: np.asarray keeps its magnitude and drops its unit (a load in
+            # mN solved as N, review); the scene's own units are the only ones read here
+            raise ValueError(
+                f"{what}: give plain numbers in the scene's units, not a quantity with units "
+                f"({_fmt(values)})"
+            )
         try:  # no dtype: strings, booleans and ragged rows stay what they are, and are refused
             a = None if isinstance(values, (str, bytes)) else np.asarray(values)
         except (TypeError, ValueError, OverflowError):

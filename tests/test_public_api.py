@@ -215,3 +215,16 @@ def test_a_boolean_load_or_tension_is_no_number():
     with pytest.raises(ValueError, match=r"^tensions: every value must be a number, got"):
         s.solve(tensions=[True])
     assert s.solve(loads=[[0, -1, 0]]).converged  # integers are numbers
+
+
+def test_a_quantity_with_units_is_refused_not_read_as_the_scenes_units():
+    # review: Quantity(array of -200, "mN") was solved as -200 N (np.asarray drops the unit)
+    from flexgen.units import registry
+
+    u = registry()
+    s = flexgen.Solver(EXAMPLES / "two_link_finger.toml")
+    with pytest.raises(ValueError, match=r"^loads: give plain numbers in the scene's units"):
+        s.solve(loads=u.Quantity(np.array([[0.0, -200.0, 0.0]]), "mN"))
+    with pytest.raises(ValueError, match=r"^tensions: give plain numbers in the scene's units"):
+        s.solve(tensions=u.Quantity(np.array([10000.0]), "mN"))
+    assert s.solve(loads=[[0.0, -0.2, 0.0]]).converged
