@@ -12,7 +12,11 @@ model), so "exact" applies to every flexure of a scene at once. The Result it be
 - ``flexures``: curvature, strain and stress along each flexure from the elastica's own curvature
   (``models.exact.ElasticaProfile``), computed at once (the exact solve costs far more), with
   the safety-factor warnings;
-- ``stiffness``: None (the shooting unknowns are root loads, not coordinates with an energy).
+- ``stiffness``: None (the shooting unknowns are root loads, not coordinates with an energy);
+- near a critical load (``SceneSolution.margin`` below ``validity.NEAR_SINGULAR``), a message
+  with the margin and the compliance's own error (``COMPLIANCE_NOISE`` / margin): a note while
+  that error is below ``COMPLIANCE_RESOLVED``, a warning beyond it (there neither the
+  compliance nor the stability is resolved: at a critical load itself they are a coin toss).
 """
 
 from __future__ import annotations
@@ -27,6 +31,12 @@ from .scene import BASE, Scene
 from .scene_checks import scene_notes, scene_warnings
 from .stress import FlexureStress, flexure_stresses, safety_warnings
 from .units import result_units
+from .validity import NEAR_SINGULAR
+
+# the relative compliance error beyond which an exact answer near a critical load is flagged
+# as unresolved (a warning): the exact solver is the reference the chain models' estimates are
+# measured against, so it is held to far below their errors
+COMPLIANCE_RESOLVED = 1e-6
 
 
 def root_angle(scene: Scene, sol, name: str) -> float:
@@ -49,6 +59,31 @@ def exact_stresses(scene: Scene, sol) -> dict[str, FlexureStress]:
         for f in scene.flexures
     }
     return flexure_stresses(scene, profiles, sol.root_loads)
+
+
+def near_critical(sol, points: list[str]) -> tuple[str | None, bool]:
+    """(message, is it a warning) for an answer near a critical load, (None, False) otherwise."""
+    from .models.exact import COMPLIANCE_NOISE
+
+    margin = float(sol.margin)
+    if not margin < NEAR_SINGULAR:
+        return None, False
+    error = COMPLIANCE_NOISE / max(margin, 1e-300)
+    where = ", ".join(repr(p) for p in points) or "the output points"
+    head = f"near a critical load: the shooting Jacobian is {margin:.2g} from singular (1 unloaded; "
+    if error > COMPLIANCE_RESOLVED:
+        # the sign of det J (stability) is noise once the margin is within the Jacobian's error
+        unresolved = " and whether it is stable is not resolved" if error > 0.1 else ""
+        return (
+            head + f"the limit is {NEAR_SINGULAR:g}), so the compliance at {where} may be off "
+            f"by {error:.2g} relative (the solver's error, amplified by 1/margin){unresolved}",
+            True,
+        )
+    return (
+        head + f"the limit is {NEAR_SINGULAR:g}): the compliance at {where} is sensitive to "
+        f"any imperfection; the solver's own error on it is about {error:.2g} relative",
+        False,
+    )
 
 
 def to_result(scene: Scene, sol) -> Result:
@@ -107,6 +142,9 @@ def to_result(scene: Scene, sol) -> Result:
         for f in scene.flexures
         if f.name in sol.root_loads
     }
+    message, is_warning = near_critical(sol, list(points))
+    if message is not None:
+        (warnings if is_warning else notes).append(message)
     flexures = exact_stresses(scene, sol)
     warnings.extend(safety_warnings(scene, flexures))
     return Result(

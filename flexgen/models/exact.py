@@ -49,6 +49,12 @@ SHOOTING_NOISE = 1e-10
 # converge up to 200 and stall near 290 (0.72 of 400) where fem has a smooth path; past it a
 # stall is not reported as a sure limit point
 SHOOTING_RESOLVED = 200.0
+# the relative error of an answer's compliance times its ``margin`` (``shooting_margin``): the
+# central-difference shooting Jacobian's error, amplified near a critical load by 1 / margin.
+# Measured against the closed-form lateral compliance of a column under P below its Euler load
+# (tests/test_exact_near_critical.py): error x margin is 9e-10 at P = 0.5 P_cr (2.1e-9 x 0.44)
+# and 2.6e-9 at 0.99, 0.9999 and 0.999999 (3.3e-7 x 0.0079, 3.3e-5 x 7.9e-5, 3.3e-3 x 7.9e-7)
+COMPLIANCE_NOISE = 3e-9
 # the most a load step may turn a flexure's tip (rad): more, and the step is retried shorter
 # (the chain solvers' max_dq, the same purpose)
 MAX_TURN_STEP = 0.5
@@ -392,6 +398,10 @@ class SceneSolution:
     load_factor: float  # 1.0 when the whole load was applied
     critical_load_factor: float | None = None
     warnings: list = field(default_factory=list)
+    # how far the answer is from a critical load: the smallest |eigenvalue| of J0^-1 J (J the
+    # shooting Jacobian at the answer, J0 unloaded): 1 unloaded, about 0.8 (1 - P/P_cr) on a
+    # column below its Euler load, 0 at a critical load (``shooting_margin``)
+    margin: float = 1.0
 
 
 class ElasticaProfile:
@@ -776,6 +786,19 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         return _solve_exact(scene, num, max_step)
 
 
+def shooting_margin(J0: np.ndarray, J: np.ndarray) -> float:
+    """How far a state is from a critical load: the smallest |eigenvalue| of J0^-1 J (the
+    shooting Jacobian there against the unloaded one). The shooting Jacobian is singular exactly
+    where the second variation is, and its compliance solve divides by this: near 0 the
+    compliance amplifies the central-difference Jacobian's error (``COMPLIANCE_NOISE``)."""
+    try:
+        ev = np.linalg.eigvals(np.linalg.solve(J0, J))
+    except np.linalg.LinAlgError:
+        return 0.0
+    value = float(np.min(np.abs(ev)))
+    return value if math.isfinite(value) else 0.0
+
+
 def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     """Exact elastica equilibrium of a whole scene (tree of flexures and links).
 
@@ -940,6 +963,7 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     # final quantities
     R0, J, dpts, pts, tips = prob.jacobian(z, lam)
     stable = bool(np.sign(np.linalg.det(J)) == ref_sign)
+    margin = shooting_margin(J0, J)
     _, _, _, shapes, frames = prob.evaluate(z, lam, shapes_num=num)
     poses, compl = {}, {}
     for name, pid in zip(prob.outputs, prob.out_ids):
@@ -978,4 +1002,5 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         load_factor=lam,
         critical_load_factor=lam_c,
         warnings=warnings,
+        margin=margin,
     )

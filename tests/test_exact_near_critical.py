@@ -1,0 +1,82 @@
+"""The exact solver near a critical load: its compliance's error grows as 1/margin (the
+central-difference shooting Jacobian's error over the margin), and the answer says so.
+
+Reference: a cantilever column under an axial tip force P below its Euler load P_cr =
+pi^2 EI / (4 L^2) stays straight, and its lateral tip compliance is the closed form
+L^3/EI (tan kL - kL) / (kL)^3, k = sqrt(P / EI) (Timoshenko & Gere, beam-columns)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import pytest
+
+import flexgen
+from flexgen.exact_result import COMPLIANCE_RESOLVED
+from flexgen.models.exact import COMPLIANCE_NOISE
+
+L, EI = 1.3, 0.7
+P_CR = math.pi**2 * EI / (4 * L**2)
+
+
+def column(ratio: float):
+    scene = {
+        "name": "column",
+        "model": {"kind": "exact"},
+        "flexure": [{"name": "b", "length": L, "EI": EI}],
+        "load": [{"point": "b.tip", "force": [-ratio * P_CR, 0.0]}],
+        "output": {"points": ["b.tip"]},
+    }
+    return flexgen.solve(scene)
+
+
+def lateral_compliance(ratio: float) -> float:
+    kl = math.sqrt(ratio * P_CR / EI) * L
+    return L**3 / EI * (math.tan(kl) - kl) / kl**3
+
+
+def stated_error(message: str) -> float:
+    return float(re.search(r"off by ([0-9.e+-]+) relative", message).group(1))
+
+
+def near_messages(result) -> tuple[list[str], list[str]]:
+    pick = [m for m in result.warnings if m.startswith("near a critical load")]
+    return pick, [m for m in result.notes if m.startswith("near a critical load")]
+
+
+@pytest.mark.parametrize("ratio", [0.5, 0.9])
+def test_far_from_critical_the_compliance_is_the_closed_form_without_a_message(ratio):
+    r = column(ratio)
+    c = r.points["b.tip"].compliance[1][1]
+    assert abs(c / lateral_compliance(ratio) - 1.0) < COMPLIANCE_NOISE / 0.05
+    assert near_messages(r) == ([], [])
+
+
+def test_close_to_critical_a_note_states_the_compliance_error_which_holds():
+    r = column(0.99)
+    warnings, notes = near_messages(r)
+    assert warnings == [] and len(notes) == 1, (r.warnings, r.notes)
+    stated = float(re.search(r"about ([0-9.e+-]+) relative", notes[0]).group(1))
+    assert stated < COMPLIANCE_RESOLVED
+    true = abs(r.points["b.tip"].compliance[1][1] / lateral_compliance(0.99) - 1.0)
+    assert true <= stated
+
+
+@pytest.mark.parametrize("ratio", [0.9999, 0.999999])
+def test_closer_a_warning_states_an_error_bound_that_holds(ratio):
+    r = column(ratio)
+    warnings, _ = near_messages(r)
+    assert len(warnings) == 1, r.warnings
+    stated = stated_error(warnings[0])
+    true = abs(r.points["b.tip"].compliance[1][1] / lateral_compliance(ratio) - 1.0)
+    # the bound holds and is not loose by more than a few times
+    assert stated / 3 <= true <= stated
+    assert "not resolved" not in warnings[0]
+
+
+def test_at_the_euler_load_neither_compliance_nor_stability_is_claimed():
+    r = column(1.0)
+    warnings, _ = near_messages(r)
+    assert len(warnings) == 1, r.warnings
+    assert stated_error(warnings[0]) > 0.1 and "whether it is stable is not resolved" in warnings[0]
