@@ -70,7 +70,9 @@ def near_critical(sol, points: list[str]) -> tuple[str | None, bool]:
         return None, False
     error = COMPLIANCE_NOISE / max(margin, 1e-300)
     where = ", ".join(repr(p) for p in points) or "the output points"
-    head = f"near a critical load: the shooting Jacobian is {margin:.2g} from singular (1 unloaded; "
+    head = (
+        f"near a critical load: the shooting Jacobian is {margin:.2g} from singular (1 unloaded; "
+    )
     if error > COMPLIANCE_RESOLVED:
         # the sign of det J (stability) is noise once the margin is within the Jacobian's error
         unresolved = " and whether it is stable is not resolved" if error > 0.1 else ""
