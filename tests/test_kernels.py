@@ -5,6 +5,7 @@ import importlib.metadata
 import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -126,6 +127,21 @@ def test_in_range_is_sound_and_not_too_conservative(name):
     assert ok[inside].mean() > 0.95
     assert not m.in_range(np.r_[1.01 * m.PHI_MAX, np.zeros(m.N - 1)])
     assert m.in_range(np.r_[0.999 * m.PHI_MAX, np.zeros(m.N - 1)])
+
+
+@pytest.mark.parametrize("name", RANGED)
+def test_a_q_that_is_not_finite_is_out_of_range_silently_and_a_complex_one_refused(name):
+    # review: in_range(inf) printed NumPy's "invalid value" warning (the local kernels were
+    # silent), and a complex q was cast to real with only a ComplexWarning
+    m = kernels.load_numpy(name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert not m.in_range(np.r_[np.inf, np.zeros(m.N - 1)])
+        assert not m.in_range(np.full(m.N, np.nan))
+        assert not np.any(m.in_range(np.full((3, m.N), np.inf)))
+    for call in (m.evaluate, m.in_range):
+        with pytest.raises(ValueError, match="complex"):
+            call(np.full(m.N, 0.1 + 0.2j))
 
 
 def _errors(m, q):

@@ -66,7 +66,10 @@ def _common(kernel: FlexureKernel, prefix: str = "") -> dict:
         else f"{kernel.nodes}-node Gauss-Legendre quadrature"
     )
     return {
-        "title": f"{kernel.name}: tip pose, Jacobian and Hessian of a {s.modes}-mode smooth "
+        # the name its files and functions carry (review: a prefixed header's first line
+        # named the unprefixed kernel)
+        "title": f"{prefix + '_' if prefix else ''}{kernel.name}: tip pose, Jacobian and "
+        f"Hessian of a {s.modes}-mode smooth "
         f"curvature flexure, {what}.",
         "description": (
             "The flexure's angle is phi(s) = sum_n q_n B_n(s/L), B_n the integral of the shifted "

@@ -152,7 +152,10 @@ ROW_ORDER = [0, 3, 1, 4, 2, 5]        # c, s | c', s' | c'', s''
 
 
 def _checked(q):
-    """q as a float array of shape (..., N), else ValueError (evaluate and in_range alike)."""
+    """q as a float array of shape (..., N), else ValueError (evaluate and in_range alike; a
+    complex q too: casting it would drop its imaginary part)."""
+    if np.iscomplexobj(q):
+        raise ValueError("q must be real, got a complex array")
     q = np.asarray(q, dtype=float)
     if q.shape[-1:] != (N,):
         raise ValueError(f"q must have shape (..., {N}), got {q.shape}")

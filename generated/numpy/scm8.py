@@ -272,7 +272,10 @@ ROW_ORDER = [0, 3, 1, 4, 2, 5]        # c, s | c', s' | c'', s''
 
 
 def _checked(q):
-    """q as a float array of shape (..., N), else ValueError (evaluate and in_range alike)."""
+    """q as a float array of shape (..., N), else ValueError (evaluate and in_range alike; a
+    complex q too: casting it would drop its imaginary part)."""
+    if np.iscomplexobj(q):
+        raise ValueError("q must be real, got a complex array")
     q = np.asarray(q, dtype=float)
     if q.shape[-1:] != (N,):
         raise ValueError(f"q must have shape (..., {N}), got {q.shape}")
@@ -323,10 +326,11 @@ def in_range(q):
     the bound h^2/8 max|phi''| of the linear-interpolation error, with |phi''| <= sum n(n+1)|q_n|.
     Never True for a q whose angle profile leaves the range; may be False within
     RANGE_MARGIN @ |q| of the edge. For one q, |q| @ RANGE_BOUND (a bound on the same test)
-    answers first when it is clearly inside.
+    answers first when it is clearly inside. False for a q that is not finite.
     """
     q = _checked(q)
     if q.ndim == 1 and np.abs(q) @ RANGE_BOUND <= PHI_MAX * (1 - 1e-12):
         return np.True_
-    worst = np.max(np.abs(q @ RANGE_SAMPLES.T), axis=-1) + np.abs(q) @ RANGE_MARGIN
+    with np.errstate(invalid="ignore"):  # a q that is not finite: NaN, so False, silently
+        worst = np.max(np.abs(q @ RANGE_SAMPLES.T), axis=-1) + np.abs(q) @ RANGE_MARGIN
     return worst <= PHI_MAX
