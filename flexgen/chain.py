@@ -66,6 +66,14 @@ def _moved(pose: np.ndarray, v0: float, v1: float, phi: float) -> np.ndarray:
     return np.array([pose[0] + (c * v0 - s * v1), pose[1] + (s * v0 + c * v1), th + phi])
 
 
+def _moved_many(pose: np.ndarray, v0: Any, v1: Any, phi: Any) -> np.ndarray:
+    """``_moved`` of (m, 3) poses by scalars or (m,) arrays."""
+    c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+    return np.column_stack(
+        [pose[:, 0] + (c * v0 - s * v1), pose[:, 1] + (s * v0 + c * v1), pose[:, 2] + phi]
+    )
+
+
 def _compose(
     parent: PointKinematics, v, phi: float = 0.0, tip=None, sl: slice | None = None
 ) -> PointKinematics:
@@ -279,6 +287,34 @@ class Chain:
         a drawing does not read (3 n^2 numbers a frame: 54 MB each on a 512-flexure chain,
         where flexgen plot ran out of memory; review)."""
         return self._frames_and_roots(self._check_q(q), derivatives=False)
+
+    def frame_poses_batch(self, Q) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """``frame_poses`` of many answers at once: ``Q`` (m, ndof) packed coordinates, every
+        pose (m, 3). A model's ``tip_poses`` (m, k) -> (m, 3) where it has one (a study's
+        stresses: one vectorised call per flexure), else its ``tip`` per answer."""
+        Q = np.asarray(Q, dtype=float).reshape(-1, self.ndof)
+        frames: dict[str, np.ndarray] = {BASE: np.zeros((Q.shape[0], 3))}
+        roots: dict[str, np.ndarray] = {}
+        for body in self._order:
+            parent_name = self.body_parent(body)
+            assert parent_name is not None
+            parent = frames[parent_name]
+            if body in self.links:
+                frames[body] = parent
+                continue
+            flex = self.flexures[body]
+            model, Qf = self.models[body], Q[:, self.slices[body]]
+            batch = getattr(model, "tip_poses", None)
+            tips = (
+                batch(Qf)
+                if batch is not None
+                else np.array([np.asarray(model.tip(q).pose, dtype=float) for q in Qf])
+            ).reshape(-1, 3)
+            ax, ay, ath = (float(v) for v in flex.at)
+            root = _moved_many(parent, ax, ay, ath)
+            roots[body] = root
+            frames[body] = _moved_many(root, tips[:, 0], tips[:, 1], tips[:, 2])
+        return frames, roots
 
     def _resolve(self, ref: str) -> tuple[str, tuple[float, float]]:
         got = self._resolved.get(ref)

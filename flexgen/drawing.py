@@ -9,8 +9,8 @@ it (a new pyplot figure when no Axes is given; nothing is written or shown), for
   (its parent flexure's tip), its named points and the roots of its child flexures, with its
   name, so a link that has no length (a child flexure whose ``at`` was left out) is seen as one;
 - the base as a hatched block through its points and the clamped roots;
-- flexures: the unloaded centrelines dashed; the loaded ones coloured by bending stress (or by
-  curvature when a section is unknown) from ``result.flexures``, with a colour bar and the
+- flexures: the unloaded centrelines dashed; the loaded ones coloured by stress, bending plus
+  axial where the width is known (or by curvature when a section is unknown) from ``result.flexures``, with a colour bar and the
   largest value marked;
 - tendons along their route, dead loads as arrows to a scale the legend states (moments as curved
   arrows), and the compliance ellipse of every output point.
@@ -62,11 +62,15 @@ def check_output(
     ``suffixes``: `flexgen sweep --out` checks its table the same way) whose folder exists (or
     can be created) and that is not an existing folder, symbolic link, FIFO or other non-regular
     file. PlotError naming ``option`` otherwise; nothing is written."""
+    ends = " or ".join([", ".join(suffixes[:-1]), suffixes[-1]] if len(suffixes) > 1 else suffixes)
+    if not os.fspath(path):  # Path("") is ".", which would read as a folder (review)
+        raise PlotError(f"{option}: give a file name ending in {ends}")
     path = Path(path)
-    if path.suffix.lower() not in suffixes:
-        ends = " or ".join(
-            [", ".join(suffixes[:-1]), suffixes[-1]] if len(suffixes) > 1 else suffixes
+    if path.name.lower() in suffixes:  # ".png" is a name without a suffix (review)
+        raise PlotError(
+            f"{option}: give a name before the {path.name} extension, got {str(path)!r}"
         )
+    if path.suffix.lower() not in suffixes:
         raise PlotError(f"{option}: the file must end in {ends}, got {str(path)!r}")
     try:
         info = os.lstat(path)
@@ -144,8 +148,8 @@ def _with_unit(name: str, unit: str) -> str:
 
 @dataclass
 class Colouring:
-    """What the loaded flexures are coloured by: |bending stress| when every flexure's section is
-    known, else |curvature| (from ``result.flexures``, ``FlexureStress`` per flexure)."""
+    """What the loaded flexures are coloured by: the outer fibres' |stress| (bending, plus axial
+    where the strip's area is known) when every flexure's section is known, else |curvature| (from ``result.flexures``, ``FlexureStress`` per flexure)."""
 
     label: str  # colour bar label, with its unit
     symbol: str  # for the marker of the largest value
@@ -161,10 +165,13 @@ def colouring(scene: Scene, result: Result | None) -> Colouring | None:
         return None
     entries = {f.name: data[f.name] for f in scene.flexures}
     by_stress = all(e.stress is not None for e in entries.values())
+    axial = by_stress and any(
+        getattr(e, "axial_stress", None) is not None for e in entries.values()
+    )
     along = {}
     for f in scene.flexures:
         e = entries[f.name]
-        values = e.stress if by_stress else e.curvature
+        values = (e.outer_stress() if axial else e.stress) if by_stress else e.curvature
         along[f.name] = (
             np.asarray(e.s, float) / f.length,
             np.abs(np.asarray(values, float)),
@@ -174,7 +181,8 @@ def colouring(scene: Scene, result: Result | None) -> Colouring | None:
     peak = (name, float(entries[name].at), peak_of[name])
     if by_stress:
         unit = _unit(scene, "stress")
-        return Colouring(_with_unit("|bending stress|", unit), "|σ|", unit, along, peak)
+        label = "|bending + axial stress|" if axial else "|bending stress|"
+        return Colouring(_with_unit(label, unit), "|σ|", unit, along, peak)
     unit = _unit(scene, "curvature")
     return Colouring(_with_unit("|curvature|", unit), "|κ|", unit, along, peak)
 
@@ -506,7 +514,8 @@ def _loaded_flexures(ax, scene: Scene, g: Geometry, colour: Colouring | None) ->
         va="bottom" if up else "top",
         fontsize=8,
         color="darkred",
-        zorder=7,
+        # under the flexures (4): its box must not hide the stress it points at (review)
+        zorder=3.5,
         bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8),
     )
     return [

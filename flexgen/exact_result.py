@@ -58,7 +58,10 @@ def exact_stresses(scene: Scene, sol) -> dict[str, FlexureStress]:
         f.name: ElasticaProfile(f.length, f.EI, root_angle(scene, sol, f.name))
         for f in scene.flexures
     }
-    return flexure_stresses(scene, profiles, sol.root_loads)
+    # the force each flexure transmits is among the exact solver's unknowns (its root loads)
+    forces = {name: np.asarray(loads[:2], dtype=float) for name, loads in sol.root_loads.items()}
+    angles = {name: profile.root_angle for name, profile in profiles.items()}
+    return flexure_stresses(scene, profiles, sol.root_loads, statics=(forces, angles))
 
 
 def near_critical(sol, points: list[str]) -> tuple[str | None, bool]:

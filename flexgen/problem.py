@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import fields
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -27,6 +28,7 @@ from .core import double_ptr, ffi, lapack, lib
 from .models.registry import core_description
 from .scene import Scene
 from .settings import SolverSettings
+from .statics import StaticsPlan
 
 # the most critical events (bifurcations crossed, snap-throughs) a solve reports one by one
 MAX_CRITICAL = 64
@@ -99,6 +101,11 @@ class Problem:
         for routine, fn in lapack().items():
             setattr(p.lapack, routine, fn)
         self.struct = p
+
+    @cached_property
+    def statics(self) -> StaticsPlan:
+        """Which points load which flexures (``flexgen.statics``), found on first use."""
+        return StaticsPlan(self.scene)
 
     def _ints(self, values) -> Any:
         a = np.ascontiguousarray(np.asarray(values, dtype=np.intc).ravel())

@@ -303,7 +303,7 @@ def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
     w = max(max(len(n) for n in flexures), len("flexure"))
     lines = [
         f"  {'flexure':<{w}}  {'max kappa':>11} {'max strain':>11} {'max stress':>11} "
-        f"{'est.':>8} {'at s/L':>7} {'safety':>8}"
+        f"{'axial':>11} {'est.':>8} {'at s/L':>7} {'safety':>8}"
     ]
     for name, st in flexures.items():
         sf = st.safety_factor
@@ -317,7 +317,8 @@ def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
         estimate = "—" if e is None else "inf" if math.isinf(e) else format(e, ".2g")
         lines.append(
             f"  {name:<{w}}  {num(st.max_curvature, '.5g'):>11} {num(st.max_strain, '.5g'):>11} "
-            f"{num(st.max_stress, '.5g'):>11} {estimate:>8} {st.at:>7.3f} {safety:>8}"
+            f"{num(st.max_stress, '.5g'):>11} {num(st.max_axial_stress, '.5g'):>11} "
+            f"{estimate:>8} {st.at:>7.3f} {safety:>8}"
         )
     return lines
 

@@ -1097,6 +1097,18 @@ class _Parser:
         return tuple(dict.fromkeys(refs))
 
 
+def with_loads(scene: Scene, loads: Sequence[Sequence[float]], tensions: Sequence[float]) -> Scene:
+    """``scene`` with its loads' (fx, fy, moment) and its tendons' tensions replaced, in scene
+    order (what a Solver was given instead of the scene's own)."""
+    return replace(
+        scene,
+        loads=tuple(
+            replace(ld, force=(fx, fy), moment=m) for ld, (fx, fy, m) in zip(scene.loads, loads)
+        ),
+        tendons=tuple(replace(t, tension=x) for t, x in zip(scene.tendons, tensions)),
+    )
+
+
 def load_levels(
     flexures: Sequence[Flexure], loads: Sequence[Sequence[float]], tensions: Sequence[float]
 ) -> dict[str, float]:

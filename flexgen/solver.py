@@ -36,7 +36,8 @@ from .result import UNSTABLE, LazyResult, Result, point_result
 from .scene import MAX_MAGNITUDE, Scene, _fmt, _number
 from .scene_checks import scene_notes, scene_warnings
 from .settings import DEFAULT, SolverSettings
-from .stress import flexure_stresses, has_strengths, safety_warnings
+from .statics import chain_statics, scene_loads
+from .stress import flexure_stresses, has_strengths, safety_warnings, section_area
 from .units import result_units
 
 # Why the solve took the side it did past a bifurcation (the core reports the index plus one:
@@ -451,12 +452,15 @@ class Solver:
                 warnings.append(est.warning)
         r.solver = "core"
         # a copy of what the lazy fields are built from (the next solve overwrites the
-        # workspace): the answer buffer in one copy, the kernels as a list
+        # workspace): the answer buffer in one copy, the kernels as a list, and the loads
+        # and tensions where they are not the scene's (the axial stress reads them)
+        p = self.problem
         snapshot = (
             ws.answer_data.copy(),
             ws.kernel.tolist() if self._kernel_models else (),
             est,
             None if est is None else self._estimator.curvature,  # no workspace held
+            (p.loads.tolist(), p.tensions.tolist()) if self.loads_changed else None,
         )
         r._build = partial(self._fields.build, snapshot)
         r.units = None if self._units is None else dict(self._units)
@@ -538,7 +542,7 @@ class AnswerFields:
 
     def build(self, snapshot: tuple, name: str) -> Any:
         """One of a LazyResult's fields (``LAZY_FIELDS``) from the answer's arrays."""
-        data, kernel, est, estimator = snapshot
+        data, kernel, est, estimator, loads = snapshot
         q, pose, compliance, ellipse, K, bend = answer_views(data, *self.shape)
         p = self.problem
         if name == "q":
@@ -568,7 +572,11 @@ class AnswerFields:
             }
         if name == "flexures":
             qs = {n: q[sl] for n, sl in self.slices}
-            stresses = flexure_stresses(self.scene, self.models, qs)
+            statics = None
+            if any(section_area(f) is not None for f in self.scene.flexures):
+                loads, tensions = loads or scene_loads(self.scene)
+                statics = chain_statics(p.statics, p.chain, q, loads, tensions)
+            stresses = flexure_stresses(self.scene, self.models, qs, statics=statics)
             if est is None or estimator is None:
                 return stresses
             errors = estimator.of(est, stresses)

@@ -35,7 +35,8 @@ from .reasons import failure_reason
 from .scene import Scene, SceneError, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver
-from .stress import peak_stress
+from .statics import chain_statics
+from .stress import peak_stress, peak_stresses, safety_factor, section_area
 from .validity import calm as validity_calm
 from .validity import check as validity_check
 from .validity import loads_scene as validity_loads_scene
@@ -102,6 +103,9 @@ def run_chunk(
     design: tuple[float, ...] | None = None
     loads = tensions = None
     answers: list[_Answer | None] = [None] * len(rows)  # the answers a warm start may use
+    # the cases whose stress columns take the statics (a flexure with an area), per design:
+    # filled after the chunk's solves, many answers per vectorised call
+    deferred: dict[int, tuple[Solver, list]] = {}
     for c, row in enumerate(rows):
         here = tuple(row[k] for k in design_cols)
         if here != design:
@@ -119,13 +123,16 @@ def run_chunk(
             _set_loads(row, load_cols, loads, tensions)
             inputs = _Inputs(loads.ravel().tolist(), tensions.tolist(), here)
             status = solver.run(loads, tensions, _warm_start(chunk, c, answers, inputs))
-            out.append(_record(solver, status, chunk, width, reasons, c))
+            out.append(_record(solver, status, chunk, width, reasons, c, deferred))
             if _reusable(status, solver.workspace.answer):
                 q = solver.workspace.q.copy()
                 answers[c] = _Answer({name: q[sl] for name, sl in slices}, inputs)
         if report is not None:
             report(1)
-    return np.array(out, dtype=float).reshape(len(rows), width), reasons
+    table = np.array(out, dtype=float).reshape(len(rows), width)
+    for solver_, cases in deferred.values():
+        _fill_stresses(solver_, cases, table)
+    return table, reasons
 
 
 @dataclass(frozen=True)
@@ -206,8 +213,11 @@ def _warm_start(
     return None
 
 
-def _record(solver: Solver, status: int, chunk: Chunk, width: int, reasons, c) -> list[float]:
-    """One case's row from the answer in ``solver.workspace`` (see ``run_chunk``)."""
+def _record(
+    solver: Solver, status: int, chunk: Chunk, width: int, reasons, c, deferred: dict
+) -> list[float]:
+    """One case's row from the answer in ``solver.workspace`` (see ``run_chunk``); its stress
+    columns NaN and the case in ``deferred`` where they take the statics (``_fill_stresses``)."""
     ws = solver.workspace
     a = ws.answer
     if status != core.SOLVED:
@@ -224,7 +234,12 @@ def _record(solver: Solver, status: int, chunk: Chunk, width: int, reasons, c) -
         row += pose
         row += ellipse
         row.append(error)
-    if chunk.stress and _has_section(solver):
+    if chunk.stress and _has_area(solver):
+        p = solver.problem
+        case = (c, solver.workspace.q.copy(), p.loads.copy(), p.tensions.copy())
+        deferred.setdefault(id(solver), (solver, []))[1].append(case)
+        row += [math.nan] * (width - len(row))
+    elif chunk.stress and _has_section(solver):
         row += stress_columns(solver, solver.workspace.q)
     else:
         row += [math.nan] * (width - len(row))
@@ -255,16 +270,52 @@ def _has_section(solver: Solver) -> bool:
     return any(f.E is not None and f.thickness is not None for f in solver.scene.flexures)
 
 
+def _has_area(solver: Solver) -> bool:
+    """Whether any flexure's axial stress can be known (its width too: flexgen/stress.py)."""
+    return any(section_area(f) is not None for f in solver.scene.flexures)
+
+
+def _fill_stresses(solver: Solver, cases: list, table: np.ndarray) -> None:
+    """The stress columns (the last two per flexure) of ``cases`` [(row, q, loads, tensions)]
+    of one design: the statics of all of them at once (``Chain.frame_poses_batch``,
+    ``StaticsPlan.transmitted``), then each flexure's peak (``stress.peak_stresses``; a
+    flexure without an area: its bending peak, ``stress.peak_stress``)."""
+    p = solver.problem
+    rows = [c for c, _, _, _ in cases]
+    Q = np.array([q for _, q, _, _ in cases])
+    frames, roots = p.chain.frame_poses_batch(Q)
+    forces = p.statics.transmitted(
+        frames, np.array([ld for _, _, ld, _ in cases]), np.array([t for _, _, _, t in cases])
+    )
+    flexures = solver.scene.flexures
+    start = table.shape[1] - 2 * len(flexures)
+    for j, f in enumerate(flexures):
+        model, sl = solver.models[f.name], p.chain.slices[f.name]
+        if section_area(f) is not None:
+            stress = peak_stresses(f, model, Q[:, sl], forces[:, j], roots[f.name][:, 2])
+        else:
+            stress = np.array([peak_stress(f, model, q[sl])[0] for q in Q], dtype=float)
+        safety = [safety_factor(f, float(x))[0] for x in stress]
+        table[rows, start + 2 * j] = stress
+        table[rows, start + 2 * j + 1] = [math.nan if v is None else v for v in safety]
+
+
 def stress_columns(solver: Solver, q: Any) -> list[float]:
     """max_stress, safety_factor per flexure (scene order) of the answer ``q`` (the workspace's
     packed coordinates): ``stress.peak_stress``, the maximum ``Result.flexures`` reports,
-    without its profiles (NaN for None: no section, no strength)."""
+    without its profiles where no flexure has an area (bending only), with the axial stress
+    of the statics at the case's own loads where one has (NaN for None: no section, no
+    strength)."""
     values = q.tolist()
     slices = solver.problem.chain.slices
+    statics = None
+    if any(section_area(f) is not None for f in solver.scene.flexures):
+        p = solver.problem
+        statics = chain_statics(p.statics, p.chain, q, p.loads, p.tensions)
     out: list[float] = []
     for f in solver.scene.flexures:
         model = solver.models[f.name]
-        stress, safety = peak_stress(f, model, values[slices[f.name]])
+        stress, safety = peak_stress(f, model, values[slices[f.name]], statics)
         out.append(math.nan if stress is None else stress)
         out.append(math.nan if safety is None else safety)
     return out

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from flexgen.scene import Scene, load_levels
+from flexgen.scene import Scene, load_levels, with_loads
 
 PRB_LIMIT = math.radians(64.0)
 NEAR_SINGULAR = 0.05
@@ -407,12 +407,7 @@ def loads_scene(solver) -> Scene:
         levels = load_levels(scene.flexures, p.loads.tolist(), p.tensions.tolist())
         if max(levels.values(), default=0.0) <= UNITS_LOAD_LEVEL:
             return scene  # the checks read these loads as they read the scene's
-    loads = tuple(
-        replace(ld, force=(fx, fy), moment=m)
-        for ld, (fx, fy, m) in zip(scene.loads, p.loads.tolist())
-    )
-    tendons = tuple(replace(t, tension=x) for t, x in zip(scene.tendons, p.tensions.tolist()))
-    return replace(scene, loads=loads, tendons=tendons)
+    return with_loads(scene, p.loads.tolist(), p.tensions.tolist())
 
 
 def calm(solver, result) -> bool:

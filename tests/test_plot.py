@@ -107,6 +107,21 @@ def test_bad_suffix_is_one_line_exit_2_before_solving(tmp_path, capsys, monkeypa
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    "name, says",
+    [("", "an empty path (give a file name)"), (".png", "give a name before the .png")],
+)
+def test_an_empty_name_or_a_bare_extension_says_what_is_missing(
+    tmp_path, capsys, monkeypatch, name, says
+):
+    # review: "-o ''" read as the folder "." and "-o .png" was told to end in .png
+    monkeypatch.chdir(tmp_path)
+    assert main(["plot", str(FINGER), "-o", name]) == 2
+    err = capsys.readouterr().err
+    assert says in err and len(err.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_plot_without_matplotlib_is_one_line_exit_1_naming_the_extra(tmp_path, capsys, monkeypatch):
     import importlib.util
 

@@ -189,12 +189,14 @@ def test_without_a_section_only_the_curvature_is_known():
         "max_curvature",
         "max_strain",
         "max_stress",
+        "max_axial_stress",
         "at",
         "safety_factor",
         "limited_by",
         "error_estimate",  # of the curvature, known without a section
     }
     assert d["max_strain"] is None and d["max_stress"] is None and d["safety_factor"] is None
+    assert d["max_axial_stress"] is None
     assert 0.0 < d["error_estimate"] < 1e-9  # an end moment: uniform curvature, exact in scm
     assert "—" in r.table()
 

@@ -634,6 +634,11 @@ def test_cli_writes_the_table(finger, tmp_path, suffix, capsys):
     assert [p.name for p in tmp_path.iterdir()] == [out.name]  # no temporary file left
 
 
+def test_cli_summary_counts_one_case_in_the_singular(capsys):
+    assert main(["sweep", str(FINGER), "--vary", "tendon.0.tension=1:1:1"]) == 0
+    assert "sweep: 1 case, 0 without an equilibrium" in capsys.readouterr().err
+
+
 def test_cli_prints_csv_without_out(capsys):
     assert main(["sweep", str(FINGER), "--vary", "tendon.0.tension=1:2:2"]) == 0
     lines = capsys.readouterr().out.splitlines()
@@ -740,6 +745,9 @@ def test_plot_labels_carry_the_scenes_units():
         ),
         (["--vary", "model.tolerance=1e-4:1e-3:2"], "give modes instead"),
         (["--vary", "flexure.distal.tolerance=1e-4:1e-3:2"], "give modes instead"),
+        # review: Python's float() and int() read "1_0", a scene's numbers never do
+        (["--vary", "tendon.0.tension=1_0:20:3"], "expected a plain number"),
+        (["--vary", "tendon.0.tension=0:10:1_0"], "COUNT must be an integer"),
     ],
 )
 def test_cli_bad_input_is_exit_2_and_writes_nothing(tmp_path, monkeypatch, capsys, args, message):

@@ -17,10 +17,18 @@ class MissingExtra(Exception):
 
 
 def output_path(text: str) -> Path:
-    """An --out / -o / --plot path: an empty one is refused (Path("") is the current folder,
-    which nobody means by it)."""
+    """An --out folder: an empty one is refused (Path("") is the current folder, which nobody
+    means by it)."""
     if not text.strip():
-        raise argparse.ArgumentTypeError("an empty path (give a file or folder name)")
+        raise argparse.ArgumentTypeError("an empty path (give a folder name)")
+    return Path(text)
+
+
+def output_file(text: str) -> Path:
+    """An -o / --out / --plot file: an empty name is refused (it would read as the current
+    folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path (give a file name)")
     return Path(text)
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import sys
 
-from flexgen.commands.common import MissingExtra, UsageError, output_path, printable
+from flexgen.commands.common import MissingExtra, UsageError, output_file, printable
 from flexgen.commands.solve import add_model_options, one_line, solve_args
 
 
@@ -18,7 +18,7 @@ def register(sub) -> None:
         description=(
             "Solve a scene and draw it as the paper's Fig. 7: rigid links as named bodies (an "
             "outline through the link's origin, its points and its child flexures' roots), the "
-            "base, unloaded (dashed) and loaded flexures (coloured by bending stress, or by "
+            "base, unloaded (dashed) and loaded flexures (coloured by stress, bending plus axial, or by "
             "curvature when a section is unknown, the largest value marked), tendons, load "
             "arrows to a scale the legend states, and the compliance ellipses of the output "
             "points (scaled to be visible; the legend gives the scale). Notes about the scene "
@@ -33,7 +33,7 @@ def register(sub) -> None:
         "-o",
         "--output",
         required=True,
-        type=output_path,
+        type=output_file,
         metavar="FILE",
         help="output file; the suffix picks the format: .png, .svg or .pdf",
     )

@@ -1,6 +1,7 @@
 """`flexgen sweep SCENE --vary KEY=START:STOP:COUNT ...`: a design study (flexgen/sweep.py).
 
-Exit codes: 0 the study ran (cases without an equilibrium are rows with their reason); 1 the
+Exit codes: 0 the study ran (cases without an equilibrium are rows with their reason, even
+when no case has one: the summary line on stderr counts them); 1 the
 work failed (a scheduler that cannot be reached, a full disk: the message names the file, and
 nothing the run created is left behind) or an optional dependency is missing (Parquet without
 pyarrow, --plot without matplotlib, --scheduler without dask: checked before anything is
@@ -18,7 +19,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from flexgen.commands.common import MissingExtra, UsageError, integer, output_path, printable
+from flexgen.commands.common import MissingExtra, UsageError, integer, output_file, printable
 from flexgen.outfiles import write_all
 from flexgen.sweep_plan import CHUNK_SIZE, DISTRIBUTIONS, plan
 
@@ -65,13 +66,13 @@ def register(sub) -> None:
     p.add_argument("--seed", type=integer(0), metavar="S", help="Monte-Carlo: the random seed")
     p.add_argument(
         "--out",
-        type=output_path,
+        type=output_file,
         metavar="FILE",
         help="write the table to FILE.parquet (needs pyarrow) or FILE.csv (default: CSV on stdout)",
     )
     p.add_argument(
         "--plot",
-        type=output_path,
+        type=output_file,
         metavar="FILE",
         help="draw the study (.png, .svg or .pdf): outputs against one key, heatmaps for two, "
         "histograms for Monte-Carlo",
@@ -145,6 +146,8 @@ def parse_vary(items: list[str], monte_carlo: bool) -> dict[str, Any]:
                 f"--vary {key}: with --samples, give normal:MEAN:SD or uniform:LOW:HIGH"
             )
         try:
+            if "_" in parts[2]:  # int() reads "1_0" too
+                raise ValueError
             count = int(parts[2])
         except ValueError:
             raise UsageError(f"--vary {key}: COUNT must be an integer, got {parts[2]!r}") from None
@@ -156,6 +159,8 @@ def parse_vary(items: list[str], monte_carlo: bool) -> dict[str, Any]:
 
 def _float(key: str, text: str) -> float:
     try:
+        if "_" in text:  # Python's float() reads "1_000"; a scene's TOML and units do not
+            raise ValueError
         return float(text)
     except ValueError:
         raise UsageError(
@@ -215,7 +220,7 @@ def run(args) -> int:
             client.close()
     failed = int((~df["converged"]).sum())
     print(
-        f"sweep: {len(df)} cases, {failed} without an equilibrium, "
+        f"sweep: {len(df)} case{'' if len(df) == 1 else 's'}, {failed} without an equilibrium, "
         f"{time.perf_counter() - start:.1f} s",
         file=sys.stderr,
     )

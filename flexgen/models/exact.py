@@ -436,6 +436,14 @@ class ElasticaProfile:
         kappa[order] = self._states(q, np.clip(s[order] / self.length, 0.0, 1.0))[1]
         return kappa / self.length
 
+    def tangent_angle(self, q, s) -> np.ndarray:
+        """phi(s) - the root angle: the tangent's angle to the root frame at arc lengths ``s``."""
+        s = np.asarray(s, dtype=float)
+        order = np.argsort(s)
+        phi = np.empty_like(s)
+        phi[order] = self._states(q, np.clip(s[order] / self.length, 0.0, 1.0))[0]
+        return phi - self.root_angle
+
     def curvature_extremes(self, q, num: int = 257) -> np.ndarray:
         """Both ends and where mu' = fx sin(phi) - fy cos(phi) changes sign between samples of
         a fine grid (located by linear interpolation): the peaks of |kappa| inside."""

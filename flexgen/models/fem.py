@@ -61,6 +61,15 @@ class FEMModel:
         (``fg_flexure_tip``; the n-element chain is written once, in C)."""
         return core_tip(self, q)
 
+    def tip_poses(self, Q) -> np.ndarray:
+        """(m, 3) tip poses of the rows of ``Q`` (m, elements): the segments' sum, as ``tip``
+        (the core's) gives it."""
+        Q = np.asarray(Q, dtype=float).reshape(-1, self.n_dof)
+        phi = np.concatenate([np.zeros((Q.shape[0], 1)), np.cumsum(Q, axis=1)], axis=1)
+        return np.column_stack(
+            [np.cos(phi) @ self.segments, np.sin(phi) @ self.segments, phi[:, -1]]
+        )
+
     def energy(self, q: np.ndarray) -> float:
         q = np.asarray(q, dtype=float).reshape(self.n_dof)
         return 0.5 * self.spring * float(q @ q)
@@ -93,6 +102,12 @@ class FEMModel:
     def curvature_extremes(self, q: np.ndarray) -> np.ndarray:
         """The joints and both ends: a piecewise linear profile peaks at one of them."""
         return np.concatenate([[0.0, self.length], (np.arange(self.n_dof) + 0.5) * self.h])
+
+    def tangent_angle(self, q: np.ndarray, s) -> np.ndarray:
+        """The angle to the root frame of the rigid segment at each arc length ``s`` (segment
+        k spans (k - 1/2) h to (k + 1/2) h, the end ones half as long)."""
+        k = np.clip(np.floor(np.asarray(s, dtype=float) / self.h + 0.5).astype(int), 0, self.n_dof)
+        return self._angles(q)[k]
 
     def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
         """The n + 2 joint/end points of the chain (root first); ``num`` is ignored."""

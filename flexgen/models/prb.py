@@ -46,6 +46,14 @@ class PRBModel:
         (``fg_flexure_tip``; the pseudo-rigid body is written once, in C)."""
         return core_tip(self, q)
 
+    def tip_poses(self, Q) -> np.ndarray:
+        """(m, 3) tip poses of the pin angles ``Q`` (m, 1), as ``tip`` (the core's) gives them."""
+        q = np.asarray(Q, dtype=float).reshape(-1)
+        arm = self.gamma * self.length
+        return np.column_stack(
+            [(1.0 - self.gamma) * self.length + arm * np.cos(q), arm * np.sin(q), q]
+        )
+
     def energy(self, q: np.ndarray) -> float:
         q = np.asarray(q, dtype=float).reshape(1)
         return 0.5 * self.stiffness * float(q[0] ** 2)
@@ -70,6 +78,13 @@ class PRBModel:
     def curvature_extremes(self, q: np.ndarray) -> np.ndarray:
         """Where |kappa| peaks: anywhere (the profile is constant); the root."""
         return np.zeros(1)
+
+    def tangent_angle(self, q: np.ndarray, s) -> np.ndarray:
+        """The segments' angle to the root frame at the arc lengths ``s``: 0 on the first,
+        rigid one, the pin angle q[0] beyond the pin at (1 - gamma) L."""
+        q = np.asarray(q, dtype=float).reshape(1)
+        s = np.asarray(s, dtype=float)
+        return np.where(s <= (1.0 - self.gamma) * self.length, 0.0, float(q[0]))
 
     def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
         """(num, 2) points along the two rigid segments (root, pin, tip), root first."""

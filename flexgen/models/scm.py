@@ -20,6 +20,7 @@ mode.
 from __future__ import annotations
 
 import math
+from functools import cache
 
 import numpy as np
 from numpy.polynomial import legendre
@@ -38,6 +39,32 @@ def angle_basis(modes: int, sigma: np.ndarray) -> np.ndarray:
         c[n] = 1
         cols.append(legendre.legval(2 * sigma - 1, legendre.legint(c, lbnd=-1) / 2))
     return np.array(cols).T
+
+
+@cache
+def _angle_coefficients(modes: int) -> np.ndarray:
+    """(modes + 1, modes) M: M @ q are the Legendre coefficients (in 2 sigma - 1) of
+    phi(sigma) = int_0^sigma kappa L (``angle_basis``'s columns, as one series)."""
+    out = np.zeros((modes + 1, modes))
+    for n in range(modes):
+        c = np.zeros(n + 1)
+        c[n] = 1
+        integral = legendre.legint(c, lbnd=-1) / 2
+        out[: integral.size, n] = integral
+    out.setflags(write=False)
+    return out
+
+
+@cache
+def _grid_bases(modes: int, num: int) -> tuple[np.ndarray, np.ndarray]:
+    """(num, modes) matrices K, A on sigma = linspace(0, 1, num): K @ q = kappa L (the
+    Legendre values) and A @ q = phi (``angle_basis``) there."""
+    sigma = np.linspace(0.0, 1.0, num)
+    K = legendre.legvander(2.0 * sigma - 1.0, modes - 1)
+    A = angle_basis(modes, sigma)
+    K.setflags(write=False)
+    A.setflags(write=False)
+    return K, A
 
 
 class SCMModel:
@@ -182,6 +209,24 @@ class SCMModel:
         H[..., :2, :, :] *= self.length
         return TipKinematics(pose, J, H)
 
+    def tip_poses(self, Q) -> np.ndarray:
+        """(m, 3) tip poses of the rows of ``Q`` (m, modes), each by the kernel ``kernel_at``
+        picks for it: one vectorised call per kernel (``Chain.frame_poses_batch``)."""
+        Q = np.asarray(Q, dtype=float).reshape(-1, self.n_dof)
+        out = np.empty((Q.shape[0], 3))
+        left = np.ones(Q.shape[0], dtype=bool)
+        for kernel in (self.local, self.poly, self.gauss):
+            if kernel is None or not left.any():
+                continue
+            take = left if kernel is self.gauss else left & kernel.in_range(Q)
+            if take.any():
+                out[take] = kernel.evaluate(Q[take])[0]
+                left &= ~take
+        if left.any():
+            raise ValueError(self.range_error())
+        out[:, :2] *= self.length
+        return out
+
     def energy(self, q) -> float:
         q = np.asarray(q, dtype=float)
         return 0.5 * self.EI / self.length * float(self.weights @ (q * q))
@@ -221,10 +266,53 @@ class SCMModel:
         ends = np.array([0.0, self.length])
         if q.size < 3:  # kappa' is a constant: |kappa| peaks at an end
             return ends
+        if q.size == 3:  # kappa' = q1 + 3 q2 x: its root in closed form (no eigenvalue call)
+            if q[2] == 0.0:
+                return ends
+            x = -q[1] / (3.0 * q[2])
+            if not -1.0 <= x <= 1.0:
+                return ends
+            return np.append(ends, 0.5 * (x + 1.0) * self.length)
         roots = legendre.legroots(legendre.legder(q))
         real = roots[np.abs(roots.imag) <= 1e-12 * (1.0 + np.abs(roots.real))].real
         inside = real[(real >= -1.0) & (real <= 1.0)]
         return np.concatenate([ends, (inside + 1.0) * 0.5 * self.length])
+
+    def grid_profile(self, q, num: int) -> tuple[np.ndarray, np.ndarray]:
+        """(kappa, phi) on ``num`` arc lengths evenly from root to tip: ``curvature`` and
+        ``tangent_angle`` there, by two cached matrices; ``q`` (..., modes) gives (..., num)
+        (a study's stresses, many answers at once)."""
+        K, A = _grid_bases(self.n_dof, num)
+        q = np.asarray(q, dtype=float)
+        return (q @ K.T) / self.length, q @ A.T
+
+    def extremes_profile(self, Q) -> tuple[np.ndarray, np.ndarray]:
+        """(kappa, phi) at the interior ``curvature_extremes`` of each row of ``Q`` (m, modes):
+        (m, modes - 2) each, NaN where a row has fewer; the ends are not in it (the grid has
+        them). Three modes in closed form for all rows at once, more per row."""
+        Q = np.asarray(Q, dtype=float).reshape(-1, self.n_dof)
+        m, k = Q.shape[0], max(self.n_dof - 2, 0)
+        x = np.full((m, k), np.nan)
+        if self.n_dof == 3:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                r = -Q[:, 1] / (3.0 * Q[:, 2])
+            x[:, 0] = np.where((r >= -1.0) & (r <= 1.0), r, np.nan)
+        elif self.n_dof > 3:
+            for i, q in enumerate(Q):
+                inside = 2.0 * self.curvature_extremes(q)[2:] / self.length - 1.0
+                x[i, : inside.size] = inside
+        xs = np.nan_to_num(x)  # evaluated anywhere, NaN again below
+        angle_series = Q @ _angle_coefficients(self.n_dof).T  # (m, modes + 1)
+        kappa = legendre.legval(xs.T, Q.T, tensor=False).T / self.length
+        phi = legendre.legval(xs.T, angle_series.T, tensor=False).T
+        return np.where(np.isnan(x), np.nan, kappa), np.where(np.isnan(x), np.nan, phi)
+
+    def tangent_angle(self, q, s) -> np.ndarray:
+        """phi(s) = int_0^s kappa: the tangent's angle to the root frame at the arc lengths ``s``
+        (flexgen.statics: the axial force along the flexure)."""
+        sigma = np.clip(np.asarray(s, dtype=float) / self.length, 0.0, 1.0)
+        series = _angle_coefficients(self.n_dof) @ np.asarray(q, dtype=float)
+        return legendre.legval(2.0 * sigma - 1.0, series)
 
     def shape(self, q, num: int = 64) -> np.ndarray:
         """Centreline in the root frame: cumulative Gauss integration of cos/sin phi per panel."""
