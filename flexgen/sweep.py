@@ -275,9 +275,13 @@ def _stop_pool() -> None:
     pool, _pool_executor, _pool_workers = _pool_executor, None, 0
     if pool is None:
         return
-    processes = getattr(pool, "_processes", None) or {}
-    for process in list(processes.values()):
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for process in processes:
         process.terminate()
+    # dead before this process exits and its queues' semaphores go: a worker still starting
+    # would otherwise find them gone and print a FileNotFoundError traceback (review)
+    for process in processes:
+        process.join(1.0)
     pool.shutdown(wait=False, cancel_futures=True)
 
 
@@ -288,7 +292,10 @@ def _context() -> Any:
         ctx = get_context("forkserver")
     except ValueError:  # Windows
         return get_context("spawn")
-    ctx.set_forkserver_preload(["flexgen.sweep_chunk", "scipy.linalg"])
+    # (the last: workers ignore Ctrl-C from their start; flexgen/_forkserver_preload.py)
+    ctx.set_forkserver_preload(
+        ["flexgen.sweep_chunk", "scipy.linalg", "flexgen._forkserver_preload"]
+    )
     return ctx
 
 

@@ -938,6 +938,39 @@ def test_ctrl_c_stops_a_sweep_on_worker_processes(tmp_path):
         pytest.fail("a worker process outlived the interrupted sweep by 10 s")
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="the fork server: POSIX")
+def test_workers_ignore_ctrl_c_from_birth_and_die_quietly_when_the_study_is_gone():
+    """Review: Ctrl-C while a worker was still starting printed its traceback under the one-line
+    "interrupted" (a KeyboardInterrupt before the pool's initializer, or the study's semaphores
+    gone). The fork server's preload makes every child ignore SIGINT and silences exactly the
+    second case; any other error still prints."""
+    import importlib
+    import multiprocessing.forkserver
+    import subprocess
+
+    study = importlib.import_module("flexgen.sweep")  # (flexgen.sweep is also the function)
+    study._context()
+    preload = multiprocessing.forkserver._forkserver._preload_modules
+    assert "flexgen._forkserver_preload" in preload
+    probe = r"""if True:
+        import signal, sys
+        import flexgen._forkserver_preload
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        source = "def __setstate__():\n    raise FileNotFoundError(2, 'gone')\n"
+        code = compile(source, "/usr/lib/python3/multiprocessing/synchronize.py", "exec")
+        space = {}
+        exec(code, space)
+        for call in (space["__setstate__"], lambda: 1 / 0):
+            try:
+                call()
+            except Exception:
+                sys.excepthook(*sys.exc_info())
+    """
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert "ZeroDivisionError" in run.stderr and "FileNotFoundError" not in run.stderr
+
+
 def test_workers_asked_for_are_used_without_the_probe(monkeypatch):
     """workers=N (N >= 2) runs N processes as asked; only the default probes whether the study
     is worth them (found by review: --workers 2 was silently one process)."""

@@ -1,0 +1,34 @@
+"""Imported only in the fork server that starts a study's worker processes
+(``sweep._context``: ``set_forkserver_preload``), never by flexgen itself: what a worker that
+is still starting does when its study is interrupted.
+
+A terminal's Ctrl-C reaches every process of its foreground group, a worker that is still
+starting included: before the pool's initializer (``sweep._leave_interrupts_to_the_parent``)
+ran, its KeyboardInterrupt printed a traceback under the one-line "interrupted" (review). The
+fork server gives each child the signal handlers it had after its preloads, so ignoring SIGINT
+here makes every worker ignore it from its first instruction; the parent stops them
+(``sweep._stop_pool``). A worker forked just as the parent stopped finds the study's queue
+semaphores already gone (``SemLock.__setstate__``: FileNotFoundError) and exits; the fork
+server prints that through ``sys.excepthook``, which here stays silent for it alone. (Other
+fork-server children of the same program inherit both, which is what a pool's workers want.)
+"""
+
+import signal
+import sys
+import traceback
+
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+_print = sys.excepthook
+
+
+def _quiet_if_the_study_is_gone(kind, value, tb) -> None:
+    frames = traceback.extract_tb(tb)
+    gone = issubclass(kind, FileNotFoundError) and any(
+        f.name == "__setstate__" and f.filename.endswith("synchronize.py") for f in frames
+    )
+    if not gone:
+        _print(kind, value, tb)
+
+
+sys.excepthook = _quiet_if_the_study_is_gone
