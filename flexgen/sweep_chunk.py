@@ -295,7 +295,8 @@ def _fill_stresses(solver: Solver, cases: list, table: np.ndarray) -> None:
             stress = peak_stresses(f, model, Q[:, sl], forces[:, j], roots[f.name][:, 2])
         else:
             stress = np.array([peak_stress(f, model, q[sl])[0] for q in Q], dtype=float)
-        safety = [safety_factor(f, float(x))[0] for x in stress]
+        # NaN: no stress known (no E or thickness), so no safety factor (review: it read inf)
+        safety = [safety_factor(f, None if math.isnan(x) else float(x))[0] for x in stress]
         table[rows, start + 2 * j] = stress
         table[rows, start + 2 * j + 1] = [math.nan if v is None else v for v in safety]
 

@@ -191,3 +191,19 @@ def test_the_batched_frames_are_the_chains_own():
             assert np.allclose(frames[body][i], pose, rtol=0, atol=1e-14), body
         for name, pose in one_roots.items():
             assert np.allclose(roots[name][i], pose, rtol=0, atol=1e-14), name
+
+
+def test_a_study_leaves_the_safety_factor_of_a_flexure_without_stress_empty():
+    # review: beside a flexure with an area, one without a known stress read safety factor inf
+    sc = {
+        "name": "mix",
+        "model": {"yield_strength": 1e9},
+        "flexure": [
+            {"name": "a", "length": 0.03, "E": E, "width": W, "thickness": T},
+            {"name": "b", "length": 0.03, "EI": 4.5e-3},
+        ],
+        "load": [{"point": "b.tip", "force": [1.0, -0.2]}],
+    }
+    df = flexgen.sweep(sc, {"load.0.force.1": [-0.2, -0.4]}, workers=1, estimate=False)
+    assert df["b.max_stress"].isna().all() and df["b.safety_factor"].isna().all()
+    assert (df["a.safety_factor"] > 1.0).all()

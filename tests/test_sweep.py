@@ -634,6 +634,20 @@ def test_cli_writes_the_table(finger, tmp_path, suffix, capsys):
     assert [p.name for p in tmp_path.iterdir()] == [out.name]  # no temporary file left
 
 
+def test_cli_takes_the_values_themselves(capsys):
+    # review: the API took a list of values, the command line only START:STOP:COUNT
+    args = ["--vary", "tendon.0.tension=0.5,2,3.5", "--vary", "load.0.force.1=-0.2"]
+    assert main(["sweep", str(FINGER), *args, "--no-estimate"]) == 0
+    got = pd.read_csv(io.StringIO(capsys.readouterr().out))
+    want = flexgen.sweep(
+        FINGER, {"tendon.0.tension": [0.5, 2.0, 3.5], "load.0.force.1": [-0.2]}, estimate=False
+    )
+    assert got["tendon.0.tension"].tolist() == [0.5, 2.0, 3.5]
+    np.testing.assert_allclose(got["fingertip.pad.x"], want["fingertip.pad.x"], rtol=1e-15)
+    assert main(["sweep", str(FINGER), "--vary", "tendon.0.tension=1,,2"]) == 2
+    assert "expected a plain number" in capsys.readouterr().err
+
+
 def test_cli_summary_counts_one_case_in_the_singular(capsys):
     assert main(["sweep", str(FINGER), "--vary", "tendon.0.tension=1:1:1"]) == 0
     assert "sweep: 1 case, 0 without an equilibrium" in capsys.readouterr().err

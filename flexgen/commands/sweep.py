@@ -1,4 +1,4 @@
-"""`flexgen sweep SCENE --vary KEY=START:STOP:COUNT ...`: a design study (flexgen/sweep.py).
+"""`flexgen sweep SCENE --vary KEY=START:STOP:COUNT|V1,V2,... ...`: a design study (flexgen/sweep.py).
 
 Exit codes: 0 the study ran (cases without an equilibrium are rows with their reason, even
 when no case has one: the summary line on stderr counts them); 1 the
@@ -28,6 +28,8 @@ EXAMPLE = """\
 examples:
   flexgen sweep examples/two_link_finger.toml \\
       --vary tendon.0.tension=0:10:11 --vary load.0.force.1=0:-1:5 --out finger.parquet
+  flexgen sweep examples/two_link_finger.toml \\
+      --vary flexure.proximal.thickness=0.2e-3,0.25e-3,0.3e-3 --vary tendon.0.tension=0:5:6
   flexgen sweep examples/two_link_finger.toml --samples 1000 --seed 1 \\
       --vary flexure.proximal.thickness=normal:0.25e-3:0.01e-3 --plot tolerance.png
 
@@ -43,8 +45,8 @@ def register(sub) -> None:
         "sweep",
         help="a design study: a grid or Monte-Carlo sample of a scene's values, one row per case",
         description=(
-            "Solve a scene for every case of a study: several --vary KEY=START:STOP:COUNT make "
-            "a full factorial grid (rows in the order of the keys, the first slowest); with "
+            "Solve a scene for every case of a study: several --vary KEY=START:STOP:COUNT (or "
+            "KEY=V1,V2,...) make a full factorial grid (rows in the order of the keys, the first slowest); with "
             "--samples N, --vary KEY=normal:MEAN:SD or KEY=uniform:LOW:HIGH draw N Monte-Carlo "
             "cases (--seed makes them reproducible). Prints the table as CSV, or writes it with "
             "--out; progress on stderr."
@@ -58,9 +60,9 @@ def register(sub) -> None:
         action="append",
         required=True,
         metavar="KEY=SPEC",
-        help="a varied key: KEY=START:STOP:COUNT (COUNT values from START to STOP), or with "
-        "--samples KEY=normal:MEAN:SD or KEY=uniform:LOW:HIGH; plain numbers in the scene's "
-        "units; repeat for more keys",
+        help="a varied key: KEY=START:STOP:COUNT (COUNT values from START to STOP), "
+        "KEY=V1,V2,... (these values), or with --samples KEY=normal:MEAN:SD or "
+        "KEY=uniform:LOW:HIGH; plain numbers in the scene's units; repeat for more keys",
     )
     p.add_argument("--samples", type=integer(1), metavar="N", help="Monte-Carlo: N cases")
     p.add_argument("--seed", type=integer(0), metavar="S", help="Monte-Carlo: the random seed")
@@ -124,10 +126,18 @@ def parse_vary(items: list[str], monte_carlo: bool) -> dict[str, Any]:
             raise UsageError(f"--vary: expected KEY=START:STOP:COUNT, got {item!r}")
         if key in vary:
             raise UsageError(f"--vary {key}: given twice")
+        if ":" not in spec:  # the values themselves (one, or several separated by commas)
+            if monte_carlo:
+                raise UsageError(
+                    f"--vary {key}: with --samples, give normal:MEAN:SD or uniform:LOW:HIGH"
+                )
+            vary[key] = [_float(key, v) for v in spec.split(",")]
+            continue
         parts = spec.split(":")
         if len(parts) != 3:
             raise UsageError(
-                f"--vary {key}: expected START:STOP:COUNT, normal:MEAN:SD or uniform:LOW:HIGH, "
+                f"--vary {key}: expected START:STOP:COUNT, V1,V2,..., normal:MEAN:SD or "
+                f"uniform:LOW:HIGH, "
                 f"got {spec!r}"
             )
         head = parts[0].strip()
