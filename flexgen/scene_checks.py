@@ -116,14 +116,49 @@ def mixed_units(scene: Scene) -> str | None:
     )
 
 
+# no material is stiffer (diamond: 1.2e12 Pa) or stronger than this: an E or a strength above it
+# is a value in Pa written in a scene whose stresses are in MPa or GPa (review: E = 200e9 in an
+# mm/N scene, so 2e17 Pa, solved without a word)
+MAX_MATERIAL_STRESS_PA = 2e12
+
+
+def implausible_stresses(scene: Scene) -> list[str]:
+    """One warning per flexure whose E or strength, in Pa, is beyond any material's."""
+    pa = 1.0
+    if scene.units is not None:
+        from .units import registry
+
+        unit = f"{scene.units.force} / {scene.units.length} ** 2"
+        pa = float(registry().Quantity(1.0, unit).to("Pa").magnitude)
+    label = "Pa" if scene.units is None else scene.units.label("stress")
+    out = []
+    for f in scene.flexures:
+        given = {
+            "E": f.E,
+            "yield_strength": f.yield_strength,
+            "fatigue_strength": f.fatigue_strength,
+        }
+        for key, value in given.items():
+            if value is not None and value * pa > MAX_MATERIAL_STRESS_PA:
+                out.append(
+                    f"flexure {f.name!r}: {key} = {value:g} {label} is {value * pa:.3g} Pa, "
+                    f"beyond any material's ({MAX_MATERIAL_STRESS_PA:g} Pa): a value in Pa in a "
+                    f'scene whose stresses are in {label}? (give it a unit: "200 GPa")'
+                )
+                break
+    return out
+
+
 def scene_warnings(scene: Scene) -> list[str]:
     """One warning per flexure of ``thick_flexures``: outside the beam model, and often a unit
     slip (a length in m in an mm scene); one for plain numbers read in SI that look written in
-    another system (``mixed_units``)."""
+    another system (``mixed_units``); one per flexure whose E or strength is beyond any
+    material's (``implausible_stresses``)."""
     out = []
     mixed = mixed_units(scene)
     if mixed:
         out.append(mixed)
+    out.extend(implausible_stresses(scene))
     for f in thick_flexures(scene):
         t = cast(float, f.thickness)  # given: thick_flexures reads only given thicknesses
         out.append(

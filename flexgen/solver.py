@@ -370,6 +370,9 @@ class Solver:
             model={name: dict(v) for name, v in self._info.items()},
             q={},
             points={},
+            # the scene's own warnings (a unit slip, a flexure too thick) may be why it failed
+            # (review: the mixed-units warning was dropped with the answer)
+            warnings=list(self._scene_warnings),
             notes=notes,
             reason=self._reason(status),
             critical_load_factors=critical,

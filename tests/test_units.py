@@ -383,3 +383,47 @@ def test_plain_numbers_read_in_si_that_look_like_another_system_warn():
     assert flexgen.solve(declared).flexures["a"].safety_factor == pytest.approx(
         flexgen.solve({**mm, "model": {"yield_strength": 1400}}).flexures["a"].safety_factor
     )
+
+
+@pytest.mark.parametrize(
+    "units, key, value, warned",
+    [
+        ({"length": "mm", "force": "N"}, "E", 200e9, True),  # Pa in an MPa scene: 2e17 Pa
+        ({"length": "mm", "force": "N"}, "E", 200e3, False),  # 200 GPa in MPa
+        ({"length": "mm", "force": "N"}, "yield_strength", 1.4e9, True),
+        (None, "E", 200e9, False),  # SI: Pa
+        (None, "E", 5e12, True),
+    ],
+)
+def test_an_e_or_strength_beyond_any_material_is_a_warning(units, key, value, warned):
+    # review: E = 200e9 in an mm/N scene (2e17 Pa) solved without a word
+    length, width, thickness = (20.0, 10.0, 0.3) if units else (0.02, 0.01, 0.0003)
+    E = value if key == "E" else (200e3 if units else 200e9)
+    flexure = {"name": "b", "length": length, "E": E, "width": width, "thickness": thickness}
+    if key != "E":
+        flexure[key] = value
+    scene = {"name": "s", "flexure": [flexure], "load": [{"point": "b.tip", "force": [0, -1e-3]}]}
+    if units:
+        scene["units"] = units
+    r = flexgen.solve(scene_from_dict(scene))
+    hits = [w for w in r.warnings if "beyond any material" in w]
+    assert len(hits) == int(warned), r.warnings
+    if warned:
+        assert f"{key} = {value:g}" in hits[0]
+
+
+def test_a_failed_solve_keeps_the_scenes_unit_warning():
+    # review: the mixed-units warning (the likely cause) was dropped when no equilibrium was found
+    scene = {
+        "name": "mix",
+        "model": {"kernel": "poly"},  # no Gauss fallback: the huge load fails
+        "flexure": [
+            {"name": "b", "length": "20 mm", "E": 200e3, "width": "10 mm", "thickness": "0.3 mm"}
+        ],
+        "load": [{"point": "b.tip", "force": ["0 N", "-5 N"]}],
+    }
+    r = flexgen.solve(scene_from_dict(scene))
+    assert not r.converged
+    assert any(
+        "is a plain number in a scene whose other values carry units" in w for w in r.warnings
+    )
