@@ -1,6 +1,8 @@
-"""Imported only in the fork server that starts a study's worker processes
-(``sweep._context``: ``set_forkserver_preload``), never by flexgen itself: what a worker that
-is still starting does when its study is interrupted.
+"""Imported only in the fork server that starts ``flexgen sweep``'s worker processes
+(``sweep._context``: ``set_forkserver_preload``, first, and only where the process is the
+command's own: a program calling ``flexgen.sweep`` keeps its fork server's children as they
+are), never by flexgen itself: what a worker that is still starting does when its study is
+interrupted.
 
 A terminal's Ctrl-C reaches every process of its foreground group, a worker that is still
 starting included: before the pool's initializer (``sweep._leave_interrupts_to_the_parent``)
@@ -9,8 +11,8 @@ fork server gives each child the signal handlers it had after its preloads, so i
 here makes every worker ignore it from its first instruction; the parent stops them
 (``sweep._stop_pool``). A worker forked just as the parent stopped finds the study's queue
 semaphores already gone (``SemLock.__setstate__``: FileNotFoundError) and exits; the fork
-server prints that through ``sys.excepthook``, which here stays silent for it alone. (Other
-fork-server children of the same program inherit both, which is what a pool's workers want.)
+server prints that through ``sys.excepthook``, which here stays silent for it alone. (Every
+fork-server child of the command inherits both: they are all its workers.)
 """
 
 import signal

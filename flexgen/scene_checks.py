@@ -123,15 +123,18 @@ MAX_MATERIAL_STRESS_PA = 2e12
 
 
 def implausible_stresses(scene: Scene) -> list[str]:
-    """One warning per flexure whose E or strength, in Pa, is beyond any material's."""
-    pa = 1.0
-    if scene.units is not None:
-        from .units import registry
+    """One warning per key and value (E, a strength) that, in Pa, is beyond any material's, in
+    a scene that declares its units (a plain-number scene is one consistent set of any units:
+    cgs steel has E = 2e12 dyn/cm^2; review), naming every flexure that has it (a [model]
+    strength is every flexure's: said once)."""
+    if scene.units is None:
+        return []
+    from .units import registry
 
-        unit = f"{scene.units.force} / {scene.units.length} ** 2"
-        pa = float(registry().Quantity(1.0, unit).to("Pa").magnitude)
-    label = "Pa" if scene.units is None else scene.units.label("stress")
-    out = []
+    unit = f"{scene.units.force} / {scene.units.length} ** 2"
+    pa = float(registry().Quantity(1.0, unit).to("Pa").magnitude)
+    label = scene.units.label("stress")
+    found: dict[tuple[str, float], list[str]] = {}  # (key, value) -> flexures, in scene order
     for f in scene.flexures:
         given = {
             "E": f.E,
@@ -140,12 +143,16 @@ def implausible_stresses(scene: Scene) -> list[str]:
         }
         for key, value in given.items():
             if value is not None and value * pa > MAX_MATERIAL_STRESS_PA:
-                out.append(
-                    f"flexure {f.name!r}: {key} = {value:g} {label} is {value * pa:.3g} Pa, "
-                    f"beyond any material's ({MAX_MATERIAL_STRESS_PA:g} Pa): a value in Pa in a "
-                    f'scene whose stresses are in {label}? (give it a unit: "200 GPa")'
-                )
-                break
+                found.setdefault((key, value), []).append(f.name)
+    out = []
+    for (key, value), names in found.items():
+        who = ", ".join(repr(n) for n in names)
+        out.append(
+            f"flexure{'s' if len(names) > 1 else ''} {who}: {key} = {value:g} {label} is "
+            f"{value * pa:.3g} Pa, beyond any material's ({MAX_MATERIAL_STRESS_PA:g} Pa): a "
+            f"value in Pa in a scene whose stresses are in {label}? (or give it a unit, as "
+            f'"{value:g} Pa")'
+        )
     return out
 
 

@@ -241,6 +241,9 @@ def _local(
     return [done[i] for i in range(len(chunks))]
 
 
+# set by the flexgen sweep command: the process is flexgen's own (``_context``)
+OWN_PROCESS = False
+
 _pool_executor: ProcessPoolExecutor | None = None
 _pool_workers = 0
 
@@ -292,10 +295,12 @@ def _context() -> Any:
         ctx = get_context("forkserver")
     except ValueError:  # Windows
         return get_context("spawn")
-    # (the last: workers ignore Ctrl-C from their start; flexgen/_forkserver_preload.py)
-    ctx.set_forkserver_preload(
-        ["flexgen.sweep_chunk", "scipy.linalg", "flexgen._forkserver_preload"]
-    )
+    # where flexgen owns the process (flexgen sweep), its workers ignore Ctrl-C from their
+    # start: first, before the slow imports (flexgen/_forkserver_preload.py). Not for a
+    # program calling flexgen.sweep: the fork server is the program's, and its own children
+    # would ignore Ctrl-C too (review)
+    first = ["flexgen._forkserver_preload"] if OWN_PROCESS else []
+    ctx.set_forkserver_preload([*first, "flexgen.sweep_chunk", "scipy.linalg"])
     return ctx
 
 

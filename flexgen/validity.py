@@ -20,15 +20,19 @@ The warnings (``validity_warnings``)
 * the stiffness near singular: the margin to a critical load (the smallest generalized eigenvalue
   of the stiffness K at the equilibrium against the elastic Hessian, 1 - P/P_cr on an axial
   load) below 5 % (near a critical load the compliance error is amplified by 1/margin);
+* a flexure with a thickness whose outer-fibre bending strain passes 3 % (``STRAIN_LIMIT``),
+  where no flexure material is linear (the exact solver's answers get it too);
 * (``check`` only) a flexure bent past 90 deg at a load level above 1e3, which no elastic
   flexure survives: nearly always a scene in the wrong units (``units_warning``; a failed solve
   at such a load says so in its reason: ``units_reason``, added by ``flexgen.api``).
 
-``exact`` is the reference and is not assessed; a result that did not converge already says so.
+``exact`` is the reference and is not assessed (but for the strain); a result that did not
+converge already says so.
 
 ``calm`` is ``flexgen.solve``'s shortcut for a cached prepared solver's answers: from the core's
-bends and kernels and the margin, whether ``check`` could add anything at all (the usual answer
-earns no warning); when it might, ``check`` decides.
+bends and kernels and the margin, and each strained flexure's cheap curvature bound
+(``curvature_bound``: sum |q_n| / L for smooth curvature), whether ``check`` could add anything
+at all (the usual answer earns no warning); when it might, ``check`` decides.
 """
 
 from __future__ import annotations
@@ -71,6 +75,23 @@ class Claim:
 # wrong unit (E = 200 for 200 GPa in SI makes lambda 1e9 times too large).
 UNITS_LOAD_LEVEL = 1e3
 UNITS_BEND = math.pi / 2
+
+# Past this outer-fibre bending strain (kappa thickness / 2) no flexure material is linear, which
+# every model here assumes (M = EI kappa): metals yield below 1.5 % (spring steel about 0.7 %,
+# titanium about 1 %), superelastic nitinol leaves its linear branch near 1 %, and polymers'
+# stress-strain curves bend within a few percent. A warning on any answer whose flexure has a
+# thickness (review: 5000 N on the steel finger strained it 7.7 %, with no warning but the
+# safety factors, which a scene without strengths does not have).
+STRAIN_LIMIT = 0.03
+
+
+def strain_warning(name: str, strain: float) -> str:
+    """The warning of a flexure strained past STRAIN_LIMIT."""
+    return (
+        f"flexure {name!r}: outer-fibre bending strain {strain:.3g} ({100 * strain:.2g} %) is past the "
+        f"{100 * STRAIN_LIMIT:g} % beyond which no flexure material is linear, as every model "
+        f"here assumes: the answer does not hold for a real strip (check the load and the units)"
+    )
 
 
 def units_hint(scene: Scene) -> str:
@@ -210,6 +231,8 @@ class _Context:
     prb_problem: str | None
     # whether the scene's own loads are above UNITS_LOAD_LEVEL (loads_scene)
     level_high: bool = False
+    # (flexure, thickness / 2) of every flexure with a thickness: its strain is checked
+    strained: tuple[tuple[str, float], ...] = ()
 
 
 _CONTEXTS: dict[tuple, tuple] = {}
@@ -228,6 +251,7 @@ def _context(scene: Scene, models: Mapping, label: str | None) -> _Context:
         tuple(n for n, m in models.items() if getattr(m, "kind", "") == "prb"),
         _scene_constants(scene),
         max(scene.load_levels().values(), default=0.0) > UNITS_LOAD_LEVEL,
+        tuple((f.name, 0.5 * f.thickness) for f in scene.flexures if f.thickness is not None),
     )
     if len(_CONTEXTS) >= 64:
         _CONTEXTS.clear()
@@ -289,6 +313,17 @@ def assess(
             f"{_deg(BEND_LIMIT)} to which the error estimate's Gauss kernels are certified; "
             f"no accuracy is claimed"
         )
+    if ctx.strained:
+        from flexgen.stress import max_abs_curvature
+
+        q = result.q
+        for name, half in ctx.strained:
+            model = models.get(name)
+            if model is None or name not in q or not hasattr(model, "curvature"):
+                continue
+            strain = max_abs_curvature(model, q[name]) * half
+            if strain > STRAIN_LIMIT:
+                warnings.append(strain_warning(name, strain))
     margin = getattr(result, "stability_margin", None)
     if margin is None:
         margin = stiffness_margin(scene, models, result.q, getattr(result, "stiffness", None))
@@ -330,8 +365,8 @@ def check(scene: Scene, result, models: Mapping | None = None, model_factory=Non
     """Append the validity warnings of a converged chain-model ``result`` to
     ``result.warnings`` (no duplicates): a model past its validity (prb past 64 deg or outside
     its fitted case, a kernel past its certified range, a bend past ``BEND_LIMIT``), a load
-    near a critical one, or a bend at a load level that suggests the wrong units
-    (``units_warning``). What the answer claims is its error estimate (``flexgen.estimate``).
+    near a critical one, a flexure strained past ``STRAIN_LIMIT``, or a bend at a load level
+    that suggests the wrong units (``units_warning``). What the answer claims is its error estimate (``flexgen.estimate``).
     Returns the Claim (None if the result did not converge)."""
     if not result.converged or not scene.flexures:
         return None
@@ -349,11 +384,16 @@ class _Screen:
     """What ``calm`` needs of a prepared solver, made once (kept on the solver)."""
 
     empty: bool  # no flexures: check adds nothing
-    always: bool  # prb outside its fitted case: a warning on every answer
+    # prb outside its fitted case (a warning on every answer), or a flexure with a thickness
+    # whose model has no cheap curvature bound: check decides every answer
+    always: bool
     # per flexure (core order), the bend above which some warning may apply: BEND_LIMIT, and
     # PRB_LIMIT for prb, and UNITS_BEND at a load level above UNITS_LOAD_LEVEL; the core reads
     # them (fg_problem.bend_limit) and screens every answer itself (fg_answer.calm)
     limits: Any
+    # per flexure with a thickness: (start, stop) of its coordinates in q and its model's
+    # curvature_bound times thickness / 2: the strain screen (STRAIN_LIMIT), in Python
+    strained: tuple = ()
 
     @property
     def by_core(self) -> bool:
@@ -383,10 +423,21 @@ def _screen(solver) -> _Screen:
     struct = solver.problem.struct
     struct.near_margin = NEAR_SINGULAR
     struct.bend_limit = core.ffi.cast("double *", limit_array.ctypes.data)
+    slices = solver.problem.chain.slices
+    strained = []  # (start, stop, use the max, factor x thickness / 2): see calm
+    always = bool(ctx.prb) and ctx.prb_problem is not None
+    for name, half in ctx.strained:
+        terms = getattr(models[name], "curvature_bound", None)
+        if terms is not None:
+            use_max, factor = terms()
+            strained.append((slices[name].start, slices[name].stop, use_max, factor * half))
+        elif hasattr(models[name], "curvature"):  # no cheap bound: check decides every answer
+            always = True
     return _Screen(
         empty=not scene.flexures,
-        always=bool(ctx.prb) and ctx.prb_problem is not None,
+        always=always,
         limits=limit_array,
+        strained=tuple(strained),
     )
 
 
@@ -421,14 +472,24 @@ def calm(solver, result) -> bool:
     first call), and ``check`` decides."""
     screen = solver._validity_screen
     if screen is not None and screen.by_core:
-        return bool(solver.workspace.answer.calm)  # the core screened it (screen_calm)
-    if screen is None:  # first answer: the screen made and given to the core, which screens
+        calm_now = bool(solver.workspace.answer.calm)  # the core screened it (screen_calm)
+    elif screen is None:  # first answer: the screen made and given to the core, which screens
         screen = solver._validity_screen = _screen(solver)  # every answer from now on
         if screen.by_core:  # this one, solved before, by fg_calm
             from flexgen import core
 
             ws = solver.workspace
-            return bool(
+            calm_now = bool(
                 core.lib.fg_calm(solver.problem.struct, ws.answer, ws.work_ptr, ws.iwork_ptr)
             )
-    return screen.empty  # (no flexures: nothing to warn about; prb outside its fit: always)
+        else:
+            calm_now = screen.empty
+    else:
+        calm_now = screen.empty  # (no flexures: nothing to warn about; prb outside: always)
+    if calm_now and screen.strained:  # every strain below its limit, by a cheap bound
+        q = solver.workspace.q.tolist()
+        for a, b, use_max, factor in screen.strained:
+            part = map(abs, q[a:b])
+            if (max(part) if use_max else sum(part)) * factor > STRAIN_LIMIT:
+                return False
+    return calm_now

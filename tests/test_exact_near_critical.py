@@ -54,12 +54,12 @@ def test_far_from_critical_the_compliance_is_the_closed_form_without_a_message(r
 
 
 def test_close_to_critical_a_note_states_the_compliance_error_which_holds():
-    r = column(0.99)
+    r = column(0.97)
     warnings, notes = near_messages(r)
     assert warnings == [] and len(notes) == 1, (r.warnings, r.notes)
     stated = float(re.search(r"about ([0-9.e+-]+) relative", notes[0]).group(1))
     assert stated < COMPLIANCE_RESOLVED
-    true = abs(r.points["b.tip"].compliance[1][1] / lateral_compliance(0.99) - 1.0)
+    true = abs(r.points["b.tip"].compliance[1][1] / lateral_compliance(0.97) - 1.0)
     assert true <= stated
 
 
@@ -70,8 +70,8 @@ def test_closer_a_warning_states_an_error_bound_that_holds(ratio):
     assert len(warnings) == 1, r.warnings
     stated = stated_error(warnings[0])
     true = abs(r.points["b.tip"].compliance[1][1] / lateral_compliance(ratio) - 1.0)
-    # the bound holds and is not loose by more than a few times
-    assert stated / 3 <= true <= stated
+    # the bound holds and is not loose by more than 10 times (3.8x on a lone column)
+    assert stated / 10 <= true <= stated
     assert "not resolved" not in warnings[0]
 
 
@@ -80,3 +80,24 @@ def test_at_the_euler_load_neither_compliance_nor_stability_is_claimed():
     warnings, _ = near_messages(r)
     assert len(warnings) == 1, r.warnings
     assert stated_error(warnings[0]) > 0.1 and "whether it is stable is not resolved" in warnings[0]
+
+
+def test_the_bound_holds_for_a_column_in_a_tree():
+    # review: the column beside an unloaded second branch, its root turned by pi, was 1.19x
+    # off the first constant (3e-9)
+    P = 0.9999 * P_CR
+    scene = {
+        "name": "tree",
+        "model": {"kind": "exact"},
+        "flexure": [
+            {"name": "b", "length": L, "EI": EI, "at": [0.0, 0.0, math.pi]},
+            {"name": "side", "parent": "base", "length": 0.5, "EI": 1.0, "at": [0.0, 0.3, 0.5]},
+        ],
+        "load": [{"point": "b.tip", "force": [P, 0.0]}],
+        "output": {"points": ["b.tip"]},
+    }
+    r = flexgen.solve(scene)
+    warnings, _ = near_messages(r)
+    assert len(warnings) == 1, r.warnings
+    true = abs(r.points["b.tip"].compliance[1][1] / lateral_compliance(0.9999) - 1.0)
+    assert true <= stated_error(warnings[0])

@@ -1432,3 +1432,83 @@ def test_flexures_of_different_sizes_fix_no_flexure_size(tmp_path):
     text = controller_files(scene, "mixed")["mixed.c"]
     assert "#define FG_FIXED_NDOF 4\n" in text and "#define FG_FIXED_NFLEX 2\n" in text
     assert "#define FG_FIXED_FLEX_NDOF" not in text
+
+
+FINGER_LOADS = r"""
+#include <stdio.h>
+#include "ff.h"
+#include "fd.h"
+/* stdin: fx fy tension per line; stdout per line: both statuses, the float flags, then the
+ * largest pose error (of the longest flexure's length) and compliance error (relative to the
+ * largest 2x2 entry) of the float twin against the double solver, cold */
+int main(void)
+{
+    static ff_inputs fi;
+    static ff_state fs;
+    static ff_outputs fo;
+    static fd_inputs di;
+    static fd_state ds;
+    static fd_outputs dout;
+    double fx, fy, t;
+    while (scanf("%lf %lf %lf", &fx, &fy, &t) == 3) {
+        int sf, sd, i, a, b;
+        double pose = 0.0, comp = 0.0, big = 0.0;
+        ff_inputs_default(&fi);
+        fd_inputs_default(&di);
+        fi.load[0][0] = (float)fx;
+        fi.load[0][1] = (float)fy;
+        fi.tension[0] = (float)t;
+        di.load[0][0] = (double)fi.load[0][0];
+        di.load[0][1] = (double)fi.load[0][1];
+        di.tension[0] = (double)fi.tension[0];
+        fs.solved = 0;
+        ds.solved = 0;
+        sf = ff_solve(&fi, &fs, &fo);
+        sd = fd_solve(&di, &ds, &dout);
+        for (i = 0; sf == FF_SOLVED && sd == FD_SOLVED && i < FD_NOUTPUTS; ++i) {
+            for (a = 0; a < 2; ++a) {
+                double e = (double)fo.pose[i][a] - dout.pose[i][a];
+                pose = e * e > pose * pose ? (e < 0 ? -e : e) : pose;
+                for (b = 0; b < 2; ++b) {
+                    double c = dout.compliance[i][a][b], d = (double)fo.compliance[i][a][b] - c;
+                    big = (c < 0 ? -c : c) > big ? (c < 0 ? -c : c) : big;
+                    comp = (d < 0 ? -d : d) > comp ? (d < 0 ? -d : d) : comp;
+                }
+            }
+        }
+        printf("%d %d %d %.9g %.9g\n", sf, sd, fo.flags, pose, big > 0 ? comp / big : 0.0);
+    }
+    return 0;
+}
+"""
+
+
+@NEEDS_GCC
+def test_float_twin_flags_every_answer_past_its_stated_accuracy(tmp_path):
+    """Review: on the two-link finger, loads whose margin to a critical load was just above the
+    5 % of FLAG_NEAR_CRITICAL put the float twin 4.5e-4 of its length and 1.3e-3 in compliance
+    off the double solver with flags 0 (float rounding amplified by 1 / margin). With
+    FLAG_FLOAT_ROUNDING clear, every answer is within POSE_ACCURACY and COMPLIANCE_ACCURACY."""
+    scene = ROOT / "examples" / "two_link_finger.toml"
+    write_files(controller_files(scene, "ff", single=True), tmp_path)
+    write_files(controller_files(scene, "fd"), tmp_path)
+    (tmp_path / "main.c").write_text(FINGER_LOADS)
+    exe = tmp_path / "main"
+    sources = [str(tmp_path / n) for n in ("ff.c", "fd.c", "main.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    rng = np.random.default_rng(11)
+    n = 400
+    loads = np.column_stack(
+        [rng.uniform(-0.3, 0.3, n), rng.uniform(-1.6, -0.2, n), rng.uniform(0.0, 21.0, n)]
+    )
+    loads[0] = [-0.22974252700805664, -1.5528364181518555, 19.84116554260254]  # the review's
+    text = "".join(f"{fx!r} {fy!r} {t!r}\n" for fx, fy, t in loads.tolist())
+    rows = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True)
+    table = np.array([[float(v) for v in row.split()] for row in rows.stdout.splitlines()])
+    solved = (table[:, 0] == 0) & (table[:, 1] == 0)
+    clear = solved & (table[:, 2] == 0)
+    rounding = solved & (table[:, 2].astype(int) & 32 != 0)
+    assert rounding[0], table[0]  # the review's load is flagged now
+    assert clear.sum() > 0.7 * n and rounding.sum() > 10  # both kinds met: the test can fail
+    assert table[clear, 3].max() <= 1e-4 * 0.02  # POSE_ACCURACY of the 20 mm proximal flexure
+    assert table[clear, 4].max() <= 1e-4  # COMPLIANCE_ACCURACY

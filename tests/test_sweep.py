@@ -963,9 +963,17 @@ def test_workers_ignore_ctrl_c_from_birth_and_die_quietly_when_the_study_is_gone
     import subprocess
 
     study = importlib.import_module("flexgen.sweep")  # (flexgen.sweep is also the function)
-    study._context()
+    study._context()  # a program's own fork server: left as it is (review)
     preload = multiprocessing.forkserver._forkserver._preload_modules
-    assert "flexgen._forkserver_preload" in preload
+    assert "flexgen._forkserver_preload" not in preload
+    try:
+        study.OWN_PROCESS = True  # as the flexgen sweep command says
+        study._context()
+        preload = multiprocessing.forkserver._forkserver._preload_modules
+        assert preload[0] == "flexgen._forkserver_preload"  # before the slow imports
+    finally:
+        study.OWN_PROCESS = False
+        study._context()
     probe = r"""if True:
         import signal, sys
         import flexgen._forkserver_preload

@@ -201,6 +201,10 @@ def run(args) -> int:
     from flexgen.scene import load_scene
     from flexgen.sweep import WorkerDied, sweep
 
+    # this command's workers: flexgen/_forkserver_preload.py (the module, which the package's
+    # function flexgen.sweep shadows as an attribute)
+    sys.modules["flexgen.sweep"].OWN_PROCESS = True
+
     scene = load_scene(args.scene)
     plan(scene, vary, args.samples, args.seed)  # bad keys and values: exit 2 before a client
     try:

@@ -52,9 +52,10 @@ SHOOTING_RESOLVED = 200.0
 # the relative error of an answer's compliance times its ``margin`` (``shooting_margin``): the
 # central-difference shooting Jacobian's error, amplified near a critical load by 1 / margin.
 # Measured against the closed-form lateral compliance of a column under P below its Euler load
-# (tests/test_exact_near_critical.py): error x margin is 9e-10 at P = 0.5 P_cr (2.1e-9 x 0.44)
-# and 2.6e-9 at 0.99, 0.9999 and 0.999999 (3.3e-7 x 0.0079, 3.3e-5 x 7.9e-5, 3.3e-3 x 7.9e-7)
-COMPLIANCE_NOISE = 3e-9
+# (tests/test_exact_near_critical.py): error x margin is 9e-10 at P = 0.5 P_cr and 2.6e-9 at
+# 0.99 to 0.999999 for a lone column; review: 3.6e-9 for the same column in a tree (an unloaded
+# second branch, the column's root turned by pi). About 3x that, so that the stated error bounds
+COMPLIANCE_NOISE = 1e-8
 # the most a load step may turn a flexure's tip (rad): more, and the step is retried shorter
 # (the chain solvers' max_dq, the same purpose)
 MAX_TURN_STEP = 0.5

@@ -99,6 +99,11 @@ class FEMModel:
         w = t - j
         return (1.0 - w) * kappa[j] + w * kappa[j + 1]
 
+    def curvature_bound(self) -> tuple[bool, float]:
+        """(use the max, factor): max |kappa| <= factor x max |q_i| = 2 max |q_i| / h (the
+        half cells at the ends extend the line through two joints)."""
+        return True, 2.0 / self.h
+
     def curvature_extremes(self, q: np.ndarray) -> np.ndarray:
         """The joints and both ends: a piecewise linear profile peaks at one of them."""
         return np.concatenate([[0.0, self.length], (np.arange(self.n_dof) + 0.5) * self.h])

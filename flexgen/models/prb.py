@@ -75,6 +75,10 @@ class PRBModel:
         kappa = self.stiffness * float(q[0]) / self.EI
         return np.full(np.shape(s), kappa)
 
+    def curvature_bound(self) -> tuple[bool, float]:
+        """(use the max, factor): |kappa| = K |q| / EI itself (the profile is constant)."""
+        return False, self.stiffness / self.EI
+
     def curvature_extremes(self, q: np.ndarray) -> np.ndarray:
         """Where |kappa| peaks: anywhere (the profile is constant); the root."""
         return np.zeros(1)

@@ -242,6 +242,11 @@ class SCMModel:
         sigma = np.asarray(s, dtype=float) / self.length
         return legendre.legval(2.0 * sigma - 1.0, np.asarray(q, dtype=float)) / self.length
 
+    def curvature_bound(self) -> tuple[bool, float]:
+        """(use the max, factor): max |kappa| <= factor x sum |q_n| (|P_n| <= 1 on the
+        flexure), the validity screen's cheap strain check on every answer (validity.calm)."""
+        return False, 1.0 / self.length
+
     def max_abs_curvature(self, q) -> float:
         """max |kappa| over the flexure (1/length), on the polynomial as ``curvature_extremes``
         finds it; for up to three modes in closed form with plain floats (a study asks for it
