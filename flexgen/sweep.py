@@ -241,8 +241,16 @@ def _local(
     return [done[i] for i in range(len(chunks))]
 
 
-# set by the flexgen sweep command: the process is flexgen's own (``_context``)
+# set by the flexgen sweep command (``own_process``): the process is flexgen's own (``_context``)
 OWN_PROCESS = False
+
+
+def own_process() -> None:
+    """Say that this process is flexgen's own (the flexgen sweep command): its study workers
+    may ignore Ctrl-C from their start (``_context``)."""
+    global OWN_PROCESS
+    OWN_PROCESS = True
+
 
 _pool_executor: ProcessPoolExecutor | None = None
 _pool_workers = 0

@@ -199,11 +199,9 @@ def run(args) -> int:
     vary = parse_vary(args.vary, args.samples is not None)
 
     from flexgen.scene import load_scene
-    from flexgen.sweep import WorkerDied, sweep
+    from flexgen.sweep import WorkerDied, own_process, sweep
 
-    # this command's workers: flexgen/_forkserver_preload.py (the module, which the package's
-    # function flexgen.sweep shadows as an attribute)
-    sys.modules["flexgen.sweep"].OWN_PROCESS = True
+    own_process()  # this command's workers ignore Ctrl-C from birth: flexgen/_forkserver_preload.py
 
     scene = load_scene(args.scene)
     plan(scene, vary, args.samples, args.seed)  # bad keys and values: exit 2 before a client
