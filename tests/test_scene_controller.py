@@ -1466,17 +1466,20 @@ int main(void)
         sf = ff_solve(&fi, &fs, &fo);
         sd = fd_solve(&di, &ds, &dout);
         for (i = 0; sf == FF_SOLVED && sd == FD_SOLVED && i < FD_NOUTPUTS; ++i) {
+            double worst = 0.0;   /* this point's compliance error, of its own largest entry */
+            big = 0.0;
             for (a = 0; a < 2; ++a) {
                 double e = (double)fo.pose[i][a] - dout.pose[i][a];
                 pose = e * e > pose * pose ? (e < 0 ? -e : e) : pose;
                 for (b = 0; b < 2; ++b) {
                     double c = dout.compliance[i][a][b], d = (double)fo.compliance[i][a][b] - c;
                     big = (c < 0 ? -c : c) > big ? (c < 0 ? -c : c) : big;
-                    comp = (d < 0 ? -d : d) > comp ? (d < 0 ? -d : d) : comp;
+                    worst = (d < 0 ? -d : d) > worst ? (d < 0 ? -d : d) : worst;
                 }
             }
+            comp = big > 0 && worst / big > comp ? worst / big : comp;
         }
-        printf("%d %d %d %.9g %.9g\n", sf, sd, fo.flags, pose, big > 0 ? comp / big : 0.0);
+        printf("%d %d %d %.9g %.9g\n", sf, sd, fo.flags, pose, comp);
     }
     return 0;
 }
@@ -1501,7 +1504,8 @@ def test_float_twin_flags_every_answer_past_its_stated_accuracy(tmp_path):
     loads = np.column_stack(
         [rng.uniform(-0.3, 0.3, n), rng.uniform(-1.6, -0.2, n), rng.uniform(0.0, 21.0, n)]
     )
-    loads[0] = [-0.22974252700805664, -1.5528364181518555, 19.84116554260254]  # the review's
+    loads[0] = [-0.22974252700805664, -1.5528364181518555, 19.84116554260254]  # the reviews'
+    loads[1] = [0.9184406585350156, -2.0370704257215615, 29.42358449687958]  # (margin 0.358)
     text = "".join(f"{fx!r} {fy!r} {t!r}\n" for fx, fy, t in loads.tolist())
     rows = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True)
     table = np.array([[float(v) for v in row.split()] for row in rows.stdout.splitlines()])
@@ -1509,6 +1513,6 @@ def test_float_twin_flags_every_answer_past_its_stated_accuracy(tmp_path):
     clear = solved & (table[:, 2] == 0)
     rounding = solved & (table[:, 2].astype(int) & 32 != 0)
     assert rounding[0], table[0]  # the review's load is flagged now
-    assert clear.sum() > 0.7 * n and rounding.sum() > 10  # both kinds met: the test can fail
+    assert clear.sum() > 0.5 * n and rounding.sum() > 10  # both kinds met: the test can fail
     assert table[clear, 3].max() <= 1e-4 * 0.02  # POSE_ACCURACY of the 20 mm proximal flexure
     assert table[clear, 4].max() <= 1e-4  # COMPLIANCE_ACCURACY

@@ -963,6 +963,7 @@ def test_workers_ignore_ctrl_c_from_birth_and_die_quietly_when_the_study_is_gone
     import subprocess
 
     study = importlib.import_module("flexgen.sweep")  # (flexgen.sweep is also the function)
+    study.OWN_PROCESS = False  # (an in-process `flexgen sweep` of another test may have set it)
     study._context()  # a program's own fork server: left as it is (review)
     preload = multiprocessing.forkserver._forkserver._preload_modules
     assert "flexgen._forkserver_preload" not in preload

@@ -60,10 +60,11 @@ CONTROLLER = DEFAULT
 SINGLE_MAX_MAGNITUDE = 1e12
 
 # The float twin's margin to a critical load below which its rounding may pass its stated
-# accuracy (1e-4): errors x margin reached 3e-5 on 6000 loads of the two-link finger (review
-# found 4.5e-4 of its length at margin 0.06 with no flag); 3e-5 / 0.35 = 8.6e-5
+# accuracy (1e-4): errors x margin reached 3e-5 on 6000 loads of the two-link finger and 3.9e-5
+# in a review's search (a point's compliance 1.08e-4 off at margin 0.358; another review found
+# 4.5e-4 of its length at margin 0.06 with no flag); 3.9e-5 / 0.45 = 8.7e-5
 # (tests/test_scene_controller.py)
-FLOAT_MARGIN = 0.35
+FLOAT_MARGIN = 0.45
 
 # The single-precision twin's settings: the tolerances of CONTROLLER that are relative to double
 # rounding (1e-12 .. 1e-14) raised to what float arithmetic (eps 1.2e-7) can meet; the rest as
