@@ -208,4 +208,5 @@ def in_range(q):
     (the quadrature error at q bounded on a Bernstein ellipse). False for a q that is not finite.
     """
     q = _checked(q)
-    return np.any(np.abs(q) @ LOCAL_NU.T <= LOCAL_LIMIT, axis=-1)
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge q: inf, so False, silently
+        return np.any(np.abs(q) @ LOCAL_NU.T <= LOCAL_LIMIT, axis=-1)
