@@ -24,7 +24,7 @@ from typing import Any
 from flexgen.result import UNSTABLE
 from flexgen.scene import MAX_MAGNITUDE, Scene, SceneError, load_scene
 from flexgen.settings import DEFAULT, SolverSettings
-from flexgen.validity import BEND_LIMIT, NEAR_SINGULAR, PRB_LIMIT
+from flexgen.validity import BEND_LIMIT, NEAR_SINGULAR, PRB_LIMIT, STRAIN_LIMIT
 from flexgen.warm import WARM_CHANGE
 
 from .render import render
@@ -440,6 +440,18 @@ def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
     return limits
 
 
+def _strain_checks(scene: Scene, models: dict, order: list[str]) -> tuple[list, list]:
+    """Per flexure in body order: thickness / 2 (0: no thickness, no strain check) and, for
+    prb, the curvature per pin angle K / EI (validity.STRAIN_LIMIT's check in C)."""
+    half, per_angle = [], []
+    for name in order:
+        f = scene.flexure(name)
+        half.append(0.0 if f.thickness is None else 0.5 * float(f.thickness))
+        model = models[name]
+        per_angle.append(float(model.stiffness / model.EI) if _kind(model) == "prb" else 0.0)
+    return half, per_angle
+
+
 def _thick_flexures(scene: Scene) -> list[str]:
     """The flexures the library warns about on every answer of the scene (scene_checks:
     shorter than MIN_SLENDERNESS thicknesses): NO_CLAIM on every answer of the controller
@@ -605,6 +617,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
     outputs = _enum("output.points", list(problem.outputs))
     flex_names = _enum_names(scene)
     rows = _flexure_rows(scene, problem, models, number)
+    strain_half, strain_per_angle = _strain_checks(scene, models, list(problem.flexure_order))
     kernel_names = sorted({k for r in rows for k in (r["local"], r["poly"], r["gauss"]) if k})
     points = [
         {"frame": int(p.points[i].frame), "x": float(p.points[i].x), "y": float(p.points[i].y)}
@@ -664,6 +677,11 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "output_index": ints(p.outputs, int(p.noutputs)),
         "stiffness": [number(float(v)) for v in problem.stiffness],
         "claim_limits": [number(v) for v in _claim_limits(scene, models, problem.flexure_order)],
+        "strain_half": [number(v) for v in strain_half],
+        "strain_per_angle": [number(v) for v in strain_per_angle],
+        "strain_limit": number(STRAIN_LIMIT),
+        "strain_percent": f"{100 * STRAIN_LIMIT:g}",
+        "strain_checked": any(v > 0.0 for v in strain_half),
         "prb_structure": _prb_structure(scene, models),
         "tolerance_note": tolerance_note,
         "thick": [c_comment(repr(n)) for n in _thick_flexures(scene)],

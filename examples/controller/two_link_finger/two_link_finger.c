@@ -4090,6 +4090,79 @@ static const fg_real two_link_finger_local_bound[2] = {SCM3_LOCAL9_ERROR_BOUND, 
 /* bend beyond which no accuracy is claimed (flexgen/validity.py), per flexure in body order */
 static const fg_real two_link_finger_claim_limit[2] = {3.141592653589793, 3.141592653589793};
 
+/* the strain check (flexgen/validity.py, STRAIN_LIMIT: no flexure material is linear past it),
+ * per flexure in body order: thickness / 2 (0: none given, no check) and, for a prb flexure,
+ * its curvature per pin angle K / EI */
+static const fg_real two_link_finger_strain_half[2] = {0.000125, 0.0001};
+static const fg_real two_link_finger_strain_per_angle[2] = {0.0, 0.0};
+
+/* The largest |curvature| of flexure j (body order) at q, as flexgen.stress.max_abs_curvature
+ * finds it: prb its constant K q / EI; fem the joints' q_i / h and the ends, where the line
+ * through the two nearest joints is extended; smooth curvature kappa L = sum q_n P_n(x) on
+ * x in [-1, 1] at 513 points (the ends included; the library's maximum is exact on the
+ * polynomial, these samples miss an interior peak by a few 1e-6 of it at most) */
+static fg_real two_link_finger_max_curvature(int j, const fg_real *q)
+{
+    const fg_flexure *f = &two_link_finger_flexures[j];
+    const fg_real *c = q + f->offset;
+    fg_real best = 0;
+    int i, k, n = f->ndof;
+    if (f->kind == FG_MODEL_PRB)
+        return (fg_real)fabs(two_link_finger_strain_per_angle[j] * c[0]);
+    if (f->kind == FG_MODEL_FEM) {
+        fg_real h = f->length / n;
+        if (n == 1)
+            return (fg_real)fabs(c[0]) / h;
+        best = (fg_real)fabs(1.5 * c[0] - 0.5 * c[1]);
+        if (fabs(1.5 * c[n - 1] - 0.5 * c[n - 2]) > best)
+            best = (fg_real)fabs(1.5 * c[n - 1] - 0.5 * c[n - 2]);
+        for (i = 0; i < n; ++i)
+            if (fabs(c[i]) > best)
+                best = (fg_real)fabs(c[i]);
+        return best / h;
+    }
+    for (k = 0; k <= 512; ++k) {
+        double x = -1.0 + k / 256.0, p0 = 1.0, p1 = x, sum = c[0];
+        if (n > 1)
+            sum += c[1] * x;
+        for (i = 2; i < n; ++i) {   /* Bonnet: i P_i = (2i - 1) x P_{i-1} - (i - 1) P_{i-2} */
+            double p2 = ((2 * i - 1) * x * p1 - (i - 1) * p0) / i;
+            sum += c[i] * p2;
+            p0 = p1;
+            p1 = p2;
+        }
+        if (fabs(sum) > best)
+            best = (fg_real)fabs(sum);
+    }
+    return best / f->length;
+}
+
+/* 1 if flexure j (body order) is strained past the limit at q: a cheap bound first (sum |q_n| / L
+ * for smooth curvature, 2 max |q_i| / h for fem: flexgen's curvature_bound), so that the usual
+ * answer, far below the limit, costs a few additions */
+static int two_link_finger_strained(int j, const fg_real *q)
+{
+    const fg_flexure *f = &two_link_finger_flexures[j];
+    const fg_real *c = q + f->offset;
+    fg_real half = two_link_finger_strain_half[j], bound = 0;
+    int i;
+    if (!(half > 0))
+        return 0;
+    for (i = 0; i < f->ndof; ++i) {
+        fg_real v = (fg_real)fabs(c[i]);
+        if (f->kind == FG_MODEL_FEM)
+            bound = v > bound ? v : bound;
+        else
+            bound += v;
+    }
+    bound = f->kind == FG_MODEL_FEM ? 2 * bound * f->ndof / f->length
+            : f->kind == FG_MODEL_PRB ? bound * (fg_real)fabs(two_link_finger_strain_per_angle[j])
+                                      : bound / f->length;
+    if (bound * half <= 0.03)
+        return 0;
+    return two_link_finger_max_curvature(j, q) * half > 0.03;
+}
+
 /* A warm start (from state->q) is accepted only on the load path from the unloaded state, as
  * flexgen.Solver's: a warm answer is the cold one. Compiled with -DTWO_LINK_FINGER_WARM_FOLLOWS_HISTORY,
  * it is accepted wherever Newton from the last answer converges nearby to a stable state: cheaper
@@ -4321,6 +4394,8 @@ int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_stat
                                                               : (fg_real)INFINITY;
         if (!(bend[j] <= two_link_finger_claim_limit[j]))
             out->flags |= TWO_LINK_FINGER_FLAG_NO_CLAIM;
+        if (two_link_finger_strained(j, out->q))
+            out->flags |= TWO_LINK_FINGER_FLAG_NO_CLAIM;   /* strained past where it is linear */
     }
     out->stable = a.stable;
     if (!a.stable)

@@ -115,6 +115,9 @@ enum {
                                           * (flexgen/validity.py), when:
                                           * - a flexure is bent past 180 deg (to which the
                                           *   error estimate's Gauss kernels are certified);
+                                          * - a flexure with a thickness is strained past
+                                          *   3 % at its outer fibre (bending),
+                                          *   where no flexure material is linear;
                                           * (docs/controller.md: the reasons in every scene) */
     TWO_LINK_FINGER_FLAG_NEAR_CRITICAL = 16   /* a stable equilibrium within TWO_LINK_FINGER_NEAR_CRITICAL of a
                                           * critical load (the stiffness nearly singular): the
