@@ -31,7 +31,7 @@ from .scene import BASE, Scene
 from .scene_checks import scene_notes, scene_warnings
 from .stress import FlexureStress, flexure_stresses, safety_warnings
 from .units import result_units
-from .validity import NEAR_SINGULAR, STRAIN_LIMIT, strain_warning
+from .validity import NEAR_SINGULAR, strain_warnings
 
 # the relative compliance error beyond which an exact answer near a critical load is flagged
 # as unresolved (a warning): the exact solver is the reference the chain models' estimates are
@@ -151,12 +151,8 @@ def to_result(scene: Scene, sol) -> Result:
     if message is not None:
         (warnings if is_warning else notes).append(message)
     flexures = exact_stresses(scene, sol)
-    for f in scene.flexures:  # the same strain check as the chain models' (validity.assess)
-        st = flexures.get(f.name)
-        if st is not None and f.thickness is not None:
-            strain = st.max_curvature * 0.5 * f.thickness
-            if strain > STRAIN_LIMIT:
-                warnings.append(strain_warning(f.name, strain))
+    # the chain models' strain check (validity.assess), on the elastica's own curvature
+    warnings.extend(strain_warnings(scene, {n: st.max_curvature for n, st in flexures.items()}))
     warnings.extend(safety_warnings(scene, flexures))
     return Result(
         scene=scene.name,

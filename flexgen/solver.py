@@ -37,7 +37,7 @@ from .scene import MAX_MAGNITUDE, Scene, _fmt, _number
 from .scene_checks import scene_notes, scene_warnings
 from .settings import DEFAULT, SolverSettings
 from .statics import chain_statics, scene_loads
-from .stress import flexure_stresses, has_strengths, safety_warnings, section_area
+from .stress import flexure_stresses, has_area, has_strengths, safety_warnings
 from .units import result_units
 
 # Why the solve took the side it did past a bifurcation (the core reports the index plus one:
@@ -576,7 +576,7 @@ class AnswerFields:
         if name == "flexures":
             qs = {n: q[sl] for n, sl in self.slices}
             statics = None
-            if any(section_area(f) is not None for f in self.scene.flexures):
+            if has_area(self.scene):
                 loads, tensions = loads or scene_loads(self.scene)
                 statics = chain_statics(p.statics, p.chain, q, loads, tensions)
             stresses = flexure_stresses(self.scene, self.models, qs, statics=statics)

@@ -151,6 +151,11 @@ def section_area(flexure: Flexure) -> float | None:
     return flexure.width * flexure.thickness
 
 
+def has_area(scene: Scene) -> bool:
+    """Does any flexure have a known area (then its axial stress needs the answer's statics)?"""
+    return any(section_area(f) is not None for f in scene.flexures)
+
+
 def section_stress(
     flexure: Flexure, s: np.ndarray, kappa: np.ndarray, axial_force: np.ndarray | None = None
 ) -> FlexureStress:

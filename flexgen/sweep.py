@@ -95,8 +95,8 @@ def sweep(
       False: NaN, and a load study is about twice as fast).
     - ``stress``: each flexure's ``max_stress`` and ``safety_factor`` (``stress.peak_stress``,
       bending, a few us a case; with a strip's width also axial: the statics of a chunk's
-      cases at once, ``stress.peak_stresses``, about 15 us a case on the two-link finger
-      against 28 us for its solve; False: NaN).
+      cases at once, ``stress.peak_stresses``, about 5 us a case more on the two-link finger:
+      docs/sweep.md, "Speed", ``make bench-sweep``; False: NaN).
     - ``chunk_size``: cases per chunk (a task); part of the study's definition, since each
       chunk's first case solves cold.
 

@@ -36,7 +36,7 @@ from .scene import Scene, SceneError, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver
 from .statics import chain_statics
-from .stress import peak_stress, peak_stresses, safety_factor, section_area
+from .stress import has_area, peak_stress, peak_stresses, safety_factor, section_area
 from .validity import calm as validity_calm
 from .validity import check as validity_check
 from .validity import loads_scene as validity_loads_scene
@@ -234,7 +234,7 @@ def _record(
         row += pose
         row += ellipse
         row.append(error)
-    if chunk.stress and _has_area(solver):
+    if chunk.stress and has_area(solver.scene):
         p = solver.problem
         case = (c, solver.workspace.q.copy(), p.loads.copy(), p.tensions.copy())
         deferred.setdefault(id(solver), (solver, []))[1].append(case)
@@ -268,11 +268,6 @@ def _has_section(solver: Solver) -> bool:
     """Whether any flexure's stress can be known (E and thickness given: flexgen/stress.py);
     otherwise the stress columns are NaN without computing the profiles."""
     return any(f.E is not None and f.thickness is not None for f in solver.scene.flexures)
-
-
-def _has_area(solver: Solver) -> bool:
-    """Whether any flexure's axial stress can be known (its width too: flexgen/stress.py)."""
-    return any(section_area(f) is not None for f in solver.scene.flexures)
 
 
 def _fill_stresses(solver: Solver, cases: list, table: np.ndarray) -> None:
@@ -310,7 +305,7 @@ def stress_columns(solver: Solver, q: Any) -> list[float]:
     values = q.tolist()
     slices = solver.problem.chain.slices
     statics = None
-    if any(section_area(f) is not None for f in solver.scene.flexures):
+    if has_area(solver.scene):
         p = solver.problem
         statics = chain_statics(p.statics, p.chain, q, p.loads, p.tensions)
     out: list[float] = []

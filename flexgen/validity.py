@@ -85,7 +85,21 @@ UNITS_BEND = math.pi / 2
 STRAIN_LIMIT = 0.03
 
 
-def strain_warning(name: str, strain: float) -> str:
+def strain_warnings(scene: Scene, max_curvature: Mapping[str, float]) -> list[str]:
+    """The warning of every flexure with a thickness whose outer-fibre bending strain, its
+    largest |kappa| (``max_curvature``, {flexure: 1/length}; a flexure missing is not checked)
+    times thickness / 2, passes STRAIN_LIMIT: the chain models' (``assess``) and the exact
+    solver's (flexgen/exact_result.py)."""
+    out = []
+    for f in scene.flexures:
+        if f.thickness is not None and f.name in max_curvature:
+            strain = max_curvature[f.name] * 0.5 * f.thickness
+            if strain > STRAIN_LIMIT:
+                out.append(_strain_warning(f.name, strain))
+    return out
+
+
+def _strain_warning(name: str, strain: float) -> str:
     """The warning of a flexure strained past STRAIN_LIMIT."""
     return (
         f"flexure {name!r}: outer-fibre bending strain {strain:.3g} ({100 * strain:.2g} %) is past the "
@@ -317,13 +331,12 @@ def assess(
         from flexgen.stress import max_abs_curvature
 
         q = result.q
-        for name, half in ctx.strained:
-            model = models.get(name)
-            if model is None or name not in q or not hasattr(model, "curvature"):
-                continue
-            strain = max_abs_curvature(model, q[name]) * half
-            if strain > STRAIN_LIMIT:
-                warnings.append(strain_warning(name, strain))
+        kappa = {
+            name: max_abs_curvature(models[name], q[name])
+            for name, _ in ctx.strained
+            if name in models and name in q and hasattr(models[name], "curvature")
+        }
+        warnings.extend(strain_warnings(scene, kappa))
     margin = getattr(result, "stability_margin", None)
     if margin is None:
         margin = stiffness_margin(scene, models, result.q, getattr(result, "stiffness", None))

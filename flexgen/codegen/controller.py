@@ -440,16 +440,18 @@ def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
     return limits
 
 
-def _strain_checks(scene: Scene, models: dict, order: list[str]) -> tuple[list, list]:
-    """Per flexure in body order: thickness / 2 (0: no thickness, no strain check) and, for
-    prb, the curvature per pin angle K / EI (validity.STRAIN_LIMIT's check in C)."""
-    half, per_angle = [], []
+def _strain_checks(scene: Scene, models: dict, order: list[str]) -> tuple[list, list, list]:
+    """Per flexure in body order: thickness / 2 (0: no thickness, no strain check) and its
+    model's ``curvature_bound()`` (by the largest |q_i| or by their sum; its factor), the
+    validity.STRAIN_LIMIT screen the library's ``calm`` takes, in C."""
+    half, by_max, factor = [], [], []
     for name in order:
         f = scene.flexure(name)
         half.append(0.0 if f.thickness is None else 0.5 * float(f.thickness))
-        model = models[name]
-        per_angle.append(float(model.stiffness / model.EI) if _kind(model) == "prb" else 0.0)
-    return half, per_angle
+        use_max, k = models[name].curvature_bound()
+        by_max.append(int(use_max))
+        factor.append(float(k))
+    return half, by_max, factor
 
 
 def _thick_flexures(scene: Scene) -> list[str]:
@@ -617,7 +619,9 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
     outputs = _enum("output.points", list(problem.outputs))
     flex_names = _enum_names(scene)
     rows = _flexure_rows(scene, problem, models, number)
-    strain_half, strain_per_angle = _strain_checks(scene, models, list(problem.flexure_order))
+    strain_half, bound_by_max, bound_factor = _strain_checks(
+        scene, models, list(problem.flexure_order)
+    )
     kernel_names = sorted({k for r in rows for k in (r["local"], r["poly"], r["gauss"]) if k})
     points = [
         {"frame": int(p.points[i].frame), "x": float(p.points[i].x), "y": float(p.points[i].y)}
@@ -678,7 +682,8 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "stiffness": [number(float(v)) for v in problem.stiffness],
         "claim_limits": [number(v) for v in _claim_limits(scene, models, problem.flexure_order)],
         "strain_half": [number(v) for v in strain_half],
-        "strain_per_angle": [number(v) for v in strain_per_angle],
+        "bound_by_max": bound_by_max,
+        "bound_factor": [number(v) for v in bound_factor],
         "strain_limit": number(STRAIN_LIMIT),
         "strain_percent": f"{100 * STRAIN_LIMIT:g}",
         "strain_checked": any(v > 0.0 for v in strain_half),

@@ -4091,10 +4091,12 @@ static const fg_real two_link_finger_local_bound[2] = {SCM3_LOCAL9_ERROR_BOUND, 
 static const fg_real two_link_finger_claim_limit[2] = {3.141592653589793, 3.141592653589793};
 
 /* the strain check (flexgen/validity.py, STRAIN_LIMIT: no flexure material is linear past it),
- * per flexure in body order: thickness / 2 (0: none given, no check) and, for a prb flexure,
- * its curvature per pin angle K / EI */
+ * per flexure in body order: thickness / 2 (0: none given, no check) and its model's
+ * curvature_bound(): max |kappa| <= factor x (the largest |q_i| where by_max, else their sum);
+ * a prb flexure's is its curvature itself, K |q| / EI */
 static const fg_real two_link_finger_strain_half[2] = {0.000125, 0.0001};
-static const fg_real two_link_finger_strain_per_angle[2] = {0.0, 0.0};
+static const int two_link_finger_bound_by_max[2] = {0, 0};
+static const fg_real two_link_finger_bound_factor[2] = {50.0, 66.66666666666667};
 
 /* The largest |curvature| of flexure j (body order) at q, as flexgen.stress.max_abs_curvature
  * finds it: prb its constant K q / EI; fem the joints' q_i / h and the ends, where the line
@@ -4108,7 +4110,7 @@ static fg_real two_link_finger_max_curvature(int j, const fg_real *q)
     fg_real best = 0;
     int i, k, n = f->ndof;
     if (f->kind == FG_MODEL_PRB)
-        return (fg_real)fabs(two_link_finger_strain_per_angle[j] * c[0]);
+        return (fg_real)fabs(two_link_finger_bound_factor[j] * c[0]);   /* exact: the profile is constant */
     if (f->kind == FG_MODEL_FEM) {
         fg_real h = f->length / n;
         if (n == 1)
@@ -4137,9 +4139,9 @@ static fg_real two_link_finger_max_curvature(int j, const fg_real *q)
     return best / f->length;
 }
 
-/* 1 if flexure j (body order) is strained past the limit at q: a cheap bound first (sum |q_n| / L
- * for smooth curvature, 2 max |q_i| / h for fem: flexgen's curvature_bound), so that the usual
- * answer, far below the limit, costs a few additions */
+/* 1 if flexure j (body order) is strained past the limit at q: its model's cheap bound first (as
+ * flexgen.validity.calm screens it), so that the usual answer, far below the limit, costs a few
+ * additions */
 static int two_link_finger_strained(int j, const fg_real *q)
 {
     const fg_flexure *f = &two_link_finger_flexures[j];
@@ -4150,15 +4152,12 @@ static int two_link_finger_strained(int j, const fg_real *q)
         return 0;
     for (i = 0; i < f->ndof; ++i) {
         fg_real v = (fg_real)fabs(c[i]);
-        if (f->kind == FG_MODEL_FEM)
+        if (two_link_finger_bound_by_max[j])
             bound = v > bound ? v : bound;
         else
             bound += v;
     }
-    bound = f->kind == FG_MODEL_FEM ? 2 * bound * f->ndof / f->length
-            : f->kind == FG_MODEL_PRB ? bound * (fg_real)fabs(two_link_finger_strain_per_angle[j])
-                                      : bound / f->length;
-    if (bound * half <= 0.03)
+    if (bound * two_link_finger_bound_factor[j] * half <= 0.03)
         return 0;
     return two_link_finger_max_curvature(j, q) * half > 0.03;
 }
