@@ -40,8 +40,9 @@ def _last_error(solver: Any, a: Any) -> str:
         return f"line search failed at load factor {lam:.6g} (relative residual {rel:.2e})"
     if e == lib.FG_ERR_JUMP:
         return (
-            f"the path jumped (by more than {solver.settings.max_dq} in q, or against its "
-            f"tangent onto another branch) at load factor {lam:.6g}"
+            f"the path jumped (by more than {solver.settings.max_dq} in q, against its "
+            f"tangent onto another branch, or off the path between its ends) at load factor "
+            f"{lam:.6g}"
         )
     if e == lib.FG_ERR_NONFINITE:
         return "a model returned a non-finite value"

@@ -1518,6 +1518,107 @@ def test_float_twin_flags_every_answer_past_its_stated_accuracy(tmp_path):
     assert table[clear, 4].max() <= 1e-4  # COMPLIANCE_ACCURACY
 
 
+SNAP_LOADS = r"""
+#include <stdio.h>
+#include "ff.h"
+#include "fd.h"
+/* stdin: fx fy moment tension per line; stdout per line: both statuses, the float flags, the
+ * largest pose error (of the longest flexure's length) and compliance error (relative to the
+ * largest 3x3 entry) of the float twin against the double solver, cold */
+int main(void)
+{
+    static ff_inputs fi;
+    static ff_state fs;
+    static ff_outputs fo;
+    static fd_inputs di;
+    static fd_state ds;
+    static fd_outputs dout;
+    double v[4];
+    while (scanf("%lf %lf %lf %lf", &v[0], &v[1], &v[2], &v[3]) == 4) {
+        int sf, sd, i, a, b;
+        double pose = 0.0, comp = 0.0;
+        ff_inputs_default(&fi);
+        fd_inputs_default(&di);
+        for (a = 0; a < 3; ++a) {
+            fi.load[0][a] = (float)v[a];
+            di.load[0][a] = (double)fi.load[0][a];
+        }
+        fi.tension[0] = (float)v[3];
+        di.tension[0] = (double)fi.tension[0];
+        fs.solved = 0;
+        ds.solved = 0;
+        sf = ff_solve(&fi, &fs, &fo);
+        sd = fd_solve(&di, &ds, &dout);
+        for (i = 0; sf == FF_SOLVED && sd == FD_SOLVED && i < FD_NOUTPUTS; ++i) {
+            double big = 0.0, worst = 0.0;
+            for (a = 0; a < 2; ++a) {
+                double e = (double)fo.pose[i][a] - dout.pose[i][a];
+                pose = (e < 0 ? -e : e) > pose ? (e < 0 ? -e : e) : pose;
+            }
+            for (a = 0; a < 3; ++a)
+                for (b = 0; b < 3; ++b) {
+                    double c = dout.compliance[i][a][b];
+                    double d = (double)fo.compliance[i][a][b] - c;
+                    big = (c < 0 ? -c : c) > big ? (c < 0 ? -c : c) : big;
+                    worst = (d < 0 ? -d : d) > worst ? (d < 0 ? -d : d) : worst;
+                }
+            comp = big > 0 && worst / big > comp ? worst / big : comp;
+        }
+        printf("%d %d %d %.9g %.9g\n", sf, sd, fo.flags, pose, comp);
+    }
+    return 0;
+}
+"""
+
+
+@NEEDS_GCC
+def test_float_twin_meets_the_snap_throughs_of_the_double_solver(tmp_path):
+    """Review: cold float solves of a fem8 finger under a large tendon tension stepped past a
+    snap-through the double solver meets (load factor 0.45 to 0.56) onto another stable
+    equilibrium, up to 3 lengths away, with flags 0 (3 in 4000 random loads). Now every
+    continuation step passes the path check at its midpoint (chain_solver.c, continuation) and
+    the twin's steps are at most 0.1: those loads and 1500 more random ones in the same range
+    are within the stated accuracy wherever the twin's flags are clear."""
+    text = (ROOT / "examples" / "two_link_finger.toml").read_text()
+    text = text.replace('kind = "scm"\nmodes = 3\n', 'kind = "fem"\nelements = 8\n', 1)
+    assert 'kind = "fem"' in text
+    scene = tmp_path / "finger.toml"
+    scene.write_text(text)
+    write_files(controller_files(scene, "ff", single=True), tmp_path)
+    write_files(controller_files(scene, "fd"), tmp_path)
+    (tmp_path / "main.c").write_text(SNAP_LOADS)
+    exe = tmp_path / "main"
+    sources = [str(tmp_path / n) for n in ("ff.c", "fd.c", "main.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    found = [  # fx, fy (N), moment (N m), tension (N): the reviews' loads, then this fix's
+        [-0.9535089889002577, -3.772282913120065, 0.04980256102591715, 35.231340689724796],
+        [-0.5776042270211708, -3.3515576741796522, 0.028334111764180034, 35.37231634609457],
+        [-0.5281319816503762, -3.1269999114754223, 0.01880231445787331, 36.459893975174914],
+        [-0.4767992790200606, -2.0930455124087923, -0.02556653015994196, 33.42542739003902],
+    ]
+    rng = np.random.default_rng(8)
+    n = 1500
+    loads = np.column_stack(
+        [
+            rng.uniform(-1.0, 1.0, n),
+            rng.uniform(-4.0, 1.0, n),
+            rng.uniform(-0.05, 0.05, n),
+            rng.uniform(0.0, 40.0, n),
+        ]
+    )
+    loads = np.vstack([found, loads])
+    text_in = "".join(" ".join(repr(v) for v in row) + "\n" for row in loads.tolist())
+    rows = subprocess.run([str(exe)], input=text_in, capture_output=True, text=True, check=True)
+    table = np.array([[float(v) for v in row.split()] for row in rows.stdout.splitlines()])
+    assert len(table) == len(loads)
+    solved = (table[:, 0] == 0) & (table[:, 1] == 0)
+    clear = solved & (table[:, 2] == 0)
+    assert solved[: len(found)].all()
+    assert clear.sum() > 0.5 * len(loads)  # the check reaches most answers: it can fail
+    assert table[clear, 3].max() <= 1e-4 * 0.02  # POSE_ACCURACY of the 20 mm proximal flexure
+    assert table[clear, 4].max() <= 1e-4  # COMPLIANCE_ACCURACY
+
+
 STRAINED = r"""
 #include <stdio.h>
 #include "st.h"

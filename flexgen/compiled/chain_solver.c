@@ -1860,14 +1860,43 @@ static fg_real angle_change(const fg_ws *w, const fg_real *d)
     return most;
 }
 
+/* 1 if the point at fraction t of the cubic Hermite path from (qa, lam_a) to (qb, lam_b), its end
+ * tangents dq/dlam ta and tb, is near an equilibrium of that path: the state there (at lam_a +
+ * t (lam_b - lam_a)) positive definite and its Newton correction at most direct_correction
+ * max_dq. in_range: the point also in its first kernel's range (else it evaluates whatever
+ * kernel covers it). The sample's state goes to *smp, its factor to w->la; the caller saves
+ * and restores the flags and errors its evaluation leaves. */
+static int hermite_sample_near(fg_ws *w, const fg_real *qa, const fg_real *ta, fg_real lam_a,
+                               const fg_real *qb, const fg_real *tb, fg_real lam_b, fg_real t,
+                               fg_state *smp, int in_range)
+{
+    const fg_settings *set = w->set;
+    int n = FG_N(w), i, evaluated;
+    fg_real dl = lam_b - lam_a, *qt = w->vec4, *corr = w->vec3;
+    fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = (t * t * t - 2 * t * t + t) * dl;
+    fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = (t * t * t - t * t) * dl;
+    for (i = 0; i < n; ++i)
+        qt[i] = h00 * qa[i] + h10 * ta[i] + h01 * qb[i] + h11 * tb[i];
+    if (in_range && !in_kernel_range(w, qt))
+        return 0;
+    w->poly_in_range = in_range;  /* in range (above): in_range is not asked again */
+    evaluated = evaluate(w, qt, lam_a + t * dl, smp);
+    w->poly_in_range = 0;
+    if (!evaluated || !cholesky(w, smp->K, w->la))
+        return 0;
+    cholesky_solve(w, w->la, smp->r, corr);
+    return angle_change(w, corr) <= set->direct_correction * set->max_dq;
+}
+
 /* 1 if the equilibrium *c at the full load (w->lb: the Cholesky factor of c->K) is on the load
  * path from the unloaded state *st0 (K(q0, 0) diagonal, positive definite), as far as
  * direct_samples points of the cubic Hermite path between the two (its end tangents dq/dlam
  * the path's: K^-1 Q at each end) tell: at each, K positive definite and a Newton correction
- * of at most direct_correction max_dq. in_range: every sample also in its first kernel's
- * range (the direct solve: a path that switches kernels is the continuation's, which reports
- * the switches); else a sample evaluates whatever kernel covers it. The samples' evaluations
- * leave the flags and errors as the caller saved them (the caller restores them). */
+ * of at most direct_correction max_dq (hermite_sample_near). in_range: every sample also in
+ * its first kernel's range (the direct solve: a path that switches kernels is the
+ * continuation's, which reports the switches); else a sample evaluates whatever kernel covers
+ * it. The samples' evaluations leave the flags and errors as the caller saved them (the caller
+ * restores them). */
 static int on_load_path(fg_ws *w, const fg_state *st0, const fg_state *c, fg_state *smp,
                         int in_range)
 {
@@ -1879,25 +1908,24 @@ static int on_load_path(fg_ws *w, const fg_state *st0, const fg_state *c, fg_sta
     cholesky_solve(w, w->lb, c->Q, t1);
     for (j = 1; j <= set->direct_samples; ++j) {
         fg_real t = (fg_real)j / (set->direct_samples + 1), *qt = w->vec4, *corr = w->vec3;
-        fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
-        fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
-        for (i = 0; i < n; ++i)
-            qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
+        if (!linear) {
+            if (!hermite_sample_near(w, st0->q, t0, 0.0, c->q, t1, 1.0, t, smp, in_range))
+                return 0;
+            continue;
+        }
+        /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0): the correction without the
+         * chain */
+        {
+            fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
+            fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
+            for (i = 0; i < n; ++i)
+                qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
+        }
         if (in_range && !in_kernel_range(w, qt))
             return 0;
-        if (linear) {             /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0) */
-            for (i = 0; i < n; ++i) {
-                fg_real k = st0->K[(size_t)i * (size_t)n + i];
-                corr[i] = (k * qt[i] - t * st0->Q[i]) / k;
-            }
-        } else {
-            int evaluated;
-            w->poly_in_range = in_range;  /* in range (above): in_range is not asked again */
-            evaluated = evaluate(w, qt, t, smp);
-            w->poly_in_range = 0;
-            if (!evaluated || !cholesky(w, smp->K, w->la))
-                return 0;
-            cholesky_solve(w, w->la, smp->r, corr);
+        for (i = 0; i < n; ++i) {
+            fg_real k = st0->K[(size_t)i * (size_t)n + i];
+            corr[i] = (k * qt[i] - t * st0->Q[i]) / k;
         }
         if (!(angle_change(w, corr) <= set->direct_correction * set->max_dq))
             return 0;
@@ -2232,6 +2260,23 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
                 continue;
             }
             found = 0;            /* the unstable side of a limit point: a shorter step */
+        }
+        /* a step between two stable states passes the direct solve's path check at its
+         * midpoint (hermite_sample_near): near a limit point Newton from the predictor may
+         * converge to a stable equilibrium of another branch within max_dq, past the fold
+         * where the path ends and snaps through (review: the float controller twin of a fem8
+         * finger stepped from load factor 0.425 to 0.675 across the snap-through at 0.454, and
+         * ended 3 lengths from the double solver's answer with no note; the midpoint's
+         * correction was 11 times the limit, every regular step's below a quarter of it) */
+        if (found && stable_before) {
+            fg_errors saved;
+            fg_state *mid = free_state(w, path, a, NULL, NULL);
+            cholesky_solve(w, w->la, a->Q, w->t1);        /* w->la: a->K's factor (above) */
+            save_trial(w, &saved);
+            found = hermite_sample_near(w, path->q, w->t0, lam, a->q, w->t1, lam_n, 0.5, mid, 0);
+            restore_trial(w, &saved);
+            if (!found)
+                set_error(w, FG_ERR_JUMP, lam_n, 0.0);
         }
         if (!found) {
             fg_state *next;

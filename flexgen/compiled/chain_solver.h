@@ -56,8 +56,9 @@ enum {
     FG_ERR_STAGNATION = 1,      /* Newton stagnated (at a load factor, a relative residual) */
     FG_ERR_NOT_CONVERGED = 2,   /* Newton did not converge in last_error_iterations iterations */
     FG_ERR_LINE_SEARCH = 3,     /* the line search failed (at a load factor, a residual) */
-    FG_ERR_JUMP = 4,            /* the path jumped: by more than max_dq, or against its
-                                 * tangent onto another branch (at a load factor) */
+    FG_ERR_JUMP = 4,            /* the path jumped: by more than max_dq, against its
+                                 * tangent onto another branch, or off the path between
+                                 * its ends (at a load factor) */
     FG_ERR_NONFINITE = 5,       /* a model returned a non-finite value */
     FG_ERR_KERNEL_RANGE = 6,    /* a polynomial-only kernel past its range (*_error_flexure) */
     FG_ERR_TENDON = 7           /* a tendon segment of zero length (*_error_route) */
