@@ -12,7 +12,9 @@ Error measure (``error_components``), per output point p, against a reference an
 
     pose:        |r_p - r_p,ref| / L_p   and   |theta_p - theta_p,ref|       (L_p: the summed
                  length of the flexures between the base and p, the scene's length scale there)
-    compliance:  ||C_p - C_p,ref||_2 / ||C_p,ref||_2                          (2x2, spectral norm)
+    compliance:  ||C_p - C_p,ref||_2 / ||C_p,ref||_2   (spectral norm; the larger of the 2x2
+                 position block's and the 3x3's, d(x, y, angle)/d(fx, fy, moment) with its angle
+                 row and column times L_p, as flexgen.estimate measures it)
 
 the error of an answer is the largest of these over all output points.
 
@@ -85,17 +87,20 @@ def check_tolerance(tol: Any) -> float:
 
 # -- the error measure -------------------------------------------------------------------------
 
-Outputs = dict  # ref -> (pose (3,), compliance (2, 2))
+Outputs = dict  # ref -> (pose (3,), compliance (3, 3), or (2, 2) where only that is known)
 
 
 def outputs_of(result: Result) -> Outputs | None:
-    """The output points of a converged Result as {ref: (pose, 2x2 compliance)}."""
+    """The output points of a converged Result as {ref: (pose, compliance)}: the 3x3
+    compliance, or the 2x2 where the 3x3 is not all known (the exact solver's: NaN beyond it)."""
     if not result.converged:
         return None
-    return {
-        ref: (np.asarray(p.pose, float), np.asarray(p.compliance, float))
-        for ref, p in result.points.items()
-    }
+
+    def compliance(p: Any) -> np.ndarray:
+        c3 = np.asarray(p.compliance3, float)
+        return c3 if np.all(np.isfinite(c3)) else np.asarray(p.compliance, float)
+
+    return {ref: (np.asarray(p.pose, float), compliance(p)) for ref, p in result.points.items()}
 
 
 def outputs_of_exact(sol) -> Outputs | None:
@@ -117,15 +122,26 @@ def pose_parts(pose: Any, pose_ref: Any, scale: float) -> tuple[float, float]:
     )
 
 
-def compliance_error(C: Any, C_ref: Any) -> float:
-    """||C - C_ref||_2 / ||C_ref||_2 (absolute where C_ref is 0): the compliance part of the
-    error measure; inf where C is not finite (no norm of it)."""
-    C, C_ref = np.asarray(C, dtype=float), np.asarray(C_ref, dtype=float)
-    if not np.all(np.isfinite(C)):
-        return math.inf
+def _relative(C: np.ndarray, C_ref: np.ndarray) -> float:
     nr = float(np.linalg.norm(C_ref, 2))
     dC = float(np.linalg.norm(C - C_ref, 2))
     return dC / nr if nr > 0 else dC
+
+
+def compliance_error(C: Any, C_ref: Any, scale: float | None = None) -> float:
+    """||C - C_ref||_2 / ||C_ref||_2 (absolute where C_ref is 0) of the 2x2 position blocks: the
+    compliance part of the error measure; where both are 3x3 and ``scale`` (L_p) is given, the
+    larger of that and the same of D C D, D = diag(1, 1, L_p) (the angle row and column in the
+    position block's units, as flexgen.estimate weighs them: review, a tolerance answer's
+    rotational compliance was 38 times its stated estimate); inf where C is not finite."""
+    C, C_ref = np.asarray(C, dtype=float), np.asarray(C_ref, dtype=float)
+    if not np.all(np.isfinite(C)):
+        return math.inf
+    out = _relative(C[:2, :2], C_ref[:2, :2])
+    if scale is not None and C.shape == C_ref.shape == (3, 3):
+        d = np.array([1.0, 1.0, scale])
+        out = max(out, _relative(C * np.outer(d, d), C_ref * np.outer(d, d)))
+    return out
 
 
 def error_components(got: Outputs, ref: Outputs, scales: Mapping[str, float]) -> np.ndarray:
@@ -133,7 +149,9 @@ def error_components(got: Outputs, ref: Outputs, scales: Mapping[str, float]) ->
     out = []
     for name, (pose_r, C_r) in ref.items():
         pose, C = got[name]
-        out.extend([*pose_parts(pose, pose_r, scales[name]), compliance_error(C, C_r)])
+        out.extend(
+            [*pose_parts(pose, pose_r, scales[name]), compliance_error(C, C_r, scales[name])]
+        )
     return np.array(out)
 
 

@@ -343,3 +343,28 @@ def test_a_selections_answer_carries_the_validity_warnings_of_solve():
     assert len(near) == 1
     assert select.solve_to_tolerance(scene, 1e-4).warnings.count(near[0]) == 1
     assert solve(scene, tolerance=1e-4).warnings.count(near[0]) == 1
+
+
+@pytest.mark.parametrize(
+    "force, moment", [([0.0, -2.0], 1.0), ([2.0, 1.0], -1.0), ([1.0, -3.0], 0.0)]
+)
+def test_a_tolerance_answer_states_the_error_of_its_3x3_compliance(force, moment):
+    """Review: a tolerance's compliance estimate measured the 2x2 position block only, so the
+    angle row and column of compliance3 could pass it (a cantilever under (0, -2) and a moment
+    1 at tol 1e-4: 4.7e-6 against a stated 3.75e-6; a chain 38 times its estimate). Against the
+    exact elastica's 3x3 tip compliance (variational equations), every answer's compliance
+    error is within its estimate and the tolerance."""
+    from flexgen.models.exact import tip_compliance
+
+    exact = tip_compliance(1.0, 1.0, force, moment)
+    scene = {
+        "name": "cantilever",
+        "flexure": [{"name": "b", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "b.tip", "force": force, "moment": moment}],
+    }
+    for tol in (1e-3, 1e-4, 1e-5):
+        r = solve(scene_from_dict(scene), tolerance=tol)
+        c3 = np.array(r.points["b.tip"].compliance3)
+        err = np.linalg.norm(c3 - exact, 2) / np.linalg.norm(exact, 2)  # L_p = 1: D = I
+        stated = r.points["b.tip"].error_estimate["compliance"]
+        assert err <= stated <= tol, (tol, err, stated)
