@@ -206,8 +206,16 @@ def _json_failure(argv: list, args, message: str) -> None:
             raise
 
 
-# a quoted name or value in a message: shortened past 80 characters (docs/scene.md, Errors)
-_QUOTED = re.compile(r"'[^'\n]{81,}'|\"[^\"\n]{81,}\"")
+# a quoted name or value in a message: shortened past 80 characters (docs/scene.md, Errors). A
+# quote opens where a word may start and closes where one may end (a quote inside a value, as in
+# it's, is part of it): the prose between two short quoted values is not one (review: "'exact'
+# solves the whole scene; give it to eve...xact" lost the advice)
+_OPENS, _CLOSES = r"(?<![^\s(\[{=:,])", r"(?=[\s)\]},.:;]|$)"
+_QUOTED = re.compile(
+    "|".join(
+        rf"{_OPENS}{q}(?:[^{q}\n]|{q}(?![\s)\]}},.:;]|$)){{81,}}{q}{_CLOSES}" for q in ("'", '"')
+    )
+)
 
 
 def _shortened(text: str) -> str:

@@ -190,6 +190,11 @@ class Scene:
         """``with_value`` for several paths at once (one validation)."""
         from .scenepath import PathError, set_value
 
+        if not isinstance(values, Mapping):  # review: None was an AttributeError
+            raise TypeError(
+                f"with_values: expected a mapping of scene paths to values, got "
+                f"{type(values).__name__}"
+            )
         root = self.editable_source()
         try:
             for path, value in values.items():
@@ -487,6 +492,14 @@ def scene_from_dict(
     Values may carry units (``"20 mm"``): they are converted first, into the scene's ``units``
     choice (SI by default), by ``flexgen.units.normalise``; docs/scene.md, "Units".
     """
+    if order is not None and (
+        isinstance(order, str | bytes)
+        or not isinstance(order, Sequence)
+        or any(k not in ("flexure", "link") for k in order)
+    ):  # review: order=5 was "'int' object is not iterable"
+        raise TypeError(
+            f"scene_from_dict: order must be a sequence of 'flexure' and 'link', got {order!r:.80}"
+        )
     try:
         plain, units = normalise(d, MAX_MAGNITUDE, wrap=_Written)
     except UnitsError as e:
@@ -779,7 +792,11 @@ class _Parser:
         self.points |= {lk.name: lk.points for lk in links}
         n_points = sum(len(pts) for pts in self.points.values()) - len(flexures)
         if n_points > MAX_ENTRIES:
-            raise _fail("link", f"too many named points: {n_points} in all (at most {MAX_ENTRIES})")
+            # the key holding the most named points (review: 1001 base points blamed 'link')
+            flexure_names = {f.name for f in flexures}
+            most = max(self.points.items(), key=lambda kv: len(kv[1]) - (kv[0] in flexure_names))
+            where = "base.points" if most[0] == BASE else f"{keys.get(most[0], most[0])}.points"
+            raise _fail(where, f"too many named points: {n_points} in all (at most {MAX_ENTRIES})")
 
         loads = tuple(self._load(t, f"load[{i}]") for i, t in enumerate(load_tbls))
         tendons = tuple(self._tendon(t, f"tendon[{i}]") for i, t in enumerate(tendon_tbls))

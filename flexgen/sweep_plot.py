@@ -105,7 +105,18 @@ def _histogram(ax: Any, y: np.ndarray, label: str) -> None:
     ax.set_ylabel("cases")
     if not y.size:
         return
-    ax.hist(y, bins=min(50, max(5, y.size // 20)), color="C0", alpha=0.8)
+    lo, hi = float(y.min()), float(y.max())
+    span = None
+    if not hi - lo > 1e-9 * max(abs(lo), abs(hi)):
+        # values equal to rounding (a zero spread, or a key the output does not follow): one
+        # bar over an explicit range; Matplotlib cannot cut 5 bins from a span of a few ulps
+        # (review: 'Too many bins for data range', the whole study lost)
+        half = 1e-6 * abs(lo) if lo != 0.0 else 1.0
+        span = (lo - half, hi + half)
+    bins = 1 if span is not None else min(50, max(5, y.size // 20))
+    ax.hist(y, bins=bins, range=span, color="C0", alpha=0.8)
+    if span is not None:
+        ax.ticklabel_format(axis="x", useOffset=False)  # the value itself, not 1e-7 + offset
     lo, hi = np.percentile(y, BAND)
     ax.axvspan(lo, hi, color="C1", alpha=0.2, label=f"{BAND[0]:g}-{BAND[1]:g} %")
     ax.axvline(float(np.median(y)), color="C1", lw=1.5, label="median")

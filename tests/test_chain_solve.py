@@ -460,6 +460,10 @@ def test_json_contract_fields_and_ellipse_convention():
     assert e["major"] == 3.0 and e["minor"] == 1.0 and e["angle"] == pytest.approx(math.pi / 2)
     e = ellipse(np.array([[2.0, -1.0], [-1.0, 2.0]]))  # major axis along (1, -1)
     assert e["major"] == pytest.approx(3.0) and e["angle"] == pytest.approx(-math.pi / 4)
+    # entries past 1e154 (review: a * d overflowed, the minor axis NaN): eigenvalues 3s and s
+    for s in (1e160, 1e300):
+        e = ellipse(s * np.array([[2.0, -1.0], [-1.0, 2.0]]))
+        assert e["major"] == pytest.approx(3 * s) and e["minor"] == pytest.approx(s), e
 
 
 def test_shapes_end_at_the_flexure_tips():

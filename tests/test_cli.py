@@ -95,6 +95,19 @@ def test_a_long_name_is_shortened_in_the_message(tmp_path, tail):
     assert len(result.stderr) < 400, result.stderr[:300]
 
 
+def test_prose_between_short_quoted_values_is_not_shortened(tmp_path):
+    """Review: the advice between 'exact' and 'a' in this message was cut as if it were one
+    quoted value ('... give it to eve...xact" or --model exact) ...')."""
+    scene = tmp_path / "mixed.toml"
+    scene.write_text(
+        '[[flexure]]\nname = "a"\nlength = 1.0\nEI = 1.0\nkind = "exact"\n'
+        '[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1.0\n'
+    )
+    result = _flexgen("solve", str(scene))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert "..." not in result.stderr and "got it for 'a' only" in result.stderr, result.stderr
+
+
 def _flexgen(*args):
     return subprocess.run(
         [sys.executable, "-m", "flexgen", *args],

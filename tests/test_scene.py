@@ -839,3 +839,30 @@ def test_a_line_of_many_numbers_is_no_dotted_key(tmp_path):
     path.write_text("x" + ".x" * 600 + " = 1\n")
     with pytest.raises(SceneError, match="dotted key or table header of more than 512"):
         load_scene(path)
+
+
+def test_too_many_named_points_names_the_key_holding_them():
+    """Review: 1001 base points were blamed on 'link'."""
+    from flexgen.scene import MAX_ENTRIES
+
+    n = MAX_ENTRIES + 1
+    base = {"points": {f"p{i}": [0.0, float(i)] for i in range(n)}}
+    flexure = {"name": "b", "length": 1.0, "EI": 1.0}
+    with pytest.raises(SceneError, match=r"^base\.points: too many named points: 1001"):
+        scene_from_dict({"base": base, "flexure": [flexure]})
+    link = {"name": "L", "parent": "b", "points": base["points"]}
+    with pytest.raises(SceneError, match=r"^link\[0\]\.points: too many named points: 1001"):
+        scene_from_dict({"flexure": [flexure], "link": [link]})
+
+
+def test_api_arguments_of_the_wrong_kind_are_type_errors_naming_them():
+    """Review: with_values(None) was an AttributeError, scene_from_dict(order=5) "'int' object
+    is not iterable"."""
+    flexure = {"name": "b", "length": 1.0, "EI": 1.0}
+    scene = scene_from_dict({"flexure": [flexure]})
+    for bad in (None, [1]):
+        with pytest.raises(TypeError, match="^with_values: expected a mapping"):
+            scene.with_values(bad)
+    for order in (5, "flexure", ["flexure", "body"]):
+        with pytest.raises(TypeError, match="^scene_from_dict: order must be a sequence"):
+            scene_from_dict({"flexure": [flexure]}, order=order)

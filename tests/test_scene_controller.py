@@ -563,11 +563,30 @@ BAD_SCENES = {
 }
 
 
-@pytest.mark.parametrize("case", list(BAD_SCENES))
+# scenes the float twin cannot hold (review: exit 0, and C that gcc -pedantic -Werror refused:
+# 'floating constant exceeds range of float'); the double controller takes both
+BAD_FLOAT_SCENES = {
+    "float constant": (
+        '[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1e60\n'
+        '[[load]]\npoint = "b.tip"\nforce = [0.0, -1e3]\n',
+        "beyond float's range",
+    ),
+    "float input": (
+        '[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1e20\n'
+        '[[load]]\npoint = "b.tip"\nforce = [0.0, -1e19]\n',
+        "load[0].force",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_SCENES) + list(BAD_FLOAT_SCENES))
 def test_bad_scenes_are_one_line_exit_2_nothing_written(tmp_path, case):
-    text, named = BAD_SCENES[case]
+    text, named = {**BAD_SCENES, **BAD_FLOAT_SCENES}[case]
     (tmp_path / "s.toml").write_text(text)
-    r = _emit(["--scene", "s.toml", "--out", "out"], tmp_path)
+    single = ["--float"] if case in BAD_FLOAT_SCENES else []
+    if single:  # the double controller of the same scene is written
+        assert _emit(["--scene", "s.toml", "--out", "double"], tmp_path).returncode == 0
+    r = _emit(["--scene", "s.toml", "--out", "out", *single], tmp_path)
     assert r.returncode == 2, r.stderr
     assert r.stderr.count("\n") == 1 and r.stderr.startswith("flexgen: error:"), r.stderr
     assert named in r.stderr

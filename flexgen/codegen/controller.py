@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from flexgen.result import UNSTABLE
-from flexgen.scene import MAX_MAGNITUDE, Scene, SceneError, load_scene
+from flexgen.scene import MAX_MAGNITUDE, Scene, SceneError, _fmt, load_scene
 from flexgen.settings import DEFAULT, SolverSettings
 from flexgen.validity import BEND_LIMIT, NEAR_SINGULAR, PRB_LIMIT, STRAIN_LIMIT
 from flexgen.warm import WARM_CHANGE
@@ -250,10 +250,18 @@ def c_double(x: float) -> str:
 FLT_MIN = 1.1754943508222875e-38  # the smallest normal float
 
 
+FLT_MAX = 3.4028234663852886e38  # the largest float
+
+
 def c_float(x: float) -> str:
     """A float literal of the double x (9 significant digits: one float exactly)."""
     if not math.isfinite(x):
         raise EmitError(f"a constant of the scene is not finite: {x!r}")
+    if abs(x) > FLT_MAX:  # gcc -pedantic -Werror refuses such a literal (review: exit 0 before)
+        raise EmitError(
+            f"--float: a constant of the scene, {x!r}, is beyond float's range ({FLT_MAX:.3g}); "
+            "the double controller (without --float) holds it"
+        )
     if abs(x) < FLT_MIN:  # below float's normal range (a kernel's rounding noise at q = 0):
         return "0.0f"  # 0, which -pedantic does not reject as a truncated constant
     text = f"{x:.9g}"
@@ -609,6 +617,26 @@ def _settings_rows(settings: SolverSettings, number, upper: str) -> list[tuple[s
     return rows
 
 
+def _check_single_inputs(scene: Scene) -> None:
+    """The scene's own loads and tensions within the float twin's inputs (SINGLE_MAX_MAGNITUDE),
+    which its NAME_inputs_default gives and its solve would refuse as bad input."""
+    limit = SINGLE_MAX_MAGNITUDE
+    for i, load in enumerate(scene.loads):
+        for key, values in (("force", load.force), ("moment", (load.moment,))):
+            if any(abs(v) > limit for v in values):
+                raise EmitError(
+                    f"load[{i}].{key}: {_fmt(list(values) if key == 'force' else load.moment)} "
+                    f"is beyond the float twin's largest input {limit:g} (--float); the double "
+                    "controller takes it"
+                )
+    for i, tendon in enumerate(scene.tendons):
+        if abs(tendon.tension) > limit:
+            raise EmitError(
+                f"tendon[{i}].tension: {_fmt(tendon.tension)} is beyond the float twin's largest "
+                f"input {limit:g} (--float); the double controller takes it"
+            )
+
+
 def controller_context(path: Path, options: Options) -> dict[str, Any]:
     """Everything the controller templates print, from the scene at ``path``."""
     from flexgen.core import lib
@@ -616,6 +644,8 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
     from flexgen.problem import Problem
 
     scene, tolerance_note = _prepared_scene(path)
+    if options.single:
+        _check_single_inputs(scene)
     models = build_models(scene)
     problem = Problem(scene, models, DEFAULT)
     settings = SINGLE if options.single else CONTROLLER

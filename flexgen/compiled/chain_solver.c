@@ -2409,7 +2409,9 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out)
     half = hypot(0.5 * (a - d), b);
     mean = 0.5 * (a + d);
     major = mean + half;
-    minor = major > 0.0 && mean > 0.0 ? (a * d - b * b) / major : mean - half;
+    /* the determinant over major, each product scaled first: a * d overflows where the
+     * entries pass 1e154 (review: a minor axis NaN, null in the JSON, with no warning) */
+    minor = major > 0.0 && mean > 0.0 ? (a / major) * d - (b / major) * b : mean - half;
     /* a rank-one compliance (one coordinate: prb, a link on one pin) has minor 0, which
      * rounding may put at -1e-17 or +8e-20: 0 within the compliance's rounding, so that
      * sqrt(minor) and a semi-axis drawn from it stay real and a rank-one answer reads as one
