@@ -5,8 +5,9 @@ tolerance=None, **options)``:
 
 - ``scene``: a ``Scene``, a dict (``scene_from_dict``) or a path to a TOML file (``load_scene``);
 - ``model`` / ``modes`` / ``elements``: override every flexure's ``kind`` / ``modes`` /
-  ``elements`` (they beat the scene's ``[model]`` and per-flexure keys; ``modes`` also clears
-  the scene's ``tolerance``, since the modes are then given; with the ``tolerance`` argument
+  ``elements`` (they beat the scene's ``[model]`` and per-flexure keys; ``modes``, and a
+  ``model`` other than "scm", also clear the scene's ``tolerance``, since the modes, or another
+  model, are then given; with the ``tolerance`` argument
   ``modes`` or ``elements`` is a ValueError, as ``--tol`` with ``--modes`` is exit 2; a count
   the ``model`` given does not read, such as ``modes`` with ``"cc"``, is a SceneError);
 - ``models``: {flexure: FlexureModel} for some flexures (the others from the scene);

@@ -1,7 +1,9 @@
 """The result of solving a scene: equilibrium, stability, compliance of the output points.
 
-``Result.to_json()`` gives exactly the fields of the public contract (``scene-format.md``, plus
-``"reason"`` when not converged); ``Result`` itself carries a few more for the Python API
+``Result.to_json()`` gives every field of the public contract (``scene-format.md``; a chain
+model's ``error_estimate`` null where none was asked for), the few of flexgen's own that
+docs/solve.md lists, and ``"reason"`` when not converged; ``Result`` itself carries more for the
+Python API
 (critical load factors, the load factor reached, the flexures' curvature and stress profiles as
 arrays where the JSON has their maxima).
 """
@@ -63,7 +65,9 @@ class PointResult:
         """(3, 3) d(x, y, angle)/d(fx, fy, moment); its inverse is the stiffness of the point."""
         return np.array(self.compliance3, dtype=float)
 
-    def contract(self) -> dict[str, Any]:
+    def contract(self, chain: bool = False) -> dict[str, Any]:
+        """The point's JSON fields; ``chain`` (a chain model's answer): ``error_estimate`` is
+        always there, null where none was asked for (the contract: absent only for exact)."""
         out: dict[str, Any] = {
             "pose": list(self.pose),
             "compliance": [list(r) for r in self.compliance],
@@ -72,6 +76,8 @@ class PointResult:
         }
         if self.error_estimate is not None:
             out["error_estimate"] = {k: float(v) for k, v in self.error_estimate.items()}
+        elif chain:
+            out["error_estimate"] = None
         return out
 
 
@@ -149,7 +155,9 @@ class Result:
         return _plain(asdict(self))
 
     def contract(self) -> dict[str, Any]:
-        """Exactly the fields of the JSON contract (plus ``reason`` when not converged)."""
+        """The fields of the JSON contract and flexgen's own (docs/solve.md; ``reason`` when not
+        converged)."""
+        chain = self.solver != "exact"
         out: dict[str, Any] = {
             "scene": self.scene,
             "converged": bool(self.converged),
@@ -157,7 +165,7 @@ class Result:
             "iterations": int(self.iterations),
             "model": {k: dict(v) for k, v in self.model.items()},
             "q": {k: [float(x) for x in v] for k, v in self.q.items()},
-            "points": {ref: p.contract() for ref, p in self.points.items()},
+            "points": {ref: p.contract(chain) for ref, p in self.points.items()},
             "flexures": {name: st.contract() for name, st in self.flexures.items()},
             "stiffness": (
                 None
@@ -171,6 +179,8 @@ class Result:
             out["error_estimate"] = (
                 math.inf if self.error_estimate is None else float(self.error_estimate)
             )
+        elif chain:  # no estimate asked for (estimate=False): null, the key always there
+            out["error_estimate"] = None
         out["warnings"] = list(self.warnings)
         out["notes"] = list(self.notes)
         if not self.converged:
