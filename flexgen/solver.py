@@ -36,7 +36,7 @@ from .result import UNSTABLE, LazyResult, Result, point_result
 from .scene import MAX_MAGNITUDE, Scene, _fmt, _number
 from .scene_checks import scene_notes, scene_warnings
 from .settings import DEFAULT, SolverSettings
-from .statics import chain_statics, scene_loads
+from .statics import chain_statics, end_curvatures, scene_loads
 from .stress import flexure_stresses, has_area, has_strengths, safety_warnings
 from .units import result_units
 
@@ -576,13 +576,14 @@ class AnswerFields:
         if name == "flexures":
             qs = {n: q[sl] for n, sl in self.slices}
             statics = None
+            loads, tensions = loads or scene_loads(self.scene)
             if has_area(self.scene):
-                loads, tensions = loads or scene_loads(self.scene)
                 statics = chain_statics(p.statics, p.chain, q, loads, tensions)
             stresses = flexure_stresses(self.scene, self.models, qs, statics=statics)
             if est is None or estimator is None:
                 return stresses
-            errors = estimator.of(est, stresses)
+            ends = end_curvatures(p.statics, self.scene, p.chain, q, loads, tensions)
+            errors = estimator.of(est, stresses, ends)
             return {n: replace(st, error_estimate=errors.get(n)) for n, st in stresses.items()}
         raise AttributeError(name)
 

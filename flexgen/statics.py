@@ -89,6 +89,29 @@ class StaticsPlan:
         forces = self.point_forces(self.positions(frames), loads, tensions)
         return np.einsum("...pk,pf->...fk", forces, self.member)
 
+    def end_moments(
+        self, frames: Mapping[str, Any], roots: Mapping[str, Any], loads: Any, tensions: Any
+    ) -> np.ndarray:
+        """(flexures, 2): the bending moment each flexure carries at its root and at its tip
+        (scene order; counter-clockwise): the moments about that end of the forces beyond it
+        and the dead loads' own moments, so EI kappa there by equilibrium. ``frames`` and
+        ``roots`` of one answer (``chain.Chain.frame_poses``)."""
+        positions = self.positions(frames)
+        forces = self.point_forces(positions, loads, tensions)
+        couples = np.zeros(len(positions))
+        if self.nloads:
+            couples[: self.nloads] = np.asarray(loads, dtype=float).reshape(self.nloads, 3)[:, 2]
+        out = np.zeros((len(self.flexures), 2))
+        for j, name in enumerate(self.flexures):
+            rows = self.member[:, j] > 0.0
+            for k, end in enumerate((roots[name], frames[name])):
+                d = positions[rows] - np.asarray(end, dtype=float)[:2]
+                f = forces[rows]
+                out[j, k] = float(
+                    np.sum(d[:, 0] * f[:, 1] - d[:, 1] * f[:, 0]) + couples[rows].sum()
+                )
+        return out
+
 
 def scene_loads(scene: Scene) -> tuple[list[list[float]], list[float]]:
     """The scene's own loads (rows fx, fy, moment) and tensions, as a Solver is given them."""
@@ -123,6 +146,21 @@ def chain_statics(
         dict(zip(plan.flexures, forces)),
         {name: float(pose[2]) for name, pose in roots.items()},
     )
+
+
+def end_curvatures(
+    plan: StaticsPlan, scene: Scene, chain: Any, q: Any, loads: Any, tensions: Any
+) -> dict[str, tuple[float, float]]:
+    """{flexure: (kappa at its root, kappa at its tip)} of a chain model's answer by
+    equilibrium, M / EI (``StaticsPlan.end_moments``): what its curvature profile must meet at
+    both ends, whatever the model (flexgen.estimate's curvature floor)."""
+    frames, roots = chain.frame_poses(q)
+    moments = plan.end_moments(frames, roots, loads, tensions)
+    EI = {f.name: f.EI for f in scene.flexures}
+    return {
+        name: (float(m[0]) / EI[name], float(m[1]) / EI[name])
+        for name, m in zip(plan.flexures, moments)
+    }
 
 
 def axial_force(force: np.ndarray, angle: np.ndarray) -> np.ndarray:

@@ -10,6 +10,7 @@ References, each independent of the statics the chain models use:
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -207,3 +208,26 @@ def test_a_study_leaves_the_safety_factor_of_a_flexure_without_stress_empty():
     df = flexgen.sweep(sc, {"load.0.force.1": [-0.2, -0.4]}, workers=1, estimate=False)
     assert df["b.max_stress"].isna().all() and df["b.safety_factor"].isna().all()
     assert (df["a.safety_factor"] > 1.0).all()
+
+
+def test_end_curvatures_by_equilibrium_meet_a_converged_profile():
+    """statics.end_curvatures (M / EI at each flexure's root and tip: the moments of the pad
+    load and the tendon's pulls beyond it) against the scm8 curvature profile of the tendon
+    finger, which the modes have converged (scm3 misses by up to 1 %: the check can fail)."""
+    from flexgen.statics import end_curvatures, scene_loads
+
+    misses = {}
+    for modes in (3, 8):
+        finger = Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml"
+        solver = flexgen.Solver(finger, modes=modes)
+        r = solver.solve()
+        q = np.concatenate([np.asarray(v, dtype=float) for v in r.q.values()])
+        loads, tensions = scene_loads(solver.scene)
+        p = solver.problem
+        ends = end_curvatures(p.statics, solver.scene, p.chain, q, loads, tensions)
+        misses[modes] = max(
+            max(abs(ends[n][0] - st.curvature[0]), abs(ends[n][1] - st.curvature[-1]))
+            / st.max_curvature
+            for n, st in r.flexures.items()
+        )
+    assert misses[8] < 1e-6 and misses[3] > 1e-3, misses
