@@ -61,9 +61,10 @@ answer is claimed exact.
 Each flexure's curvature (so its strain and stress) is estimated from the same richer
 equilibrium, which ``fg_estimate`` also returns (``Estimate.rich_q``): the answer's curvature
 profile against the richer model's on the same arc lengths, relative to the larger peak,
-times the same margin (``Estimator.curvature_estimates``, asked when ``Result.flexures`` is
-built). It is usually far larger than the pose's: the modes approximate the curvature, the pose
-is its integral.
+times the same margin, and for a smooth curvature flexure at least its miss at its ends, where
+equilibrium fixes the curvature (``end_floor``) (``Estimator.curvature_estimates``, asked when
+``Result.flexures`` is built). It is usually far larger than the pose's: the modes approximate
+the curvature, the pose is its integral.
 
 When the richer model finds no stable equilibrium (or an equilibrium with undefined
 compliance), the estimate is inf and ``Estimate.warning`` says why. With several flexures the
@@ -487,9 +488,14 @@ class Estimator:
             f"so its error is unknown",
         )
 
-    def curvature_estimates(self, est: Estimate, stresses: dict[str, Any]) -> dict[str, float]:
+    def curvature_estimates(
+        self,
+        est: Estimate,
+        stresses: dict[str, Any],
+        ends: Mapping[str, tuple[float, float]] | None = None,
+    ) -> dict[str, float]:
         """``CurvatureEstimates.of`` (``self.curvature``, what a Result keeps of this)."""
-        return self.curvature.of(est, stresses)
+        return self.curvature.of(est, stresses, ends)
 
     def _branch_warning(self, snap: float | None, rich_snap: float | None) -> str | None:
         """The warning when the richer model's load path snapped through (at load factor
