@@ -111,6 +111,25 @@ def unused_count_message(
     return f"{flag}{option}: not used {with_what} ({why})"
 
 
+def replaced_tolerance_note(
+    scene: Scene, overridden: Scene, model: str | None, modes: int | None
+) -> str | None:
+    """The note an answer gets when an override replaced the scene's tolerance (``override``:
+    modes, or a model kind other than scm, given): a fact about the answer, not a fault in it
+    (its error estimate still says how accurate it is; review: --model fem on a scene asking
+    for 1e-7 answered at 1.4e-3 with nothing saying the tolerance was not applied)."""
+    from .select import scene_tolerance
+
+    tol = scene_tolerance(scene)
+    if tol is None or scene_tolerance(overridden) is not None or model == "exact":
+        return None  # (the exact elastica: the reference every tolerance is measured against)
+    given = f"modes = {modes}" if modes is not None else f"model {model!r}"
+    return (
+        f"the scene's tolerance {tol:g} is not applied: {given} was given (a tolerance chooses "
+        "the smooth curvature modes); error_estimate says how accurate this answer is"
+    )
+
+
 def override(
     scene: Scene, model: str | None = None, modes: int | None = None, elements: int | None = None
 ) -> Scene:
@@ -352,10 +371,15 @@ def solve(
         raise ValueError(
             f"tolerance: chooses the modes itself: give either tolerance or {given}, not both"
         )
-    sc = override(as_scene(scene), model, modes, elements)
-    return solve_scene(
+    as_given = as_scene(scene)
+    sc = override(as_given, model, modes, elements)
+    result = solve_scene(
         sc, models, settings, q0=q0, tolerance=tolerance, estimate=estimate, **options
     )[0]
+    note = replaced_tolerance_note(as_given, sc, model, modes) if tolerance is None else None
+    if note is not None:
+        result.notes.append(note)
+    return result
 
 
 class PreparedSolver(CheckedSolver):
@@ -376,7 +400,8 @@ class PreparedSolver(CheckedSolver):
         settings: SolverSettings | None = None,
         **options: Any,
     ) -> None:
-        sc = override(as_scene(scene), model, modes, elements)
+        given = as_scene(scene)
+        sc = override(given, model, modes, elements)
         if uses_exact(sc):
             raise SceneError("Solver: the exact model is a reference solver; use flexgen.solve")
         from .select import scene_tolerance
@@ -390,3 +415,6 @@ class PreparedSolver(CheckedSolver):
         if models is not None:  # flexgen.solve's check: a bad model would fail deep in the build
             _check_inputs(sc, models, None)
         super().__init__(sc, models, make_settings(settings, **options))
+        note = replaced_tolerance_note(given, sc, model, modes)
+        if note is not None:  # on every Result, as the scene's own notes (solver.py)
+            self._scene_notes.append(note)

@@ -198,7 +198,10 @@ def test_a_model_kind_given_replaces_the_scenes_tolerance(model, label):
     }
     for result in (flexgen.solve(scene, model=model), flexgen.Solver(scene, model=model).solve()):
         assert result.converged and registry.label(result.model["b"]) == label
+        # a note says so (contract review: nothing said the tolerance was not applied)
+        assert any("tolerance 0.0001 is not applied" in n for n in result.notes), result.notes
     assert flexgen.solve(scene).model["b"]["kind"] == "scm"  # the tolerance's own selection
+    assert not flexgen.solve(scene).notes
 
 
 def test_a_boolean_load_or_tension_is_no_number():

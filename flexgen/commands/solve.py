@@ -60,7 +60,13 @@ OPTION_NAMES = ["tolerance"]
 def solve_args(args):
     """Load the scene, apply the command-line overrides and solve:
     ``(scene, Result, exact SceneSolution or None)``. Bad input raises SceneError/UsageError."""
-    from flexgen.api import as_scene, override, solve_scene, unused_count_message
+    from flexgen.api import (
+        as_scene,
+        override,
+        replaced_tolerance_note,
+        solve_scene,
+        unused_count_message,
+    )
     from flexgen.kernels import KernelNotFound
     from flexgen.models.registry import ModelError
 
@@ -71,6 +77,7 @@ def solve_args(args):
     refusal = unused_count_message(args.model, args.modes, args.elements, kinds, flag="--")
     if refusal is not None:  # e.g. --model cc --modes 3 would solve one mode silently
         raise UsageError(refusal)
+    given = scene
     scene = override(scene, args.model, args.modes, args.elements)
     options = {
         name: getattr(args, name) for name in OPTION_NAMES if getattr(args, name, None) is not None
@@ -79,6 +86,10 @@ def solve_args(args):
         result, exact = solve_scene(scene, **options)
     except (ModelError, KernelNotFound) as exc:  # e.g. --modes 12: no such kernel
         raise UsageError(" ".join(str(exc).split())) from None
+    if options.get("tolerance") is None:
+        note = replaced_tolerance_note(given, scene, args.model, args.modes)
+        if note is not None:
+            result.notes.append(note)
     return scene, result, exact
 
 
