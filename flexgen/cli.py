@@ -210,11 +210,10 @@ def _json_failure(argv: list, args, message: str) -> None:
 # quote opens where a word may start and closes where one may end (a quote inside a value, as in
 # it's, is part of it): the prose between two short quoted values is not one (review: "'exact'
 # solves the whole scene; give it to eve...xact" lost the advice)
-_OPENS, _CLOSES = r"(?<![^\s(\[{=:,])", r"(?=[\s)\]},.:;]|$)"
+_END = r"[\s)\]},.:;?!]"  # what may follow a closing quote ("did you mean 'x'?")
+_OPENS, _CLOSES = r"(?<![^\s(\[{=:,])", rf"(?={_END}|$)"
 _QUOTED = re.compile(
-    "|".join(
-        rf"{_OPENS}{q}(?:[^{q}\n]|{q}(?![\s)\]}},.:;]|$)){{81,}}{q}{_CLOSES}" for q in ("'", '"')
-    )
+    "|".join(rf"{_OPENS}{q}(?:[^{q}\n]|{q}(?!{_END}|$)){{81,}}{q}{_CLOSES}" for q in ("'", '"'))
 )
 
 

@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -106,6 +107,19 @@ def test_prose_between_short_quoted_values_is_not_shortened(tmp_path):
     result = _flexgen("solve", str(scene))
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
     assert "..." not in result.stderr and "got it for 'a' only" in result.stderr, result.stderr
+
+
+def test_a_long_name_before_a_question_mark_is_shortened(tmp_path):
+    """Review of the shortener: "did you mean '<100 characters>'?" was left whole."""
+    name = "p" * 100
+    scene = tmp_path / "long.toml"
+    scene.write_text(
+        f'[[flexure]]\nname = "{name}"\nlength = 1.0\nEI = 1.0\n'
+        f'[[load]]\npoint = "{name}.tip"\nforce = [0.0, -1.0]\n'
+    )
+    result = _flexgen("sweep", str(scene), "--vary", f"flexure.{name}q.length=1,2")
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert re.search(r"did you mean 'p+\.\.\.p+'\?", result.stderr), result.stderr
 
 
 def _flexgen(*args):

@@ -569,7 +569,12 @@ BAD_FLOAT_SCENES = {
     "float constant": (
         '[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1e60\n'
         '[[load]]\npoint = "b.tip"\nforce = [0.0, -1e3]\n',
-        "beyond float's range",
+        "outside float's range",
+    ),
+    "float tiny constant": (  # review: flushed to 0, the twin's stiffness singular, exit 0
+        '[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1e-39\n'
+        '[[load]]\npoint = "b.tip"\nforce = [0.0, -1e-39]\n',
+        "outside float's range",
     ),
     "float input": (
         '[[flexure]]\nname = "b"\nlength = 1.0\nEI = 1e20\n'

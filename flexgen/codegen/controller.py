@@ -254,18 +254,27 @@ FLT_MAX = 3.4028234663852886e38  # the largest float
 
 
 def c_float(x: float) -> str:
-    """A float literal of the double x (9 significant digits: one float exactly)."""
+    """A float literal of the double x (9 significant digits: one float exactly); a constant
+    of the scene beyond float's normal range either way is an EmitError (``c_float_noise``
+    flushes a kernel's rounding noise to 0 instead)."""
     if not math.isfinite(x):
         raise EmitError(f"a constant of the scene is not finite: {x!r}")
-    if abs(x) > FLT_MAX:  # gcc -pedantic -Werror refuses such a literal (review: exit 0 before)
+    if abs(x) > FLT_MAX or 0.0 < abs(x) < FLT_MIN:
+        # gcc -pedantic -Werror refuses the large literal; the small one would be 0 and leave
+        # the twin's stiffness singular (review: both exit 0 before, the twin 'unstable')
         raise EmitError(
-            f"--float: a constant of the scene, {x!r}, is beyond float's range ({FLT_MAX:.3g}); "
-            "the double controller (without --float) holds it"
+            f"--float: a constant of the scene, {x!r}, is outside float's range ({FLT_MIN:.3g} "
+            f"to {FLT_MAX:.3g}); the double controller (without --float) holds it"
         )
-    if abs(x) < FLT_MIN:  # below float's normal range (a kernel's rounding noise at q = 0):
-        return "0.0f"  # 0, which -pedantic does not reject as a truncated constant
     text = f"{x:.9g}"
     return (text if any(c in text for c in ".e") else text + ".0") + "f"
+
+
+def c_float_noise(x: float) -> str:
+    """``c_float`` of a kernel's value at q = 0 (fg_flexure.tip0), whose rounding noise may
+    lie below float's normal range: 0 there, which -pedantic does not reject as a truncated
+    constant."""
+    return "0.0f" if math.isfinite(x) and abs(x) < FLT_MIN else c_float(x)
 
 
 def _prepared_scene(path: Path) -> tuple[Scene, list[str] | None]:
@@ -385,7 +394,7 @@ def _flexure_rows(scene: Scene, problem: Any, models: dict, number) -> list[dict
                 "poly": poly,
                 "gauss": gauss,
                 "local": local,
-                "tip0": _tip0(problem.tip0[i], number),
+                "tip0": _tip0(problem.tip0[i], c_float_noise if number is c_float else number),
                 "poly_bound": f"{poly.upper()}_ERROR_BOUND" if poly else "0",
                 "gauss_bound": f"{gauss.upper()}_ERROR_BOUND" if gauss else "0",
                 "local_bound": f"{local.upper()}_ERROR_BOUND" if local else "0",
