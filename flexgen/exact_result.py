@@ -96,7 +96,8 @@ def to_result(scene: Scene, sol) -> Result:
     info = {f.name: {"kind": "exact"} for f in scene.flexures}
     # a bifurcation crossed onto the stable branch is a note (a fact of the path); every other
     # message of the elastica solver (a stall, a loss of stability) is a warning
-    notes = [w for w in sol.warnings if "followed the stable branch" in w] + scene_notes(scene)
+    notes = [w for w in sol.warnings if "followed the stable branch" in w]
+    notes += list(sol.notes) + scene_notes(scene)
     warnings = [w for w in sol.warnings if w not in notes] + scene_warnings(scene)
     critical = [] if sol.critical_load_factor is None else [float(sol.critical_load_factor)]
     if not sol.converged:
