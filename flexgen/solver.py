@@ -575,14 +575,18 @@ class AnswerFields:
             }
         if name == "flexures":
             qs = {n: q[sl] for n, sl in self.slices}
-            statics = None
-            loads, tensions = loads or scene_loads(self.scene)
-            if has_area(self.scene):
-                statics = chain_statics(p.statics, p.chain, q, loads, tensions)
+            estimated = est is not None and estimator is not None
+            statics = ends = None
+            if has_area(self.scene) or estimated:
+                poses = p.chain.frame_poses(q)  # once, for the axial stress and the end floor
+                loads, tensions = loads or scene_loads(self.scene)
+                if has_area(self.scene):
+                    statics = chain_statics(p.statics, poses, loads, tensions)
+                if estimated:
+                    ends = end_curvatures(p.statics, poses, loads, tensions)
             stresses = flexure_stresses(self.scene, self.models, qs, statics=statics)
-            if est is None or estimator is None:
+            if not estimated:
                 return stresses
-            ends = end_curvatures(p.statics, self.scene, p.chain, q, loads, tensions)
             errors = estimator.of(est, stresses, ends)
             return {n: replace(st, error_estimate=errors.get(n)) for n, st in stresses.items()}
         raise AttributeError(name)

@@ -51,6 +51,7 @@ class StaticsPlan:
             for name in flexures_holding(scene, body):
                 self.member[row, index[name]] = 1.0
         self.nloads = len(scene.loads)
+        self.EI = np.array([f.EI for f in scene.flexures], dtype=float)
 
     def positions(self, frames: Mapping[str, Any]) -> np.ndarray:
         """(..., points, 2) world positions of the plan's points in the body frames ``frames``
@@ -134,13 +135,16 @@ def flexures_holding(scene: Scene, body: str) -> list[str]:
     return out
 
 
+Poses = tuple[Mapping[str, Any], Mapping[str, Any]]  # chain.Chain.frame_poses: frames, roots
+
+
 def chain_statics(
-    plan: StaticsPlan, chain: Any, q: Any, loads: Any, tensions: Any
+    plan: StaticsPlan, poses: Poses, loads: Any, tensions: Any
 ) -> tuple[dict[str, np.ndarray], dict[str, float]]:
     """({flexure: transmitted world force}, {flexure: world angle of its root frame}) of a chain
-    model's answer (``chain``: its ``chain.Chain``; ``q`` packed coordinates; ``loads`` and
+    model's answer (``poses``: ``chain.Chain.frame_poses`` at its q; ``loads`` and
     ``tensions`` those it was solved under, scene order)."""
-    frames, roots = chain.frame_poses(q)
+    frames, roots = poses
     forces = plan.transmitted(frames, loads, tensions)
     return (
         dict(zip(plan.flexures, forces)),
@@ -149,18 +153,14 @@ def chain_statics(
 
 
 def end_curvatures(
-    plan: StaticsPlan, scene: Scene, chain: Any, q: Any, loads: Any, tensions: Any
+    plan: StaticsPlan, poses: Poses, loads: Any, tensions: Any
 ) -> dict[str, tuple[float, float]]:
-    """{flexure: (kappa at its root, kappa at its tip)} of a chain model's answer by
-    equilibrium, M / EI (``StaticsPlan.end_moments``): what its curvature profile must meet at
-    both ends, whatever the model (flexgen.estimate's curvature floor)."""
-    frames, roots = chain.frame_poses(q)
-    moments = plan.end_moments(frames, roots, loads, tensions)
-    EI = {f.name: f.EI for f in scene.flexures}
-    return {
-        name: (float(m[0]) / EI[name], float(m[1]) / EI[name])
-        for name, m in zip(plan.flexures, moments)
-    }
+    """{flexure: (kappa at its root, kappa at its tip)} of a chain model's answer (``poses``
+    as ``chain_statics``) by equilibrium, M / EI (``StaticsPlan.end_moments``): what its
+    curvature profile must meet at both ends, whatever the model (flexgen.estimate's curvature
+    floor)."""
+    kappa = plan.end_moments(*poses, loads, tensions) / plan.EI[:, None]
+    return {name: (float(k[0]), float(k[1])) for name, k in zip(plan.flexures, kappa)}
 
 
 def axial_force(force: np.ndarray, angle: np.ndarray) -> np.ndarray:

@@ -307,7 +307,7 @@ def stress_columns(solver: Solver, q: Any) -> list[float]:
     statics = None
     if has_area(solver.scene):
         p = solver.problem
-        statics = chain_statics(p.statics, p.chain, q, p.loads, p.tensions)
+        statics = chain_statics(p.statics, p.chain.frame_poses(q), p.loads, p.tensions)
     out: list[float] = []
     for f in solver.scene.flexures:
         model = solver.models[f.name]

@@ -224,7 +224,7 @@ def test_end_curvatures_by_equilibrium_meet_a_converged_profile():
         q = np.concatenate([np.asarray(v, dtype=float) for v in r.q.values()])
         loads, tensions = scene_loads(solver.scene)
         p = solver.problem
-        ends = end_curvatures(p.statics, solver.scene, p.chain, q, loads, tensions)
+        ends = end_curvatures(p.statics, p.chain.frame_poses(q), loads, tensions)
         misses[modes] = max(
             max(abs(ends[n][0] - st.curvature[0]), abs(ends[n][1] - st.curvature[-1]))
             / st.max_curvature
