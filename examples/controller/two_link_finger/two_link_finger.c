@@ -2239,6 +2239,18 @@ static fg_real angle_change(const fg_ws *w, const fg_real *d)
     return most;
 }
 
+/* q = the point at fraction t of the cubic Hermite path from qa to qb over a load-factor step
+ * dl, its end tangents dq/dlam ta and tb (n coordinates) */
+static void hermite_point(int n, const fg_real *qa, const fg_real *ta, const fg_real *qb,
+                          const fg_real *tb, fg_real dl, fg_real t, fg_real *q)
+{
+    fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = (t * t * t - 2 * t * t + t) * dl;
+    fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = (t * t * t - t * t) * dl;
+    int i;
+    for (i = 0; i < n; ++i)
+        q[i] = h00 * qa[i] + h10 * ta[i] + h01 * qb[i] + h11 * tb[i];
+}
+
 /* 1 if the point at fraction t of the cubic Hermite path from (qa, lam_a) to (qb, lam_b), its end
  * tangents dq/dlam ta and tb, is near an equilibrium of that path: the state there (at lam_a +
  * t (lam_b - lam_a)) positive definite and its Newton correction at most direct_correction
@@ -2250,12 +2262,9 @@ static int hermite_sample_near(fg_ws *w, const fg_real *qa, const fg_real *ta, f
                                fg_state *smp, int in_range)
 {
     const fg_settings *set = w->set;
-    int n = FG_N(w), i, evaluated;
+    int evaluated;
     fg_real dl = lam_b - lam_a, *qt = w->vec4, *corr = w->vec3;
-    fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = (t * t * t - 2 * t * t + t) * dl;
-    fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = (t * t * t - t * t) * dl;
-    for (i = 0; i < n; ++i)
-        qt[i] = h00 * qa[i] + h10 * ta[i] + h01 * qb[i] + h11 * tb[i];
+    hermite_point(FG_N(w), qa, ta, qb, tb, dl, t, qt);
     if (in_range && !in_kernel_range(w, qt))
         return 0;
     w->poly_in_range = in_range;  /* in range (above): in_range is not asked again */
@@ -2294,12 +2303,7 @@ static int on_load_path(fg_ws *w, const fg_state *st0, const fg_state *c, fg_sta
         }
         /* K = K(q0, 0) (positive definite, diagonal), Q = Q(q0): the correction without the
          * chain */
-        {
-            fg_real h00 = 2 * t * t * t - 3 * t * t + 1, h10 = t * t * t - 2 * t * t + t;
-            fg_real h01 = -2 * t * t * t + 3 * t * t, h11 = t * t * t - t * t;
-            for (i = 0; i < n; ++i)
-                qt[i] = h00 * st0->q[i] + h10 * t0[i] + h01 * c->q[i] + h11 * t1[i];
-        }
+        hermite_point(n, st0->q, t0, c->q, t1, 1.0, t, qt);
         if (in_range && !in_kernel_range(w, qt))
             return 0;
         for (i = 0; i < n; ++i) {
