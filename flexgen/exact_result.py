@@ -15,8 +15,9 @@ model), so "exact" applies to every flexure of a scene at once. The Result it be
 - ``stiffness``: None (the shooting unknowns are root loads, not coordinates with an energy);
 - near a critical load (``SceneSolution.margin`` below ``validity.NEAR_SINGULAR``), a message
   with the margin and the compliance's own error (``COMPLIANCE_NOISE`` / margin): a note while
-  that error is below ``COMPLIANCE_RESOLVED``, a warning beyond it (there neither the
-  compliance nor the stability is resolved: at a critical load itself they are a coin toss).
+  that error is below ``models.exact.COMPLIANCE_RESOLVED``, a warning beyond it (there neither
+  the compliance nor the stability is resolved: at a critical load itself they are a coin
+  toss).
 """
 
 from __future__ import annotations
@@ -32,11 +33,6 @@ from .scene_checks import scene_notes, scene_warnings
 from .stress import FlexureStress, flexure_stresses, safety_warnings
 from .units import result_units
 from .validity import NEAR_SINGULAR, strain_warnings
-
-# the relative compliance error beyond which an exact answer near a critical load is flagged
-# as unresolved (a warning): the exact solver is the reference the chain models' estimates are
-# measured against, so it is held to far below their errors
-COMPLIANCE_RESOLVED = 1e-6
 
 
 def root_angle(scene: Scene, sol, name: str) -> float:
@@ -66,7 +62,7 @@ def exact_stresses(scene: Scene, sol) -> dict[str, FlexureStress]:
 
 def near_critical(sol, points: list[str]) -> tuple[str | None, bool]:
     """(message, is it a warning) for an answer near a critical load, (None, False) otherwise."""
-    from .models.exact import COMPLIANCE_NOISE
+    from .models.exact import COMPLIANCE_NOISE, COMPLIANCE_RESOLVED
 
     margin = float(sol.margin)
     if not margin < NEAR_SINGULAR:

@@ -13,8 +13,7 @@ import re
 import pytest
 
 import flexgen
-from flexgen.exact_result import COMPLIANCE_RESOLVED
-from flexgen.models.exact import COMPLIANCE_NOISE
+from flexgen.models.exact import COMPLIANCE_NOISE, COMPLIANCE_RESOLVED
 
 L, EI = 1.3, 0.7
 P_CR = math.pi**2 * EI / (4 * L**2)

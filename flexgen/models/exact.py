@@ -806,6 +806,9 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
 # states the difference to the same extrapolation one step shorter, where the integration's
 # rounding (RTOL / h) starts to show.
 JACOBIAN_STEP = 1e-6
+# the relative compliance error an exact answer may carry unflagged: beyond it, as near a
+# critical load (exact_result.near_critical), a warning. The exact solver is the reference the
+# chain models' estimates are measured against, so it is held to far below their errors
 COMPLIANCE_RESOLVED = 1e-6
 
 
