@@ -67,6 +67,17 @@ def _grid_bases(modes: int, num: int) -> tuple[np.ndarray, np.ndarray]:
     return K, A
 
 
+def _peak3(q1: float, q2: float) -> float | None:
+    """Three modes: the x in [-1, 1] where kappa' = q1 + 3 q2 x vanishes (kappa L = q0 + q1 x +
+    q2 (3 x^2 - 1) / 2), None where there is none; in plain floats (a study asks per case: the
+    root finder's eigenvalue call would cost more than the solve). ``extremes_profile`` applies
+    the same rule to many rows at once."""
+    if q2 == 0.0:
+        return None
+    x = -q1 / (3.0 * q2)
+    return x if -1.0 <= x <= 1.0 else None
+
+
 class SCMModel:
     kind = "scm"
     CONSTANT_HESSIAN = True  # quadratic energy: energy_hessian does not depend on q
@@ -257,10 +268,9 @@ class SCMModel:
         # kappa L = q0 + q1 x + q2 (3 x^2 - 1) / 2 on x in [-1, 1]: the ends, and x* where
         # kappa' = q1 + 3 q2 x vanishes
         best = max(abs(q0 + q1 + q2), abs(q0 - q1 + q2))
-        if q2 != 0.0:
-            x = -q1 / (3.0 * q2)
-            if -1.0 < x < 1.0:
-                best = max(best, abs(q0 + q1 * x + q2 * (1.5 * x * x - 0.5)))
+        x = _peak3(q1, q2)
+        if x is not None:
+            best = max(best, abs(q0 + q1 * x + q2 * (1.5 * x * x - 0.5)))
         return best / self.length
 
     def curvature_extremes(self, q) -> np.ndarray:
@@ -272,12 +282,8 @@ class SCMModel:
         if q.size < 3:  # kappa' is a constant: |kappa| peaks at an end
             return ends
         if q.size == 3:  # kappa' = q1 + 3 q2 x: its root in closed form (no eigenvalue call)
-            if q[2] == 0.0:
-                return ends
-            x = -q[1] / (3.0 * q[2])
-            if not -1.0 <= x <= 1.0:
-                return ends
-            return np.append(ends, 0.5 * (x + 1.0) * self.length)
+            x = _peak3(float(q[1]), float(q[2]))
+            return ends if x is None else np.append(ends, 0.5 * (x + 1.0) * self.length)
         roots = legendre.legroots(legendre.legder(q))
         real = roots[np.abs(roots.imag) <= 1e-12 * (1.0 + np.abs(roots.real))].real
         inside = real[(real >= -1.0) & (real <= 1.0)]
@@ -298,7 +304,7 @@ class SCMModel:
         Q = np.asarray(Q, dtype=float).reshape(-1, self.n_dof)
         m, k = Q.shape[0], max(self.n_dof - 2, 0)
         x = np.full((m, k), np.nan)
-        if self.n_dof == 3:
+        if self.n_dof == 3:  # _peak3 on every row
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = -Q[:, 1] / (3.0 * Q[:, 2])
             x[:, 0] = np.where((r >= -1.0) & (r <= 1.0), r, np.nan)
