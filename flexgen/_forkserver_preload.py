@@ -1,8 +1,8 @@
 """Imported only in the fork server that starts ``flexgen sweep``'s worker processes
 (``sweep._context``: ``set_forkserver_preload``, first, and only where the process is the
 command's own: a program calling ``flexgen.sweep`` keeps its fork server's children as they
-are), never by flexgen itself: what a worker that is still starting does when its study is
-interrupted.
+are; the server started with SIGINT blocked until this module ignores it), never by flexgen
+itself: what a worker that is still starting does when its study is interrupted.
 
 A terminal's Ctrl-C reaches every process of its foreground group, a worker that is still
 starting included: before the pool's initializer (``sweep._leave_interrupts_to_the_parent``)
@@ -20,6 +20,9 @@ import sys
 import traceback
 
 signal.signal(signal.SIGINT, signal.SIG_IGN)
+# the server started with SIGINT blocked (``sweep._start_fork_server_deaf``: a Ctrl-C while it
+# imported flexgen, before this line, is pending): ignored now, unblocking drops it
+signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 _print = sys.excepthook
 

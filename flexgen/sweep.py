@@ -309,7 +309,27 @@ def _context() -> Any:
     # would ignore Ctrl-C too (review)
     first = ["flexgen._forkserver_preload"] if OWN_PROCESS else []
     ctx.set_forkserver_preload([*first, "flexgen.sweep_chunk", "scipy.linalg"])
+    if OWN_PROCESS:
+        _start_fork_server_deaf()
     return ctx
+
+
+def _start_fork_server_deaf() -> None:
+    """Start the fork server (flexgen sweep's, ``_context``) with SIGINT blocked. The blocked
+    mask passes through fork and exec, so a Ctrl-C while the server imports flexgen, before
+    ``_forkserver_preload`` ignores SIGINT and unblocks it, stays pending there and is then
+    dropped (review: a KeyboardInterrupt traceback from the server's imports, 1 s into a
+    study); in this process it is delivered when the mask is restored: "interrupted"."""
+    from multiprocessing import forkserver, resource_tracker
+
+    # the fork server's start starts the resource tracker first, which unblocks SIGINT after
+    # its own start: started here before the mask is set, it is not started again
+    resource_tracker.ensure_running()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _serial_time(chunks: list[Chunk], probes: int = 5) -> float:
