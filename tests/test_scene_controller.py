@@ -1187,6 +1187,12 @@ WARNING_SCENES = {
     "prb with a moment": ONE_PRB.format(fy=-0.5, moment=0.1),
     "prb past its range": ONE_PRB.format(fy=-6.0, moment=0.0),
     "prb in its case": ONE_PRB.format(fy=-0.5, moment=0.0),
+    # both reasons: the library names the moment first (review: the example named the
+    # structure), and a prb scene without loads (no moment to look for)
+    "prb then scm, with a moment": PRB_SCM.format(fy=-0.5).replace(
+        "force = [0.0, -0.5]", "force = [0.0, -0.5]\nmoment = 0.1"
+    ),
+    "prb without loads": '[[flexure]]\nname = "f"\nlength = 1.0\nEI = 1.0\nkind = "prb"\n',
     # an scm flexure bent past 180 deg (no accuracy claimed) and past its Gauss kernel's range
     "scm past 180 deg": (
         '[model]\nkind = "scm"\nmodes = 3\n[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'

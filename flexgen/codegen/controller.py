@@ -591,8 +591,9 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
         if structure is None
         else c_json_string(case_head + structure + case_tail),
         "scene": [c_json_string(w) for w in scene_warnings(scene)],
+        # the library's order (validity._prb_case_problem): a moment first, then the structure
         "prb_moment": None
-        if not prb or structure is not None
+        if not prb or not scene.loads
         else {
             "head": c_json_string(case_head + "a moment at "),
             "tail": c_json_string(case_tail),

@@ -131,7 +131,12 @@ enum {
     TWO_LINK_FINGER_NOTE_CRITICAL = 1,        /* the load path from the unloaded state crossed a
                                           * bifurcation (buckled: the stable side the library's
                                           * rule picks) or snapped through; critical_load_factor
-                                          * says where */
+                                          * says where. Warm answers continuing such an answer
+                                          * keep it (critical_load_factor NaN), also once back
+                                          * on the unloaded path's branch (a buckled column
+                                          * unloaded below its Euler load), where flexgen's
+                                          * warm Solver has none: solved = 0 asks the cold
+                                          * question */
     TWO_LINK_FINGER_NOTE_GAUSS = 2            /* a flexure left its first kernel's range during the
                                           * solve and its Gauss kernel took over (kernel[] says
                                           * which evaluates it at the answer) */
