@@ -183,13 +183,16 @@ def honesty_cases(
     return cases
 
 
-# What the exact reference resolves: its compliances are central differences (h = 1e-6) of
-# shooting solutions integrated at rtol 1e-13, and they move by 1e-9 to 2.4e-9 (relative) when
-# h changes to 3e-6 or 1e-5 (cantilever 4 (moment) of seed 0, cantilever 2 (both) of seed 3,
-# chain 2 of seed 0). A measured true error is the answer's error plus the reference's own, so
-# an answer is within its estimate when the measured error is within the estimate plus this:
-# scm5, scm7 and scm8 all differ from the reference of that moment case by 1.4e-9, with any
-# kernel, while their estimates are 2e-10.
+# What the exact reference resolves, as this allowance was sized: its compliances were then
+# central differences (h = 1e-6) of shooting solutions integrated at rtol 1e-13, and they moved
+# by 1e-9 to 2.4e-9 (relative) when h changed to 3e-6 or 1e-5 (cantilever 4 (moment) of seed 0,
+# cantilever 2 (both) of seed 3, chain 2 of seed 0). A measured true error is the answer's error
+# plus the reference's own, so an answer is within its estimate when the measured error is
+# within the estimate plus this. Since the reference's compliance is by complex steps
+# (models/exact.py: a tip moment's arc to 1e-10 of the closed form) the allowance is
+# conservative: the estimate suite of five seeds is covered as fully with 1e-12 in its place
+# (100 %, worst true/estimate 0.807, as with 3e-9); the selection's and the bench pages' counts
+# still use, and quote, 3e-9 until they are rerun with a smaller one.
 REFERENCE_NOISE = 3e-9
 
 

@@ -263,12 +263,13 @@ def sweep(
 # The exact reference's own resolution: an error below it cannot be told from the reference's.
 # Pose: the elastica is integrated to rtol 1e-13 (flexgen/models/exact.py); 1e-12 also covers
 # rounding (an axially loaded fem answer is exact to 4e-16, with an estimate of 0).
-# Compliance: the scene solver's compliance takes a central difference; on this sweep's
-# cantilever it differs from the variational one (exact.tip_compliance, no finite
-# differences) by up to 1.7e-8 (alpha = 2 in compression, 0.81 of the Euler load), typically
-# 1e-9, and the scm6 answers there are within their estimates of the variational one.
+# Compliance: the scene solver's compliance is from its shooting Jacobian by complex steps at
+# polished root loads (no finite differences): a tip moment's arc agrees with the closed form to
+# 1e-10 (tests/test_reference_models.py), the column below its Euler load to 1.7e-14 / margin.
+# (With central differences it was 2e-8: 1.7e-8 off the variational compliance on this sweep's
+# cantilever at 0.81 of the Euler load.)
 REFERENCE_POSE = 1e-12
-REFERENCE_COMPLIANCE = 2e-8
+REFERENCE_COMPLIANCE = 1e-10
 
 
 def _errors_of(scene: Scene, r, ref) -> tuple[float, float, float]:
@@ -560,10 +561,9 @@ def render_markdown(data: StabilityData) -> str:
         "",
         f"An error within the reference's own resolution is not judged: pose "
         f"{REFERENCE_POSE:.0e} (the elastica is integrated to rtol 1e-13), compliance "
-        f"{REFERENCE_COMPLIANCE:.0e} (the exact scene solver's compliance takes a central "
-        "difference; on the cantilever it differs from the variational compliance by up to "
-        "1.7e-8 near the Euler load, and the scm6 answers that seemed to exceed their "
-        "estimates there are within them against the variational one).",
+        f"{REFERENCE_COMPLIANCE:.0e} (the exact scene solver's compliance is from its "
+        "shooting Jacobian by complex steps: a tip moment's arc agrees with the closed form to "
+        "1e-10).",
         "",
     ]
     for p in silent[:20]:

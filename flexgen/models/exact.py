@@ -50,12 +50,20 @@ SHOOTING_NOISE = 1e-10
 # stall is not reported as a sure limit point
 SHOOTING_RESOLVED = 200.0
 # the relative error of an answer's compliance times its ``margin`` (``shooting_margin``): the
-# central-difference shooting Jacobian's error, amplified near a critical load by 1 / margin.
-# Measured against the closed-form lateral compliance of a column under P below its Euler load
-# (tests/test_exact_near_critical.py): error x margin is 9e-10 at P = 0.5 P_cr and 2.6e-9 at
-# 0.99 to 0.999999 for a lone column; review: 3.6e-9 for the same column in a tree (an unloaded
-# second branch, the column's root turned by pi). About 3x that, so that the stated error bounds
-COMPLIANCE_NOISE = 1e-8
+# shooting Jacobian's error (complex steps: the integration's rounding) and z's, amplified near a
+# critical load by 1 / margin. Measured against the closed-form lateral compliance of a column
+# under P below its Euler load (tests/test_exact_near_critical.py): error x margin 1.5e-14 to
+# 1.7e-14 at P = 0.3 to 0.999999 P_cr for a lone column, 2.3e-14 for the same column in a tree
+# (an unloaded second branch, the column's root turned by pi); imperfect columns (a lateral
+# force of 1e-6 to 1e-3 of the axial one) moved by at most 6e-14 x margin when polished
+# further. About 4x the worst, so that the stated error bounds hold with room
+COMPLIANCE_NOISE = 1e-13
+# the imaginary step of the complex-step derivatives (``_SceneProblem.jacobian_complex_step``):
+# no difference is taken, so no cancellation; any step far below the unknowns' rounding will do
+COMPLEX_STEP = 1e-30
+# the polishing of the answer's z (``_polished``): at most this many Newton steps, each at most
+# POLISH_REACH of z's size (a polishing step is at Newton's tolerance over the margin, far below)
+POLISH_STEPS, POLISH_REACH = 3, 1e-6
 # the most a load step may turn a flexure's tip (rad): more, and the step is retried shorter
 # (the chain solvers' max_dq, the same purpose)
 MAX_TURN_STEP = 0.5
@@ -460,6 +468,36 @@ class ElasticaProfile:
         return np.concatenate([[0.0, L], roots * L])
 
 
+def _integrate(rhs, y0: np.ndarray, dense: bool):
+    """solve_ivp of the elastica from y0 over sigma in [0, 1] (DOP853, RTOL, ATOL). A complex
+    y0 (a complex step, ``_SceneProblem.jacobian_complex_step``) is integrated as the real
+    system of its real part and its imaginary part over COMPLEX_STEP (the forward
+    sensitivities, their derivative the imaginary part of rhs over the step): the step-size
+    control then holds the sensitivities to RTOL too. Integrated as complex numbers it read
+    only the real part, 1e-30 beside it, and took the steps of the unloaded column's trivial
+    path for its oscillating sensitivities (compliance 7.5e-9 / margin off). ``_joined`` makes
+    the solution complex again."""
+    if y0.dtype.kind != "c":
+        return solve_ivp(
+            rhs, (0.0, 1.0), y0, method="DOP853", rtol=RTOL, atol=ATOL, dense_output=dense
+        )
+    n = y0.size
+
+    def rhs_split(t, w):
+        f = rhs(t, w[:n] + 1j * COMPLEX_STEP * w[n:])
+        return np.concatenate([f.real, f.imag / COMPLEX_STEP])
+
+    w0 = np.concatenate([y0.real, y0.imag / COMPLEX_STEP])
+    return solve_ivp(
+        rhs_split, (0.0, 1.0), w0, method="DOP853", rtol=RTOL, atol=ATOL, dense_output=dense
+    )
+
+
+def _joined(w: np.ndarray, n: int) -> np.ndarray:
+    """A state of ``_integrate``'s solution as the elastica's (complex where it was split)."""
+    return w if w.size == n else w[:n] + 1j * COMPLEX_STEP * w[n:]
+
+
 class _SceneProblem:
     """Shooting formulation of a scene: unknowns per flexure (fx, fy, mu0), nondimensional."""
 
@@ -563,10 +601,11 @@ class _SceneProblem:
             raise RuntimeError(f"nondimensional load beyond {MAX_LOAD:g} (or not finite)")
         K = Z.shape[0]
         n = self.n
-        tips = np.zeros((K, n, 3))
-        mu_tip = np.zeros((K, n))
+        dtype = Z.dtype  # complex in jacobian_complex_step: every operation below is analytic
+        tips = np.zeros((K, n, 3), dtype)
+        mu_tip = np.zeros((K, n), dtype)
         shapes = {}
-        frames = {"base": np.zeros((K, 3))}
+        frames = {"base": np.zeros((K, 3), dtype)}
         for i, name in enumerate(self.order):
             fl = self.flex[name]
             root = _compose(frames[self.owner(fl.parent)], np.asarray(fl.at, float)[None, :])
@@ -577,19 +616,11 @@ class _SceneProblem:
                 c, s = np.cos(y[2]), np.sin(y[2])
                 return np.concatenate([c, s, y[3], fx * s - fy * c])
 
-            y0 = np.concatenate([np.zeros(K), np.zeros(K), root[:, 2], mu0])
-            sol = solve_ivp(
-                rhs,
-                (0.0, 1.0),
-                y0,
-                method="DOP853",
-                rtol=RTOL,
-                atol=ATOL,
-                dense_output=bool(shapes_num),
-            )
+            y0 = np.concatenate([np.zeros(K, dtype), np.zeros(K, dtype), root[:, 2], mu0])
+            sol = _integrate(rhs, y0, bool(shapes_num))
             if not sol.success:
                 raise RuntimeError(f"elastica integration failed on {name!r}: {sol.message}")
-            yend = sol.y[:, -1].reshape(4, K)
+            yend = _joined(sol.y[:, -1], y0.size).reshape(4, K)
             Li = self.L[i]
             tips[:, i, 0] = root[:, 0] + Li * yend[0]
             tips[:, i, 1] = root[:, 1] + Li * yend[1]
@@ -609,8 +640,8 @@ class _SceneProblem:
         lx, ly = self.P_local[:, 0], self.P_local[:, 1]
         pts = np.stack([fr[..., 0] + c * lx - s * ly, fr[..., 1] + s * lx + c * ly], axis=-1)
         # forces (K, P, 2) and moments (K, P) at points
-        F = np.zeros((K, P, 2))
-        Mp = np.zeros((K, P))
+        F = np.zeros((K, P, 2), dtype)
+        Mp = np.zeros((K, P), dtype)
         for pid, f, m in self.loads:
             F[:, pid] += lam * f
             Mp[:, pid] += lam * m
@@ -618,8 +649,11 @@ class _SceneProblem:
         for T, ids in self.tendons:
             for a, b in zip(ids[:-1], ids[1:]):
                 d = pts[:, b] - pts[:, a]
-                nrm = np.linalg.norm(d, axis=-1, keepdims=True)
-                u = d / np.where(nrm > 0.0, nrm, 1.0)
+                if dtype.kind == "c":  # |d| continued analytically (norm takes moduli)
+                    nrm = np.sqrt(d[..., 0:1] ** 2 + d[..., 1:2] ** 2)
+                else:
+                    nrm = np.linalg.norm(d, axis=-1, keepdims=True)
+                u = d / np.where(nrm.real > 0.0, nrm, 1.0)
                 F[:, a] += lam * T * u
                 F[:, b] -= lam * T * u
         # required force through each flexure and moment at its tip
@@ -627,7 +661,7 @@ class _SceneProblem:
         arm = pts[:, None, :, :] - tips[:, :, None, :2]  # (K, n, P, 2)
         cross = arm[..., 0] * F[:, None, :, 1] - arm[..., 1] * F[:, None, :, 0]
         Mreq = np.einsum("ip,kip->ki", self.member, cross + Mp[:, None, :])
-        R = np.empty((K, 3 * n))
+        R = np.empty((K, 3 * n), dtype)
         R[:, 0::3] = Z[:, 0::3] - N[..., 0] * self.L**2 / self.EI
         R[:, 1::3] = Z[:, 1::3] - N[..., 1] * self.L**2 / self.EI
         R[:, 2::3] = mu_tip - Mreq * self.L / self.EI
@@ -648,6 +682,22 @@ class _SceneProblem:
         J = (R[1::2] - R[2::2]).T / (2 * h)  # (m, m)
         dpts = (pts[1::2] - pts[2::2]) / (2 * h)  # (m, P, 2)
         return R[0], J, dpts, pts[0], tips[0]
+
+    def jacobian_complex_step(self, z, lam):
+        """``jacobian``'s tuple with J and the points' Jacobian by complex steps: each unknown
+        moved by i h, the derivative the imaginary part over h, with no difference taken (no
+        cancellation: h as small as wanted). The elastica's integration follows the same steps
+        as the real one (its error control reads moduli), so this is the derivative of the
+        integrated map itself, to its rtol (review: central differences left compliances
+        3e-8 to 5e-8 off unflagged)."""
+        m, h = z.size, COMPLEX_STEP
+        Z = np.repeat(np.asarray(z, complex)[None, :], 1 + m, axis=0)
+        for j in range(m):
+            Z[1 + j, j] += 1j * h
+        R, pts, tips, _, _ = self.evaluate(Z, lam)
+        J = R[1:].imag.T / h
+        dpts = pts[1:].imag / h
+        return R[0].real, J, dpts, pts[0].real, tips[0].real
 
     def newton(self, z, lam, tol=1e-12, max_iter=25):
         """Newton on the shooting residual at load factor lam from z: converged when its step is
@@ -797,15 +847,12 @@ def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
         return _solve_exact(scene, num, max_step)
 
 
-# The final shooting Jacobian: central differences at JACOBIAN_STEP, the step the compliance's
-# noise was measured with (COMPLIANCE_NOISE), checked against a step ten times shorter. Where the
-# two give compliances more than COMPLIANCE_RESOLVED apart (relative), the shooting map bends
-# sharply and the step's truncation error, h^2 times its third derivative, is not small (review:
-# a three-flexure chain's compliance 12 % off, a cantilever's at 200 EI/L^2 6e-5, no warning):
-# the two are Richardson-extrapolated (the h^2 terms cancel: 1e-6 off on both) and the answer
-# states the difference to the same extrapolation one step shorter, where the integration's
-# rounding (RTOL / h) starts to show.
-JACOBIAN_STEP = 1e-6
+# The final shooting Jacobian, whose compliances the answer reports: by complex steps
+# (``_SceneProblem.jacobian_complex_step``), the derivative of the integrated shooting map with
+# no difference taken. Central differences at 1e-6 left compliances 3e-8 to 5e-8 off with no
+# note (review: two roll-ups under a tip moment, a tip force of 100 EI/L^2; their 2x2 block
+# asymmetric by 1.6e-7), and 12 % off on a three-flexure chain under large loads, where the
+# shooting map bends sharply (step truncation); the complex step has no step error.
 # the relative compliance error an exact answer may carry unflagged: beyond it, as near a
 # critical load (exact_result.near_critical), a warning. The exact solver is the reference the
 # chain models' estimates are measured against, so it is held to far below their errors
@@ -815,7 +862,8 @@ COMPLIANCE_RESOLVED = 1e-6
 def _compliances(prob, J, dpts, pts, tips) -> dict:
     """{output point: (2, 2) d(position)/d(force at it)} by the implicit function theorem on
     the converged shooting system: dz = -J^-1 dR/dF, dR/dF analytic (force rows -L^2/EI,
-    moment rows -(L/EI) (r_p - r_tip) x e), then the points' central-difference Jacobian."""
+    moment rows -(L/EI) (r_p - r_tip) x e), then the points' Jacobian dpts (J and dpts from
+    ``jacobian_complex_step``)."""
     m = J.shape[0]
     compl = {}
     for name, pid in zip(prob.outputs, prob.out_ids):
@@ -838,54 +886,34 @@ def _compliances(prob, J, dpts, pts, tips) -> dict:
     return compl
 
 
-def _compliance_spread(a: dict, b: dict) -> float:
-    """The largest relative difference of two sets of compliances (inf where one is not
-    finite)."""
-    worst = 0.0
-    for name, ca in a.items():
-        cb = b[name]
-        if not (np.all(np.isfinite(ca)) and np.all(np.isfinite(cb))):
-            return math.inf
-        scale = float(np.max(np.abs(cb)))
-        d = float(np.max(np.abs(ca - cb)))
-        worst = max(worst, d / scale if scale > 0.0 else d)
-    return worst
-
-
-def _richardson(coarse: tuple, fine: tuple) -> tuple:
-    """prob.jacobian's tuple from central differences at h (``coarse``) and h / 10 (``fine``):
-    J and the points' Jacobian extrapolated, (100 fine - coarse) / 99, their h^2 errors
-    cancelled; the rest (the state's own values) from ``fine``."""
-    R0, J, dpts, pts, tips = fine
-    return R0, (100.0 * J - coarse[1]) / 99.0, (100.0 * dpts - coarse[2]) / 99.0, pts, tips
-
-
-def _resolved_jacobian(prob, z, lam, J0):
-    """(prob.jacobian's tuple, compliances, stated error): at JACOBIAN_STEP when a step ten
-    times shorter confirms its compliances within COMPLIANCE_RESOLVED, or within the rounding
-    the two steps carry near a critical load (COMPLIANCE_NOISE / margin at the step, ten times
-    that at the shorter: the spread is then noise, not truncation, and the shorter step would
-    be worse; error 0: the usual statement holds); else the Richardson extrapolation of the
-    two, its error the difference to the extrapolation of the next pair of steps."""
-    h = JACOBIAN_STEP
-    coarse = prob.jacobian(z, lam, h=h)
-    fine = prob.jacobian(z, lam, h=h / 10.0)
-    c_coarse = _compliances(prob, *coarse[1:])
-    noise = 11.0 * COMPLIANCE_NOISE / max(shooting_margin(J0, coarse[1]), 1e-300)
-    spread = _compliance_spread(c_coarse, _compliances(prob, *fine[1:]))
-    if spread <= max(COMPLIANCE_RESOLVED, noise):
-        return coarse, c_coarse, 0.0
-    kept = _richardson(coarse, fine)
-    check = _richardson(fine, prob.jacobian(z, lam, h=h / 100.0))
-    compl = _compliances(prob, *kept[1:])
-    return kept, compl, _compliance_spread(compl, _compliances(prob, *check[1:]))
+def _polished(prob, z, lam):
+    """(z, ``jacobian_complex_step`` at z): Newton steps with the complex-step Jacobian from the
+    converged z while each lowers the residual (at most POLISH_STEPS, each within POLISH_REACH).
+    Newton's stop (its residual below SHOOTING_NOISE times the load level) leaves z off by that
+    over the margin, and under large loads the compliance moves with z: 1.3e-6 at a tip force
+    of 200 EI/L^2; the accurate Jacobian takes z to the integration's rounding in a step or
+    two."""
+    state = prob.jacobian_complex_step(z, lam)
+    for _ in range(POLISH_STEPS):
+        R0, J = state[0], state[1]
+        try:
+            dz = np.linalg.solve(J, R0)
+        except np.linalg.LinAlgError:
+            break
+        if not np.max(np.abs(dz), initial=0.0) <= POLISH_REACH * (1.0 + np.max(np.abs(z))):
+            break
+        trial = prob.jacobian_complex_step(z - dz, lam)
+        if not np.max(np.abs(trial[0]), initial=0.0) < np.max(np.abs(R0), initial=0.0):
+            break
+        z, state = z - dz, trial
+    return z, state
 
 
 def shooting_margin(J0: np.ndarray, J: np.ndarray) -> float:
     """How far a state is from a critical load: the smallest |eigenvalue| of J0^-1 J (the
     shooting Jacobian there against the unloaded one). The shooting Jacobian is singular exactly
     where the second variation is, and its compliance solve divides by this: near 0 the
-    compliance amplifies the central-difference Jacobian's error (``COMPLIANCE_NOISE``)."""
+    compliance amplifies the shooting Jacobian's error (``COMPLIANCE_NOISE``)."""
     try:
         ev = np.linalg.eigvals(np.linalg.solve(J0, J))
     except np.linalg.LinAlgError:
@@ -916,7 +944,8 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     branch and is retried shorter.
 
     ``compliance``: d(position of p)/d(force at p), by the implicit function theorem on the
-    converged shooting system (exact dR/dF, central-difference d(pos)/dz), all other loads held.
+    converged shooting system (exact dR/dF, the complex-step shooting Jacobian and d(pos)/dz),
+    all other loads held.
     """
     prob = _SceneProblem(scene)
     m = 3 * prob.n
@@ -1055,16 +1084,11 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     lam = max(lam, 0.0)
     if not converged:
         warnings.append(PARTIAL_LOAD)
-    # final quantities: the shooting Jacobian by central differences whose step resolves it
-    # (_resolved_jacobian), then the compliances by the implicit function theorem
-    (R0, J, dpts, pts, tips), compl, error = _resolved_jacobian(prob, z, lam, J0)
+    # final quantities: z polished with the complex-step shooting Jacobian, then the
+    # compliances at it by the implicit function theorem
+    z, (R0, J, dpts, pts, tips) = _polished(prob, z, lam)
+    compl = _compliances(prob, J, dpts, pts, tips)
     notes: list[str] = []
-    if error > 0.0:
-        (warnings if error > COMPLIANCE_RESOLVED else notes).append(
-            f"the shooting map bends sharply here: the compliance is extrapolated from central "
-            f"differences at steps {JACOBIAN_STEP:g} and {JACOBIAN_STEP / 10:g}, good to about "
-            f"{error:.2g} (relative)"
-        )
     stable = bool(np.sign(np.linalg.det(J)) == ref_sign)
     margin = shooting_margin(J0, J)
     _, _, _, shapes, frames = prob.evaluate(z, lam, shapes_num=num)
