@@ -234,6 +234,57 @@ def test_tendon_potential_gradient_and_hessian_against_finite_differences():
     assert np.allclose(H, H.T)
 
 
+ONE_BODY_SEGMENT = """
+[base]
+points = {{ r0 = [0.0, 0.1], r1 = [1.3, -0.4] }}
+[[flexure]]
+name = "f0"
+length = 1.0
+EI = 1.0
+[model]
+{model}
+[[link]]
+name = "L0"
+points = {{ o = [0.0, 0.0], h = [0.1, 0.1] }}
+[[load]]
+point = "L0.h"
+force = [0.0, -0.3]
+{tendons}
+"""
+
+
+@pytest.mark.parametrize("model", ['kind = "scm"', 'kind = "fem"\nelements = 8'])
+def test_a_route_segment_within_one_rigid_body_changes_nothing(tmp_path, model):
+    """Review: a route through a flexure's tip and its link's origin (one place on one rigid
+    body) was "no equilibrium of the unloaded scene: zero length", where the exact solver
+    solves it. Such a segment has a constant length and pulls that cancel on its body: the
+    answer is the route's without it (one tendon split into two of the same tension where the
+    segment is inside the route), coincident ends or not."""
+    import flexgen
+
+    def answer(tendons: str):
+        path = tmp_path / "s.toml"
+        path.write_text(ONE_BODY_SEGMENT.format(model=model, tendons=tendons))
+        r = flexgen.solve(path)
+        assert r.converged and r.stable, r.reason
+        return r.points["L0.h"]
+
+    def tendon(route: str) -> str:
+        return f"[[tendon]]\ntension = 0.5\nroute = {route}\n"
+
+    cases = [  # (route with a one-body segment, the same pulls without it)
+        (tendon('["base.r0", "f0.tip", "L0.o"]'), tendon('["base.r0", "f0.tip"]')),
+        (
+            tendon('["base.r0", "f0.tip", "L0.h", "base.r1"]'),
+            tendon('["base.r0", "f0.tip"]') + tendon('["L0.h", "base.r1"]'),
+        ),
+    ]
+    for with_segment, without in cases:
+        a, b = answer(with_segment), answer(without)
+        assert np.allclose(a.pose, b.pose, rtol=0.0, atol=1e-13)
+        assert np.allclose(a.compliance3, b.compliance3, rtol=1e-11, atol=1e-15)
+
+
 def _compliance_scene(extra_force=(0.0, 0.0), extra_moment=0.0):
     return replace(
         TREE,

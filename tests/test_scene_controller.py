@@ -1193,6 +1193,14 @@ WARNING_SCENES = {
         "force = [0.0, -0.5]", "force = [0.0, -0.5]\nmoment = 0.1"
     ),
     "prb without loads": '[[flexure]]\nname = "f"\nlength = 1.0\nEI = 1.0\nkind = "prb"\n',
+    # a route segment within one rigid body (a flexure's tip and its link's origin, one
+    # place): no force on the chain (review: "zero length", no equilibrium)
+    "route through one body": (
+        '[base]\npoints = { r0 = [0.0, 0.1] }\n[[flexure]]\nname = "f0"\nlength = 1.0\n'
+        'EI = 1.0\n[[link]]\nname = "L0"\npoints = { o = [0.0, 0.0], h = [0.1, 0.1] }\n'
+        '[[load]]\npoint = "L0.h"\nforce = [0.0, -0.3]\n[[tendon]]\ntension = 0.5\n'
+        'route = ["base.r0", "f0.tip", "L0.o"]\n'
+    ),
     # an scm flexure bent past 180 deg (no accuracy claimed) and past its Gauss kernel's range
     "scm past 180 deg": (
         '[model]\nkind = "scm"\nmodes = 3\n[[flexure]]\nname = "beam"\nlength = 1.0\nEI = 1.0\n'

@@ -1353,6 +1353,14 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
             const fg_real *A = w->ppose + 3 * pa, *B = w->ppose + 3 * pb;
             const fg_real *JA = w->pJ + (size_t)3 * n * pa, *JB = w->pJ + (size_t)3 * n * pb;
             fg_real dx = B[0] - A[0], dy = B[1] - A[1], rho = hypot(dx, dy), ux, uy;
+            if (p->points[pa].frame == p->points[pb].frame) {
+                /* both ends on one rigid body: a constant length, and pulls that cancel on that
+                 * body (equal, opposite, on one line), so nothing on q; coincident ends too
+                 * (review: a route through a flexure's tip and its link's origin, at one place,
+                 * was "no equilibrium: zero length", where the exact solver solves it) */
+                l += rho;
+                continue;
+            }
             if (rho == 0.0) {
                 w->fail_flex = -1;
                 w->fail_route = p->route_start[t] + j;
