@@ -323,14 +323,6 @@ class Chain:
             got = self._resolved[ref] = (body, (float(xy[0]), float(xy[1])))
         return got
 
-    def _frame_of(self, ref: str) -> str:
-        """The rigid body a point moves with: the base, or a flexure's tip frame (a link's
-        points move with its flexure's tip)."""
-        body, _ = self._resolve(ref)
-        if body != "base" and self.scene.body_kind(body) == "link":
-            return self.scene.link(body).parent
-        return body
-
     def _point_in(self, frames: dict[str, PointKinematics], ref: str) -> PointKinematics:
         body, xy = self._resolve(ref)
         frame = frames[body]
@@ -371,7 +363,7 @@ class Chain:
         """Length l of a route of straight segments, with its gradient and Hessian in q."""
         frames = self.frames(q)
         pts = [self._point_in(frames, ref) for ref in route]
-        owners = [self._frame_of(ref) for ref in route]
+        owners = [self.frame_of(self._resolve(ref)[0]) for ref in route]
         n = self.ndof
         length, grad, hess = 0.0, np.zeros(n), np.zeros((n, n))
         for k in range(len(pts) - 1):

@@ -285,6 +285,24 @@ def test_a_route_segment_within_one_rigid_body_changes_nothing(tmp_path, model):
         assert np.allclose(a.compliance3, b.compliance3, rtol=1e-11, atol=1e-15)
 
 
+def test_chain_tendon_length_skips_a_segment_within_one_body(tmp_path):
+    """The Python chain (Chain.tendon_length) follows the core's rule: a one-body segment
+    adds its constant length and nothing to the gradient or Hessian, coincident ends too."""
+    import flexgen
+
+    path = tmp_path / "s.toml"
+    path.write_text(ONE_BODY_SEGMENT.format(model='kind = "scm"', tendons=""))
+    chain = flexgen.Solver(path).problem.chain
+    q = np.array([0.3, -0.2, 0.1])
+    with_segment = chain.tendon_length(["base.r0", "f0.tip", "L0.o"], q)
+    without = chain.tendon_length(["base.r0", "f0.tip"], q)
+    for a, b in zip(with_segment, without):
+        assert np.array_equal(a, b)
+    inside = chain.tendon_length(["f0.tip", "L0.h"], q)  # 0.1 sqrt(2) apart on one body
+    assert inside[0] == pytest.approx(0.1 * math.sqrt(2.0), rel=1e-14)
+    assert not inside[1].any() and not inside[2].any()
+
+
 def _compliance_scene(extra_force=(0.0, 0.0), extra_moment=0.0):
     return replace(
         TREE,
