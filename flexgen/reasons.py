@@ -71,6 +71,16 @@ def failure_reason(solver: Any, status: int) -> str:
             f"no equilibrium found beyond load factor {lam:.6g}, where {model}: "
             f"{_last_error(solver, a)}"
         )
+    elif a.failure == lib.FG_FAIL_LIMIT and a.model_error == lib.FG_ERR_TENDON and model:
+        # the path ended where a tendon's ends meet (the core's name_short_tendon): its pull
+        # turns there, which is the cause, not a limit point (review)
+        segment = model.removesuffix(" has zero length")
+        reason = (
+            f"no equilibrium found beyond load factor {lam:.6g}, where {segment} is pulled to "
+            f"nearly zero length (its ends meet and its pull turns about): "
+            f"{_last_error(solver, a)}"
+        )
+        model = None  # said above
     elif a.failure != lib.FG_FAIL_STEPS:
         what = {
             lib.FG_FAIL_UNLOADED: "no equilibrium of the unloaded scene",

@@ -714,7 +714,7 @@ def test_equal_columns_buckling_together_are_not_called_stable():
 def test_a_tendon_pulled_to_zero_length_is_named_not_a_snap_through():
     """A tendon whose link point reaches its anchor stalls the exact solver; it said "limit
     point: the load would snap through" and printed a critical load factor, where the stiffness
-    is far from singular (review). The chain models name the tendon segment; so does exact."""
+    is far from singular (review). Exact names the tendon segment; so do the chain models."""
     scene = {
         "model": {"kind": "exact"},
         "base": {"points": {"a": [0.3, -0.1]}},
@@ -726,6 +726,25 @@ def test_a_tendon_pulled_to_zero_length_is_named_not_a_snap_through():
     assert not r.converged
     assert "tendon segment 'base.a' -> 'arm.p' has nearly zero length" in r.reason
     assert "snap through" not in r.reason and not r.critical_load_factors
+    # the chain models too (review: they read it as "a limit point with no stable state to snap
+    # to"): the core names the segment where the load path ended
+    for models in ({"model": "scm"}, {"model": "fem"}, {"model": "scm", "modes": 6}):
+        r = flexgen.solve(scene, **models)
+        assert not r.converged, models
+        assert "tendon segment 'base.a' -> 'arm.p' is pulled to nearly zero length" in r.reason
+        assert "limit point" not in r.reason, r.reason
+
+
+def test_one_short_tendon_rule_for_the_core_and_the_exact_solver():
+    """A segment is pulled shut at the same fraction of the longest flexure in both solvers."""
+    import re
+    from pathlib import Path
+
+    from flexgen.models.exact import SHORT_TENDON
+
+    source = (Path(flexgen.__file__).parent / "compiled" / "chain_solver.c").read_text()
+    got = re.search(r"#define FG_SHORT_TENDON ([0-9.e+-]+)", source)
+    assert got is not None and float(got.group(1)) == SHORT_TENDON
 
 
 def test_exact_lists_q_in_scene_order_as_the_chain_models_do():

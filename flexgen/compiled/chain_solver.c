@@ -124,6 +124,10 @@
 #define FG_JACOBI_SMALL 1e-18
 #define FG_JACOBI_SWEEPS 100
 #define FG_LWORK(n) (34 * (n) + 1)   /* dsyev's work: enough for its blocked reduction */
+/* a tendon segment between two bodies at most this fraction of the longest flexure long where
+ * the load path ends has been pulled shut: its ends meet and its pull turns about there, which
+ * ends the path (name_short_tendon); the exact solver's models.exact.SHORT_TENDON */
+#define FG_SHORT_TENDON 1e-3
 /* fg_estimate's Newton is seen to converge when a step is at most this fraction of the one
  * before (quadratic convergence from within its basin): the compliance taken there is then off
  * by about this fraction of the distance to the richer equilibrium, which the margins of
@@ -2023,6 +2027,39 @@ done:
     return ok;
 }
 
+/* Where the load path ended at q: the first tendon segment between two bodies at most
+ * FG_SHORT_TENDON of the longest flexure long (under tension) is named as the model error
+ * (FG_ERR_TENDON, its route entry), the cause to read before a limit point (review: a link point
+ * pulled onto its anchor read as "a limit point with no stable state to snap to"). q's
+ * kinematics are evaluated (q was evaluated on the path: in range); nothing else changes. */
+static void name_short_tendon(fg_ws *w, const fg_real *q)
+{
+    const fg_problem *p = w->p;
+    fg_real longest = 0.0;
+    int t, j;
+    for (j = 0; j < FG_NFLEX(p); ++j)
+        if (p->flex[j].length > longest)
+            longest = p->flex[j].length;
+    if (FG_NTENDONS(p) == 0 || !kinematics(w, q))
+        return;
+    for (t = 0; t < FG_NTENDONS(p); ++t) {
+        const int *route = p->route + p->route_start[t];
+        if (p->tension[t] == 0.0)
+            continue;
+        for (j = 0; j + 1 < p->route_len[t]; ++j) {
+            int pa = route[j], pb = route[j + 1];
+            const fg_real *A = w->ppose + 3 * pa, *B = w->ppose + 3 * pb;
+            if (p->points[pa].frame != p->points[pb].frame
+                && hypot(B[0] - A[0], B[1] - A[1]) <= FG_SHORT_TENDON * longest) {
+                w->merr = FG_ERR_TENDON;
+                w->merr_flex = -1;
+                w->merr_route = p->route_start[t] + j;
+                return;
+            }
+        }
+    }
+}
+
 /* ---- stability along the path: bifurcations and limit points ---------------------------- */
 
 /* a state of the pool that is none of the given ones (NULL: none given) */
@@ -2302,6 +2339,7 @@ static fg_state *continuation(fg_ws *w, fg_state *path, int *iterations, fg_answ
             if (next == NULL) {
                 out->failure = FG_FAIL_LIMIT;
                 out->failure_load_factor = lam;
+                name_short_tendon(w, path->q);
                 return NULL;
             }
             record_critical(out, lam, FG_SNAP_THROUGH);

@@ -822,7 +822,8 @@ def _imperfection_side(J, dR):
 
 
 # a tendon segment shorter than this fraction of the longest flexure has (nearly) zero length:
-# its direction, the force's, is undefined there and the continuation cannot pass it
+# its direction, the force's, is undefined there and the continuation cannot pass it (the chain
+# solvers' core: FG_SHORT_TENDON, chain_solver.c; a test holds the two equal)
 SHORT_TENDON = 1e-3
 
 
