@@ -735,6 +735,28 @@ def test_a_tendon_pulled_to_zero_length_is_named_not_a_snap_through():
         assert "limit point" not in r.reason, r.reason
 
 
+def test_a_tendon_short_from_the_start_is_not_blamed():
+    """Review: a segment that was short before any load (here 1 um, a stub flexure's tip and a
+    base point, listed first) was named as the segment pulled shut where the path ended: only a
+    segment the load pulled shut is named, by both solvers."""
+    scene = {
+        "base": {"points": {"a": [0.3, -0.1], "s": [0.01, -0.05 + 1e-6]}},
+        "flexure": [
+            {"name": "beam", "length": 1.0, "EI": 1.0},
+            {"name": "stub", "parent": "base", "length": 0.01, "EI": 2.5e-5, "at": [0, -0.05, 0]},
+        ],
+        "link": [{"name": "arm", "parent": "beam", "points": {"p": [0.0, -0.5]}}],
+        "tendon": [
+            {"tension": 1e-9, "route": ["base.s", "stub.tip"]},
+            {"tension": 10.0, "route": ["base.a", "arm.p"]},
+        ],
+    }
+    for model in ("scm", "exact"):
+        r = flexgen.solve(scene, model=model)
+        assert not r.converged, model
+        assert "'base.a' -> 'arm.p'" in r.reason and "stub.tip" not in r.reason, r.reason
+
+
 def test_one_short_tendon_rule_for_the_core_and_the_exact_solver():
     """A segment is pulled shut at the same fraction of the longest flexure in both solvers."""
     import re

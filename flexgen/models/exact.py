@@ -828,14 +828,23 @@ SHORT_TENDON = 1e-3
 
 
 def _short_tendon(prob, z, lam) -> tuple[str, str] | None:
-    """The first tendon segment (its two points' names) of nearly zero length at (z, lam)."""
+    """The first tendon segment (its two points' names) pulled to nearly zero length at
+    (z, lam): under tension, between two bodies, shorter than SHORT_TENDON of the longest
+    flexure there and not in the unloaded state (review: a segment short from the start, which
+    the load did not pull shut, was blamed for a limit point)."""
     if not prob.tendons:
         return None
     _, pts, *_ = prob.evaluate(z[None, :], lam)
-    scale = float(np.max(prob.L))
-    for _, ids in prob.tendons:
+    _, rest, *_ = prob.evaluate(np.zeros((1, z.size)), 0.0)
+    short = SHORT_TENDON * float(np.max(prob.L))
+    for tension, ids in prob.tendons:
         for a, b in zip(ids[:-1], ids[1:]):
-            if float(np.linalg.norm(pts[0, b] - pts[0, a])) < SHORT_TENDON * scale:
+            if tension == 0.0 or prob.P_owner[a] == prob.P_owner[b]:
+                continue
+            if (
+                float(np.linalg.norm(pts[0, b] - pts[0, a])) < short
+                and float(np.linalg.norm(rest[0, b] - rest[0, a])) >= short
+            ):
                 return prob.point_names[a], prob.point_names[b]
     return None
 

@@ -2406,33 +2406,51 @@ done:
     return ok;
 }
 
-/* Where the load path ended at q: the first tendon segment between two bodies at most
- * FG_SHORT_TENDON of the longest flexure long (under tension) is named as the model error
- * (FG_ERR_TENDON, its route entry), the cause to read before a limit point (review: a link point
- * pulled onto its anchor read as "a limit point with no stable state to snap to"). q's
- * kinematics are evaluated (q was evaluated on the path: in range); nothing else changes. */
+/* the length of route entry e's segment in the kinematics last evaluated */
+static fg_real segment_length(const fg_ws *w, int e)
+{
+    const fg_real *A = w->ppose + 3 * w->p->route[e], *B = w->ppose + 3 * w->p->route[e + 1];
+    return hypot(B[0] - A[0], B[1] - A[1]);
+}
+
+/* Where the load path ended at q: the first tendon segment (under tension, between two bodies)
+ * the load pulled shut, at most FG_SHORT_TENDON of the longest flexure long at q and not in the
+ * unloaded state, is named as the model error (FG_ERR_TENDON, its route entry): the cause to
+ * read before a limit point (review: a link point pulled onto its anchor read as "a limit point
+ * with no stable state to snap to"; and a segment short from the start is no such cause). The
+ * kinematics at q and at the unloaded state are evaluated (both were on the path: in range);
+ * nothing else changes. */
 static void name_short_tendon(fg_ws *w, const fg_real *q)
 {
     const fg_problem *p = w->p;
-    fg_real longest = 0.0;
-    int t, j;
+    fg_real longest = 0.0, *rest = w->vec4;
+    int t, j, at_q;
     for (j = 0; j < FG_NFLEX(p); ++j)
         if (p->flex[j].length > longest)
             longest = p->flex[j].length;
+    memset(rest, 0, sizeof(fg_real) * (size_t)FG_N(w));
     if (FG_NTENDONS(p) == 0 || !kinematics(w, q))
         return;
+    at_q = 1;
     for (t = 0; t < FG_NTENDONS(p); ++t) {
-        const int *route = p->route + p->route_start[t];
         if (p->tension[t] == 0.0)
             continue;
         for (j = 0; j + 1 < p->route_len[t]; ++j) {
-            int pa = route[j], pb = route[j + 1];
-            const fg_real *A = w->ppose + 3 * pa, *B = w->ppose + 3 * pb;
-            if (p->points[pa].frame != p->points[pb].frame
-                && hypot(B[0] - A[0], B[1] - A[1]) <= FG_SHORT_TENDON * longest) {
+            int e = p->route_start[t] + j;
+            if (p->points[p->route[e]].frame == p->points[p->route[e + 1]].frame)
+                continue;
+            if (!at_q && !kinematics(w, q))
+                return;
+            at_q = 1;
+            if (!(segment_length(w, e) <= FG_SHORT_TENDON * longest))
+                continue;
+            if (!kinematics(w, rest))
+                return;
+            at_q = 0;
+            if (segment_length(w, e) > FG_SHORT_TENDON * longest) {
                 w->merr = FG_ERR_TENDON;
                 w->merr_flex = -1;
-                w->merr_route = p->route_start[t] + j;
+                w->merr_route = e;
                 return;
             }
         }
