@@ -686,9 +686,9 @@ class _SceneProblem:
     def jacobian_complex_step(self, z, lam):
         """``jacobian``'s tuple with J and the points' Jacobian by complex steps: each unknown
         moved by i h, the derivative the imaginary part over h, with no difference taken (no
-        cancellation: h as small as wanted). The elastica's integration follows the same steps
-        as the real one (its error control reads moduli), so this is the derivative of the
-        integrated map itself, to its rtol (review: central differences left compliances
+        cancellation: h as small as wanted). The elastica is integrated with its forward
+        sensitivities under the step control (``_integrate``), so this is the derivative of the
+        shooting map to the integration's rtol (review: central differences left compliances
         3e-8 to 5e-8 off unflagged)."""
         m, h = z.size, COMPLEX_STEP
         Z = np.repeat(np.asarray(z, complex)[None, :], 1 + m, axis=0)
