@@ -31,7 +31,6 @@ import numpy as np
 
 from . import core
 from .estimate import estimate_answer
-from .reasons import failure_reason
 from .scene import Scene, SceneError, scene_from_dict
 from .settings import SolverSettings
 from .solver import Solver
@@ -222,7 +221,7 @@ def _record(
     a = ws.answer
     if status != core.SOLVED:
         iterations = a.iterations if status != core.MODEL_ERROR else 0
-        reasons[c] = (failure_reason(solver, status), *_failure_messages(solver, status))
+        reasons[c] = _failure_texts(solver, status)
         return [0.0, 0.0, float(iterations)] + [math.nan] * (width - 3)
     row = [1.0, 1.0 if a.stable else 0.0, float(a.iterations)]
     n = len(solver.problem.outputs)
@@ -261,15 +260,20 @@ def _messages(solver: Solver, status: int, est: Any) -> tuple[str, str]:
     result = solver._result(status, est, stress=False)
     if not calm:  # (calm reads the workspace, which _result leaves as it is)
         validity_check(scene, result, solver.models)
-    return TEXT_SEPARATOR.join(result.warnings), TEXT_SEPARATOR.join(result.notes)
+    return _joined(result)
 
 
-def _failure_messages(solver: Solver, status: int) -> tuple[str, str]:
-    """The warnings and notes ``flexgen.solve`` gives this failed case (its reason is the
-    row's ``reason``): the switches to a certified kernel on the way to where the load path
-    ended, above all, which say the flexures were bent past a kernel's range (review: a failed
-    row's notes were always empty)."""
+def _failure_texts(solver: Solver, status: int) -> tuple[str, str, str]:
+    """(reason, warnings, notes) ``flexgen.solve`` gives this failed case, from its Result:
+    the notes above all, the switches to a certified kernel on the way to where the load path
+    ended, which say the flexures were bent past a kernel's range (review: a failed row's notes
+    were always empty)."""
     result = solver._result(status, None, stress=False)
+    return (result.reason or "", *_joined(result))
+
+
+def _joined(result: Any) -> tuple[str, str]:
+    """A Result's warnings and notes, each list one cell (TEXT_SEPARATOR between them)."""
     return TEXT_SEPARATOR.join(result.warnings), TEXT_SEPARATOR.join(result.notes)
 
 
