@@ -21,9 +21,14 @@ def _model_message(solver: Any, code: int, flexure: int, entry: int) -> str | No
         range_error = getattr(solver.models[name], "range_error", None)
         return range_error() if range_error else f"flexure {name!r} could not be evaluated"
     if code == lib.FG_ERR_TENDON and entry >= 0:
-        route = [ref for t in solver.scene.tendons for ref in t.route]
-        return f"tendon segment {route[entry]!r} -> {route[entry + 1]!r} has zero length"
+        return f"{_segment(solver, entry)} has zero length"
     return None
+
+
+def _segment(solver: Any, entry: int) -> str:
+    """The tendon segment starting at ``entry`` of the core's route array, in words."""
+    route = [ref for t in solver.scene.tendons for ref in t.route]
+    return f"tendon segment {route[entry]!r} -> {route[entry + 1]!r}"
 
 
 def _last_error(solver: Any, a: Any) -> str:
@@ -74,7 +79,7 @@ def failure_reason(solver: Any, status: int) -> str:
     elif a.failure == lib.FG_FAIL_LIMIT and a.model_error == lib.FG_ERR_TENDON and model:
         # the path ended where a tendon's ends meet (the core's name_short_tendon): its pull
         # turns there, which is the cause, not a limit point (review)
-        segment = model.removesuffix(" has zero length")
+        segment = _segment(solver, a.model_error_route)
         reason = (
             f"no equilibrium found beyond load factor {lam:.6g}, where {segment} is pulled to "
             f"nearly zero length (its ends meet and its pull turns about): "
