@@ -1300,6 +1300,14 @@ static int evaluate(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
     return state_finite(w, st);
 }
 
+/* 1 if route entry e's segment joins two points of one rigid body (one frame): its length is
+ * constant and its pulls cancel on that body (equal, opposite, on one line), so it acts on
+ * nothing, its ends may even coincide; evaluate_parts skips it, name_short_tendon too */
+static int one_body_segment(const fg_problem *p, int e)
+{
+    return p->points[p->route[e]].frame == p->points[p->route[e + 1]].frame;
+}
+
 /* the state at (q, lam), its values unchecked; 0 if a model cannot be evaluated (fail_flex) or
  * a tendon segment has zero length (fail_route) */
 static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
@@ -1357,11 +1365,9 @@ static int evaluate_parts(fg_ws *w, const fg_real *q, fg_real lam, fg_state *st)
             const fg_real *A = w->ppose + 3 * pa, *B = w->ppose + 3 * pb;
             const fg_real *JA = w->pJ + (size_t)3 * n * pa, *JB = w->pJ + (size_t)3 * n * pb;
             fg_real dx = B[0] - A[0], dy = B[1] - A[1], rho = hypot(dx, dy), ux, uy;
-            if (p->points[pa].frame == p->points[pb].frame) {
-                /* both ends on one rigid body: a constant length, and pulls that cancel on that
-                 * body (equal, opposite, on one line), so nothing on q; coincident ends too
-                 * (review: a route through a flexure's tip and its link's origin, at one place,
-                 * was "no equilibrium: zero length", where the exact solver solves it) */
+            if (one_body_segment(p, p->route_start[t] + j)) {
+                /* nothing on q (review: a route through a flexure's tip and its link's origin,
+                 * at one place, was "no equilibrium: zero length", where exact solves it) */
                 l += rho;
                 continue;
             }
@@ -2437,7 +2443,7 @@ static void name_short_tendon(fg_ws *w, const fg_real *q)
             continue;
         for (j = 0; j + 1 < p->route_len[t]; ++j) {
             int e = p->route_start[t] + j;
-            if (p->points[p->route[e]].frame == p->points[p->route[e + 1]].frame)
+            if (one_body_segment(p, e))
                 continue;
             if (!at_q && !kinematics(w, q))
                 return;
