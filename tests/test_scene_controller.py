@@ -1359,12 +1359,7 @@ def test_float_twin_takes_the_double_solvers_side_of_a_perfect_bifurcation(tmp_p
         "at = [0.0, 0.0, 1.5707963267948966]\n"
         '[[load]]\npoint = "col.tip"\nforce = [0.0, -1.0]\n[output]\npoints = ["col.tip"]\n'
     )
-    write_files(controller_files(scene, "cf", single=True), tmp_path)
-    write_files(controller_files(scene, "cd"), tmp_path)
-    (tmp_path / "main.c").write_text(SIDES)
-    exe = tmp_path / "sides"
-    sources = [str(tmp_path / f) for f in ("cf.c", "cd.c", "main.c")]
-    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    exe = twin_program(scene, tmp_path, ("cf", "cd"), SIDES)
     lines = subprocess.check_output([str(exe)], text=True).splitlines()
     assert lines[:-1] == [] and int(lines[-1]) == 20001, lines[:5]
 
@@ -1535,16 +1530,24 @@ int main(void)
 """
 
 
+def twin_program(scene: Path, folder: Path, prefixes: tuple[str, str], main: str) -> Path:
+    """The float twin and the double controller of ``scene`` (prefixes: float's, double's) and
+    the C ``main`` built into one program in ``folder`` (strict flags); its path."""
+    single, double = prefixes
+    write_files(controller_files(scene, single, single=True), folder)
+    write_files(controller_files(scene, double), folder)
+    (folder / "main.c").write_text(main)
+    exe = folder / "twin"
+    sources = [str(folder / f"{n}.c") for n in (single, double, "main")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    return exe
+
+
 def float_against_double(scene: Path, folder: Path, loads: np.ndarray) -> np.ndarray:
     """The float twin and the double controller of ``scene`` built into one program
     (FLOAT_AGAINST_DOUBLE), run cold at every row of ``loads`` (fx, fy, moment, tension):
     one row per load of statuses, float flags, pose and 2x2 / 3x3 compliance errors."""
-    write_files(controller_files(scene, "ff", single=True), folder)
-    write_files(controller_files(scene, "fd"), folder)
-    (folder / "main.c").write_text(FLOAT_AGAINST_DOUBLE)
-    exe = folder / "main"
-    sources = [str(folder / n) for n in ("ff.c", "fd.c", "main.c")]
-    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    exe = twin_program(scene, folder, ("ff", "fd"), FLOAT_AGAINST_DOUBLE)
     text = "".join(" ".join(repr(v) for v in row) + "\n" for row in loads.tolist())
     rows = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True)
     table = np.array([[float(v) for v in row.split()] for row in rows.stdout.splitlines()])
