@@ -68,7 +68,8 @@ bench-growth:
 demo:
 	$(PYTHON) examples/demo.py
 
-# only the drawings of the demo (docs/finger.png, finger_slack.png, rectangular_elastica.png,
+# only the drawings of the demo, into docs/ (the demo itself draws into the untracked out/demo/;
+# docs/finger.png, finger_slack.png, rectangular_elastica.png,
 # arc_moment.png, cantilever_tip_load.png), as `flexgen plot` draws them
 drawings:
 	$(PYTHON) examples/demo.py --drawings

@@ -25,6 +25,7 @@ from flexgen.drawing import draw  # noqa: E402
 
 EX = ROOT / "examples"
 DOCS = ROOT / "docs"
+DEMO_OUT = ROOT / "out" / "demo"  # untracked (.gitignore): a fresh clone stays clean after the demo
 # (label, --model, --modes, --elements)
 MODELS = [
     ("cc", "cc", None, None),
@@ -164,8 +165,13 @@ def finger() -> None:
             print(f"  {tname:<7} {label:<6} " + " ".join(cells) + f"  {src}")
 
 
-def plots() -> None:
-    header("plots (flexgen plot <scene> -o docs/<name>.png, scm3 as in the scenes)")
+def shown(path: Path) -> Path:
+    """``path`` as printed: relative to the repository when inside it."""
+    return path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
+
+
+def plots(folder: Path) -> None:
+    header(f"plots (flexgen plot <scene> -o {shown(folder)}/<name>.png, scm3 as in the scenes)")
     names = {
         "rectangular_elastica": "rectangular_elastica",
         "arc_moment": "arc_moment",
@@ -175,12 +181,12 @@ def plots() -> None:
     for stem, out in names.items():
         sc = as_scene(EX / f"{stem}.toml")
         res, exact = solve_scene(sc)
-        print(f"  {draw(sc, res, DOCS / f'{out}.png', exact).relative_to(ROOT)}")
+        print(f"  {shown(draw(sc, res, folder / f'{out}.png', exact))}")
     sc = as_scene(EX / "two_link_finger.toml")
     sc = replace(sc, tendons=tuple(replace(t, tension=0.0) for t in sc.tendons))
     res, _ = solve_scene(sc)
     print(
-        f"  {draw(sc, res, DOCS / 'finger_slack.png', title=f'{sc.name}, tendon slack (scm3)').relative_to(ROOT)}"
+        f"  {shown(draw(sc, res, folder / 'finger_slack.png', title=f'{sc.name}, tendon slack (scm3)'))}"
         "  (tendon slack)"
     )
 
@@ -188,7 +194,7 @@ def plots() -> None:
 def main() -> int:
     start = time.perf_counter()
     if sys.argv[1:] == ["--drawings"]:  # `make drawings`: only the drawings under docs/
-        plots()
+        plots(DOCS)
         return 0
     print(
         "flexgen demo: every example scene with cc, prb, scm3, scm5, fem16 and the exact "
@@ -198,7 +204,8 @@ def main() -> int:
     arc()
     tip_load()
     finger()
-    plots()
+    DEMO_OUT.mkdir(parents=True, exist_ok=True)
+    plots(DEMO_OUT)
     print(f"\ndone in {time.perf_counter() - start:.1f} s")
     return 0
 
