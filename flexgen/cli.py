@@ -117,11 +117,13 @@ def _needs_the_core(error: ImportError):
 
 
 def _main(argv) -> int:
-    parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
     args = None
     try:
-        args = parser.parse_args(argv)
+        # inside the try: building the parser imports every subcommand's module, and a Ctrl-C
+        # then is an interruption like any other (the package's own import, before main, is
+        # not covered: docs/sweep.md)
+        args = build_parser().parse_args(argv)
         status = args.run(args)
         sys.stdout.flush()  # a write error of the answer surfaces here, not at exit
         return status

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from flexgen import cli
 from flexgen.cli import COMMANDS
 
 
@@ -351,3 +352,16 @@ def test_a_name_the_output_encoding_cannot_write_is_escaped(tmp_path):
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert "ばね.tip.x" in r.stdout.decode("utf-8").splitlines()[0]
+
+
+def test_ctrl_c_while_the_subcommands_load_is_one_line(monkeypatch, capsys):
+    """Building the parser imports every subcommand: a Ctrl-C then was Python's traceback,
+    since the parser was built before main's handlers."""
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_parser", interrupted)
+    assert cli.main(["solve", "x.toml"]) == 130
+    out, err = capsys.readouterr()
+    assert (out, err) == ("", "flexgen: interrupted\n")
