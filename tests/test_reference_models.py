@@ -18,6 +18,7 @@ from flexgen.models.exact import cantilever, euler_load, post_buckled, solve_exa
 from flexgen.models.fem import FEMModel, solve_cantilever
 from flexgen.models.prb import PRBModel
 from flexgen.scene import Flexure, Link, Load, ModelSpec, Scene, Tendon
+from flexgen_tools.honesty import REFERENCE_NOISE
 
 MS = ModelSpec(kind="exact")
 
@@ -891,5 +892,7 @@ def test_the_exact_compliance_of_an_arc_is_the_closed_form(m):
     r = flexgen.solve(scene, model="exact")
     c = np.array(r.points["beam.tip"].compliance)
     ref = arc_compliance(m, L, EI)
-    assert np.abs(c - ref).max() <= 1e-10 * np.abs(ref).max(), (c, ref)
+    # the honesty suites' allowance for the reference's own error (REFERENCE_NOISE) rests on
+    # this: measured 4.9e-15 (m = 1) to 3.2e-13 (m = 4 pi)
+    assert np.abs(c - ref).max() <= REFERENCE_NOISE * np.abs(ref).max(), (c, ref)
     assert r.warnings == [] and r.notes == []
