@@ -1,6 +1,7 @@
 """The demo (`make demo`): every example scene with every model, beside the exact elastica and the
 paper's published numbers; the two-link finger's compliance ellipses (the analogue of the paper's
-Table 1); plots under docs/.
+Table 1); its drawings under out/demo/ (untracked: the demo leaves the docs as they are;
+``--drawings``, ``make drawings``: only the drawings, into docs/, where the docs show them).
 
 Every number comes from the public API, ``flexgen.solve(path, model=..., modes=...)``, i.e. the
 same as ``flexgen solve <scene> --model <kind> [--modes N | --elements N] --json``; the "source"

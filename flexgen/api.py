@@ -301,7 +301,16 @@ def _solve_scene(
         if solver is not None and solver.scene is scene and _same(solver.settings, settings):
             return _solve_prepared(solver, q0, estimate), None
     settings = make_settings(settings, **options)  # checked also where exact ignores them
+    if tolerance is not None:  # checked also where exact meets it anyway (review: 'abc' passed)
+        from .select import check_tolerance
+
+        check_tolerance(tolerance)
     if uses_exact(scene):
+        if models is not None:  # they would be dropped: every flexure is the elastica
+            raise ValueError(
+                "models: the exact model solves every flexure as the elastica; give models or "
+                "model='exact', not both"
+            )
         from . import exact_result
 
         return exact_result.solve(scene)
@@ -351,7 +360,13 @@ def solve(
     Returns a ``Result`` (``converged`` False with a ``reason`` when there is no equilibrium).
     Bad input raises a one-line SceneError or ValueError naming the argument. More in the
     module docstring and docs/solve.md."""
-    plain = models is None and settings is None and q0 is None and tolerance is None and estimate
+    plain = (
+        models is None
+        and settings is None
+        and q0 is None
+        and tolerance is None
+        and estimate is True
+    )  # (estimate "no" is truthy: only True takes the loop path, which does not check it)
     if plain and not options and model is None and modes is None and elements is None:
         # the loop path (the same Scene object, nothing overridden): its cached solver, if one
         # is kept, without the generic argument handling below (what it would do, in short)

@@ -19,7 +19,7 @@ import reprlib
 import stat
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from pathlib import Path
 from types import MappingProxyType
@@ -105,11 +105,48 @@ class Flexure:
     fatigue_strength: float | None = None
 
 
+# -- pickling: the read-only mappings (MappingProxyType) do not pickle, so a Scene and a Link
+# pickle as their fields with those mappings as plain dicts (tagged) and are rebuilt read-only:
+# scenes go to worker processes (multiprocessing, concurrent.futures), and copy.deepcopy uses it
+
+
+class _FrozenMapping(dict):
+    """A read-only mapping's items while pickled."""
+
+
+def _pickled(v: Any) -> Any:
+    if isinstance(v, MappingProxyType):
+        return _FrozenMapping({k: _pickled(x) for k, x in v.items()})
+    if isinstance(v, tuple):
+        return tuple(_pickled(x) for x in v)
+    return v
+
+
+def _unpickled(v: Any) -> Any:
+    if isinstance(v, _FrozenMapping):
+        return MappingProxyType({k: _unpickled(x) for k, x in v.items()})
+    if isinstance(v, tuple):
+        return tuple(_unpickled(x) for x in v)
+    return v
+
+
+def _rebuilt(cls: type, state: dict[str, Any]) -> Any:
+    return cls(**{k: _unpickled(v) for k, v in state.items()})
+
+
+def _reduce_frozen(self: Any) -> tuple[Any, ...]:
+    """``__reduce__`` of a frozen dataclass holding read-only mappings (its fields only: lazy
+    lookups are rebuilt on use)."""
+    return (_rebuilt, (type(self), {f.name: _pickled(getattr(self, f.name)) for f in fields(self)}))
+
+
 @dataclass(frozen=True)
 class Link:
     name: str
     parent: str  # a flexure name: the link's frame is that flexure's tip frame
     points: Mapping[str, tuple[float, float]]
+
+    __reduce__ = _reduce_frozen
 
 
 @dataclass(frozen=True)
@@ -144,6 +181,8 @@ class Scene:
     # ``with_value`` re-validates a changed copy with the same rules and derived values. None for
     # a Scene built by hand.
     source: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
+
+    __reduce__ = _reduce_frozen
 
     # -- lookups (built lazily; the dataclass fields stay the single source of truth) ---------
 

@@ -217,9 +217,13 @@ def canonical(root: dict[str, Any], path: str, tables: Mapping[str, Sequence[str
 
 
 def plain(value: Any, key: Any) -> Any:
-    """A NumPy scalar as the Python number TOML would give; an integral float as an int for the
-    integer keys (a linspace of modes gives 3.0)."""
-    if hasattr(value, "item") and not isinstance(value, (list, tuple, dict)):
+    """A NumPy scalar as the Python number TOML would give, a NumPy array as the (nested) list
+    (which the scene's checks then read and name: review, ``.item()`` of a vector raised NumPy's
+    own message); an integral float as an int for the integer keys (a linspace of modes gives
+    3.0)."""
+    if hasattr(value, "tolist") and getattr(value, "ndim", 0) > 0:
+        value = value.tolist()
+    elif hasattr(value, "item") and not isinstance(value, (list, tuple, dict)):
         value = value.item()
     if key in INTEGER_KEYS and isinstance(value, float) and value.is_integer():
         value = int(value)

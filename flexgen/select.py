@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import numbers
 import re
 import time
 from collections.abc import Iterable, Mapping, Sequence
@@ -80,7 +81,7 @@ def scene_tolerance(scene: Scene) -> float | None:
 def check_tolerance(tol: Any) -> float:
     """A relative tolerance: a number in (0, 1) (as ``flexgen solve --tol`` and a scene's
     ``tolerance``); 1 or more would accept any answer."""
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1:
+    if isinstance(tol, bool) or not isinstance(tol, numbers.Real) or not 0 < tol < 1:  # type: ignore[operator]
         raise SelectionError(f"tolerance: must be a number in (0, 1), got {_fmt(tol)}")
     return float(tol)
 

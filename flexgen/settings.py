@@ -87,12 +87,15 @@ class SolverSettings:
                 if not low <= value <= INT_MAX:
                     _bad(f.name, f"must be an integer in [{low}, 2**31 - 1]", value)
             else:
-                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                # any real number (a NumPy float32 or int64 too: review), stored as the float
+                # the core's struct takes; a bool is no number here
+                if isinstance(value, bool) or not isinstance(value, numbers.Real):
                     _bad(f.name, "must be a finite number", value)
                 try:  # an int beyond a float's range (10**400) is no finite number either
-                    float(value)
+                    value = float(value)
                 except OverflowError:
                     _bad(f.name, "must be a finite number", value)
+                object.__setattr__(self, f.name, value)
                 lo, hi, what = _RANGES[f.name]
                 if not (math.isfinite(value) and lo(value) and hi(value)):
                     _bad(f.name, f"must be a finite number {what}", value)

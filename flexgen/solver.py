@@ -124,11 +124,11 @@ def checked_q0(q0: Any, flexures: Container[str]) -> dict[str, np.ndarray]:
     for name, value in q0.items():
         if name not in flexures:
             raise ValueError(f"q0: unknown flexure {_fmt(name)}")
-        try:
-            v = np.asarray(value, dtype=float)
+        try:  # booleans are not coordinates (as loads and tensions: review)
+            v = None if _has_bool(value) else np.asarray(value, dtype=float)
         except (TypeError, ValueError, OverflowError):
             v = None
-        if v is not None and v.ndim <= 1:
+        if v is not None and v.ndim <= 1 and getattr(value, "dtype", None) != np.bool_:
             if not v.ndim:
                 v = v.reshape(1)
             # all(map(isfinite)) on the list: a fraction of np.isfinite's cost on a few values
@@ -140,8 +140,9 @@ def checked_q0(q0: Any, flexures: Container[str]) -> dict[str, np.ndarray]:
 
 
 def _has_bool(values: Any) -> bool:
-    """Whether nested lists or tuples hold a bool (which NumPy reads as an integer)."""
-    if isinstance(values, bool):
+    """Whether nested lists or tuples hold a bool, Python's or NumPy's (which NumPy reads as
+    an integer)."""
+    if isinstance(values, (bool, np.bool_)):
         return True
     if isinstance(values, (list, tuple)):
         return any(_has_bool(v) for v in values)

@@ -17,6 +17,7 @@ import pytest
 
 import flexgen
 from flexgen.cli import main
+from flexgen.models.registry import build_model
 
 EX = Path(__file__).resolve().parents[1] / "examples"
 FINGER = EX / "two_link_finger.toml"
@@ -254,3 +255,64 @@ def test_a_client_that_is_no_client_is_a_value_error_naming_it(finger):
 def test_the_exact_solver_checks_the_settings_it_ignores():
     with pytest.raises(ValueError, match=r"settings.max_steps"):
         flexgen.solve(EX / "rectangular_elastica.toml", model="exact", max_steps=-1)
+
+
+# -- review (API): checks that depended on the path taken, NumPy values ------------------------
+
+
+def test_estimate_is_checked_on_the_loop_path_too(finger):
+    """A solve of the same Scene object takes the cached solver's fast path, which accepted
+    estimate="no" (truthy) and ran the estimate: the check depended on what ran before."""
+    flexgen.solve(finger)  # the scene's solver is now cached
+    for bad in ("no", 1, [0]):
+        with pytest.raises(TypeError, match="estimate: must be True or False"):
+            flexgen.solve(finger, estimate=bad)
+    assert flexgen.solve(finger, estimate=np.True_).error_estimate is not None
+
+
+def test_numpy_numbers_are_numbers_for_settings_and_tolerance(finger):
+    """np.float32 and np.int64 were "must be a finite number" (a float field tested int and
+    float), while NumPy integers were accepted for the integer fields."""
+    settings = flexgen.SolverSettings(tol=np.float32(1e-10), max_dq=np.int64(1))
+    assert type(settings.tol) is float and type(settings.max_dq) is float
+    assert settings == flexgen.SolverSettings(tol=float(np.float32(1e-10)), max_dq=1.0)
+    plain = flexgen.solve(finger, tolerance=1e-3)
+    numpy = flexgen.solve(finger, tolerance=np.float32(1e-3), max_dq=np.int64(1))
+    assert numpy.to_json() == plain.to_json()
+    for bad in (True, np.True_, "1e-10", float("nan")):
+        with pytest.raises(ValueError, match="settings.tol: must be a finite number"):
+            flexgen.SolverSettings(tol=bad)
+
+
+def test_the_exact_model_checks_tolerance_and_refuses_models(finger):
+    """With model="exact" a tolerance of 'abc' or -5 was accepted (the exact branch returned
+    before the check; the CLI's --tol refused them), and models were dropped silently."""
+    for bad in ("abc", -5.0, 1.0):
+        with pytest.raises(ValueError, match=r"tolerance: must be a number in \(0, 1\)"):
+            flexgen.solve(finger, model="exact", tolerance=bad)
+    assert flexgen.solve(finger, model="exact", tolerance=1e-3).converged
+    models = {"proximal": build_model(finger.flexures[0])}
+    with pytest.raises(ValueError, match="models: the exact model solves every flexure"):
+        flexgen.solve(finger, model="exact", models=models)
+
+
+def test_numpy_booleans_are_not_numbers(finger):
+    """np.True_ in a load row and a Python bool in q0 were read as 1 (the docs: booleans are not
+    numbers), while np.True_ as a tension and a bool in a load row were refused."""
+    solver = flexgen.Solver(finger)
+    with pytest.raises(ValueError, match="loads: every value must be a number"):
+        solver.solve(loads=[[np.True_, 0.0, 0.0]])
+    for q0 in ([True], np.array([True]), [np.True_]):
+        with pytest.raises(ValueError, match=r"q0\['proximal'\]: must be a list of finite"):
+            solver.solve(q0={"proximal": q0})
+
+
+def test_with_value_takes_numpy_arrays(finger):
+    """A NumPy vector was NumPy's own "can only convert an array of size 1" (``.item()``), and
+    a one-element array for a scalar key was silently unwrapped."""
+    assert finger.with_value("load.0.force", np.array([0.0, -1.0])) == finger.with_value(
+        "load.0.force", [0.0, -1.0]
+    )
+    with pytest.raises(flexgen.SceneError, match=r"load\.0\.force\.1: .*got \[-1\.0\]"):
+        finger.with_value("load.0.force.1", np.array([-1.0]))
+    assert finger.with_value("load.0.force.1", np.array(-1.0)).loads[0].force == (0.0, -1.0)

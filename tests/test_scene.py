@@ -866,3 +866,33 @@ def test_api_arguments_of_the_wrong_kind_are_type_errors_naming_them():
     for order in (5, "flexure", ["flexure", "body"]):
         with pytest.raises(TypeError, match="^scene_from_dict: order must be a sequence"):
             scene_from_dict({"flexure": [flexure]}, order=order)
+
+
+def test_a_scene_pickles_and_deep_copies_read_only():
+    """Review: a Scene held read-only mappings (MappingProxyType), which do not pickle: no scene
+    could go to a worker process (multiprocessing, concurrent.futures) nor be deep-copied."""
+    import pickle
+    from types import MappingProxyType
+
+    import flexgen
+
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    with_units = scene_from_dict(
+        {
+            "units": {"length": "mm"},
+            "flexure": [{"name": "beam", "length": "20 mm", "EI": 0.4}],
+            "load": [{"point": "beam.tip", "force": [0.0, -0.2]}],
+        }
+    )
+    for scene in (load_scene(examples / "two_link_finger.toml"), with_units):
+        for again in (pickle.loads(pickle.dumps(scene)), copy.deepcopy(scene)):
+            assert again == scene and again.units == scene.units
+            assert again.source == scene.source
+            assert isinstance(again.base_points, MappingProxyType)
+            assert all(isinstance(lk.points, MappingProxyType) for lk in again.links)
+            with pytest.raises(TypeError):
+                again.source["name"] = "changed"  # type: ignore[index]
+            assert flexgen.solve(again).to_json() == flexgen.solve(scene).to_json()
+            assert again.with_value("load.0.force.1", -0.1) == scene.with_value(
+                "load.0.force.1", -0.1
+            )
