@@ -173,7 +173,7 @@ def speed_row(case: Case, repeats: int, budget_s: float, rounds: int = ROUNDS) -
             "iterations": None,
             "evaluations": None,
         }
-    solver = Solver(sc)
+    solver = flexgen.Solver(sc)  # the public class, with its validity screen (as labelled)
     r = solver.solve()
     evals = evaluations(solver)
     t_api, t_prep, t_core = time_interleaved(

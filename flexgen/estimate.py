@@ -62,7 +62,7 @@ Each flexure's curvature (so its strain and stress) is estimated from the same r
 equilibrium, which ``fg_estimate`` also returns (``Estimate.rich_q``): the answer's curvature
 profile against the richer model's on the same arc lengths, relative to the larger peak,
 times the same margin, and for a smooth curvature flexure at least its miss at its ends, where
-equilibrium fixes the curvature (``end_floor``) (``Estimator.curvature_estimates``, asked when
+equilibrium fixes the curvature (``end_floor``) (``CurvatureEstimates.of``, asked when
 ``Result.flexures`` is built). It is usually far larger than the pose's: the modes approximate
 the curvature, the pose is its integral.
 
@@ -149,7 +149,7 @@ class Estimate(NamedTuple):
     warning: str | None = None
     total: float = 0.0
     # the richer model's equilibrium (its packed coordinates), for the curvature's estimate
-    # (Estimator.curvature_estimates); None where there is none
+    # (CurvatureEstimates.of); None where there is none
     rich_q: list[float] | None = None
 
 
@@ -487,15 +487,6 @@ class Estimator:
             f"error estimate: the richer model ({self.rich_label}) {why} near this answer, "
             f"so its error is unknown",
         )
-
-    def curvature_estimates(
-        self,
-        est: Estimate,
-        stresses: dict[str, Any],
-        ends: Mapping[str, tuple[float, float]] | None = None,
-    ) -> dict[str, float]:
-        """``CurvatureEstimates.of`` (``self.curvature``, what a Result keeps of this)."""
-        return self.curvature.of(est, stresses, ends)
 
     def _branch_warning(self, snap: float | None, rich_snap: float | None) -> str | None:
         """The warning when the richer model's load path snapped through (at load factor

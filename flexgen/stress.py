@@ -103,7 +103,7 @@ def flexure_stresses(
 ) -> dict[str, FlexureStress]:
     """The profiles of every flexure whose model gives a curvature (``curvature(q, s)``;
     a model without one is left out), at the coordinates ``q`` ({flexure: coordinates}); their
-    error estimates are the caller's (flexgen.estimate.Estimator.curvature_estimates).
+    error estimates are the caller's (flexgen.estimate.CurvatureEstimates.of).
     ``statics``: ({flexure: transmitted world force}, {flexure: world angle of its root}) at
     the answer (``flexgen.statics``), for the axial stress of the flexures with an area."""
     out: dict[str, FlexureStress] = {}

@@ -7,8 +7,8 @@ richer model); these warnings say where that estimate, or the model itself, cann
 ``flexgen_tools.stability`` assesses its sweep with the same ``assess`` and holds each answer to
 its estimate against the exact elastica.
 
-The warnings (``validity_warnings``)
-------------------------------------
+The warnings (``assess``, ``check``)
+-----------------------------------
 * prb past 64 deg of pin rotation (Howell's validity limit), or used outside its one-flexure
   tip-force case (no end moment, link lever arm or tendon);
 * a polynomial scm kernel past its range (the answer is an interpolant outside its interval);
@@ -348,13 +348,6 @@ def assess(
             f"about {1 / max(margin, 1e-300):.3g}x"
         )
     return Claim(beta, margin, oor, switched, warnings)
-
-
-def validity_warnings(scene: Scene, models: Mapping, result) -> list[str]:
-    """The validity warnings of a converged result (``assess``); [] if it did not converge."""
-    if not result.converged:
-        return []
-    return assess(scene, result, models).warnings
 
 
 def models_of(scene: Scene, result, models: Mapping | None = None, model_factory=None) -> Mapping:

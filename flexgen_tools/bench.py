@@ -403,10 +403,9 @@ def measure(scene: Scene, md: ModelDef, repeats: int = 7, budget_s: float = 2.0)
         t = time_call(lambda: answer(scene, md), max(1, repeats // 2), budget_s)
         return Timed(ans, t, t, t, None)
     import flexgen
-    from flexgen.solver import Solver
 
     sc = md.scene(scene)
-    solver = Solver(sc)
+    solver = flexgen.Solver(sc)  # the public class, with its validity screen (as labelled)
     ans = answer_of(solver.solve(estimate=True))  # the answer flexgen.solve gives, estimated
     evals = evaluations(solver)
     t_api, t_prepared, t_core = time_interleaved(
