@@ -240,6 +240,11 @@ class Scene:
                 set_value(root, path, value, TABLE_KEYS)
         except PathError as exc:
             raise SceneError(str(exc)) from None
+        if self.units is not None and self.source is not None:
+            from .scenepath import thaw
+            from .units import keep_unit_strings
+
+            keep_unit_strings(thaw(self.source), root)
         try:
             return scene_from_dict(root, order=self._kinds_in_order(), default_name=self.name)
         except SceneError as exc:

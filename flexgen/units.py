@@ -72,8 +72,15 @@ UNITS_KEYS = ("length", "force")
 def key_dimension(path: str) -> str | None:
     """The dimension of the value a study's dotted path names (``flexure.0.thickness``,
     ``load.1.force.0``, ``link.pad.points.tip.1``, as ``flexgen sweep --vary`` takes them),
-    from the key table above; None for a count or a path the table does not cover."""
-    segs = path.split(".")
+    from the key table above; None for a count or a path the table does not cover. Every
+    spelling the study takes names the same key (``flexure[0].thickness``, ``load.0.force.01``:
+    review, the plot's axis lost its unit)."""
+    from .scenepath import PathError, _position, _segments
+
+    try:
+        segs = [seg if (i := _position(seg)) is None else str(i) for seg in _segments(path)]
+    except PathError:
+        return None
     head, last = segs[0], segs[-1]
     if head == "flexure" and len(segs) >= 3:
         if segs[2] == "at" and len(segs) == 4 and segs[3] in ("0", "1", "2"):
@@ -98,8 +105,11 @@ _QUANTITY = re.compile(r"\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\
 # ("mm^4", "N/mm**2", "m**(-1)"), and as a leading "1/" ("1/mm"); anything else is refused first
 _EXPONENT = re.compile(r"(?:\*\*|\^)\s*(?:[+-]?\d{1,2}|\(\s*[+-]?\d{1,2}\s*\))(?!\s*(?:\*\*|\^))")
 _RECIPROCAL = re.compile(r"(?:^|(?<=\())\s*1\s*/")
-# units pint counts as dimensionless that are angles (pint's canonical names, any prefix)
-_ANGLES = ("radian", "degree", "arcminute", "arcsecond", "turn", "revolution", "gradian")
+# units pint counts as dimensionless that are plane angles (pint's canonical names, any prefix;
+# "grade" is also gradian and gon, "turn" also cycle and revolution). Matched by the unit's name
+# less its prefix: a suffix match read a steradian or a square degree as an angle (review).
+# Not "mil": an angular mil to pint, a thousandth of an inch to many engineers
+_ANGLES = frozenset({"radian", "degree", "arcminute", "arcsecond", "turn", "grade"})
 
 
 class UnitsError(ValueError):
@@ -258,6 +268,33 @@ def locations(d: Mapping) -> Iterator[tuple[tuple, str, str]]:
         yield from _table(t, TENDON, ("tendon", i), f"tendon[{i}]")
 
 
+def keep_unit_strings(before: Mapping, after: dict) -> None:
+    """Keep ``after`` (a changed copy of the scene dict ``before``, no ``units`` key) a scene with
+    unit strings where ``before`` was one and the change replaced every unit string by a plain
+    number: those numbers are written back as strings in SI, the system both are read in
+    (``"2.1e+11 Pa"``). Without it the changed scene had no units at all: its answers unlabelled
+    and the warning of plain numbers that look written in another system gone (review: a study
+    of the only unit-string value, E)."""
+    if "units" in after:
+        return
+    strings = [
+        (path, dim) for path, _, dim in locations(before) if isinstance(_get(before, path), str)
+    ]
+    if not strings or any(isinstance(_get(after, path), str) for path, _, _ in locations(after)):
+        return
+    si = _system("SI")
+    for path, dim in strings:
+        try:
+            value = _get(after, path)
+        except (KeyError, IndexError, TypeError):
+            continue  # the change removed it
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            continue  # the validator's to refuse
+        unit = "Pa" if dim == "stress" else _symbol(si.unit(dim))
+        container = _get(after, path[:-1])
+        container[path[-1]] = f"{float(value)!r} {unit}"
+
+
 def _get(d: Any, path: tuple) -> Any:
     for k in path:
         d = d[k]
@@ -308,11 +345,10 @@ def _parse_unit(text: str) -> pint.Unit:
 
 def _is_angle(unit: pint.Unit) -> bool:
     parts = dict(unit._units)
-    return (
-        len(parts) == 1
-        and next(iter(parts.values())) == 1
-        and any(name.endswith(_ANGLES) for name in parts)
-    )
+    if len(parts) != 1 or next(iter(parts.values())) != 1:
+        return False
+    readings = registry().parse_unit_name(next(iter(parts)))  # ((prefix, name, suffix), ...)
+    return any(name in _ANGLES for _, name, _ in readings)
 
 
 def _dimensionless_factor(unit: pint.Unit) -> str | None:
@@ -397,6 +433,11 @@ def _show(v: Any) -> str:
     return text if len(text) <= 80 else text[:77] + "..."
 
 
+# the spellings of a newton metre that pint reads as something else: "Nm" is a yarn count
+# (number_meter) to pint, "Nmm" no unit at all
+_NEWTON_METRE = re.compile(r"[kmuµ]?N\s?[mµu]?m")
+
+
 def quantity(text: str, dimension: str, system: System, key: str) -> float:
     """The value of the unit string ``text`` in ``system``, as a float; UnitsError naming
     ``key`` if it is not a finite number and a unit of ``dimension``."""
@@ -419,10 +460,11 @@ def quantity(text: str, dimension: str, system: System, key: str) -> float:
         )
     if not math.isfinite(number):
         raise fail("not a finite number")
+    newton_metre = '; a newton metre is written "N*m"' if _NEWTON_METRE.fullmatch(unit_text) else ""
     try:
         unit = _parse_unit(unit_text)
     except UnitsError as e:
-        raise fail(str(e)) from None
+        raise fail(str(e) + newton_metre) from None
     target = system.unit(dimension)
     wrong = unit.dimensionality != target.dimensionality
     if dimension == "angle":
@@ -430,6 +472,7 @@ def quantity(text: str, dimension: str, system: System, key: str) -> float:
     if wrong:
         raise UnitsError(
             f"{key}: {_show(text)} has dimension {_dimension_name(unit)}, expected {dimension}"
+            + newton_metre
         )
     if dimension != "angle" and (ratio := _dimensionless_factor(unit)) is not None:
         # pint counts angles and ratios as no dimension: "20 mm*deg" would pass as a length

@@ -348,6 +348,13 @@ def test_plot_axes_name_the_units(tmp_path):
         ("base.points.r0.1", "length"),
         ("flexure.0.modes", None),
         ("model.tolerance", None),
+        # the other spellings a study takes (review: the plot's axis lost its unit)
+        ("flexure[0].thickness", "length"),
+        ("load[0].force[1]", "force"),
+        ("tendon[0].tension", "force"),
+        ("flexure.proximal.at.02", "angle"),
+        ("load.0.force.01", "force"),
+        ("flexure..0", None),
     ],
 )
 def test_a_study_key_has_the_dimension_of_its_scene_key(path, dimension):
@@ -444,3 +451,69 @@ def test_a_model_strength_beyond_any_material_is_said_once_with_every_bad_key():
     assert len(hits) == 2, hits
     assert hits[0].startswith("flexures 'a', 'b': E = 2e+11 MPa")
     assert hits[1].startswith("flexures 'a', 'b': yield_strength = 1.4e+09 MPa")
+
+
+def test_replacing_the_only_unit_string_keeps_the_scenes_units():
+    """Review: with E the only value with a unit (plain numbers meant in mm, no ``units`` key),
+    a study of E (``with_value``) lost the scene's units: the answers unlabelled and the warning
+    that the plain numbers are read in SI gone, also at E's own value."""
+    scene = flexgen.scene_from_dict(
+        {
+            "flexure": [
+                {"name": "beam", "length": 20, "E": "200 GPa", "width": 10, "thickness": 0.3}
+            ],
+            "load": [{"point": "beam.tip", "force": [0, -0.2]}],
+        }
+    )
+    base = flexgen.solve(scene)
+    assert any("is a plain number" in w for w in base.warnings)
+    for value in (200e9, 200e9 + 1, "200 GPa"):
+        changed = scene.with_value("flexure.beam.E", value)
+        assert changed.units == scene.units and changed.flexures[0].E == pytest.approx(
+            float(value) if not isinstance(value, str) else 200e9, rel=1e-15
+        )
+        answer = flexgen.solve(changed).to_dict()
+        assert answer["units"] == base.to_dict()["units"]
+        assert answer["warnings"] == base.warnings
+    # a plain scene stays plain
+    plain = flexgen.scene_from_dict({"flexure": [{"name": "beam", "length": 1.0, "EI": 2.0}]})
+    assert plain.with_value("flexure.beam.EI", 3.0).units is None
+
+
+@pytest.mark.parametrize(
+    "angle, radians",
+    [
+        ("100 gradian", math.pi / 2),
+        ("100 gon", math.pi / 2),
+        ("500 mrad", 0.5),
+        ("0.25 turn", math.pi / 2),
+    ],
+)
+def test_every_plane_angle_unit_is_an_angle(angle, radians):
+    """Review: angles were told by their name's ending, so "gradian" (pint's "grade") was
+    refused."""
+    scene = flexgen.scene_from_dict(
+        {"flexure": [{"name": "beam", "length": 1.0, "EI": 1.0, "at": [0, 0, angle]}]}
+    )
+    assert scene.flexures[0].at[2] == pytest.approx(radians, rel=1e-15)
+
+
+@pytest.mark.parametrize("angle", ["0.5 sr", "1 square_degree", "5 mil", "1 percent"])
+def test_a_solid_angle_or_a_ratio_is_no_angle(angle):
+    """Review: a steradian and a square degree ended in "radian" and "degree", and were read as
+    plane angles without a word."""
+    with pytest.raises(flexgen.SceneError, match=r"flexure\[0\]\.at\[2\]: .* expected angle"):
+        flexgen.scene_from_dict(
+            {"flexure": [{"name": "beam", "length": 1.0, "EI": 1.0, "at": [0, 0, angle]}]}
+        )
+
+
+@pytest.mark.parametrize("moment", ["10 Nm", "2 kNm", "300 Nmm"])
+def test_a_newton_metre_written_nm_says_how_to_write_it(moment):
+    """pint reads "Nm" as a yarn count: the message said "dimension [length] / [mass]"."""
+    scene = {
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "load": [{"point": "beam.tip", "force": [0, 0], "moment": moment}],
+    }
+    with pytest.raises(flexgen.SceneError, match=r'load\[0\]\.moment: .*written "N\*m"$'):
+        flexgen.scene_from_dict(scene)
