@@ -300,11 +300,14 @@ def _solve_scene(
         if solver is not None and solver.scene is scene and _same(solver.settings, settings):
             return _solve_prepared(solver, q0, estimate), None
     settings = make_settings(settings, **options)  # checked also where exact ignores them
-    if tolerance is not None:  # checked also where exact meets it anyway (review: 'abc' passed)
-        from .select import check_tolerance
-
-        check_tolerance(tolerance)
     if uses_exact(scene):
+        from .select import check_choosable, check_tolerance, scene_tolerance
+
+        if tolerance is not None or scene_tolerance(scene) is not None:
+            # refused as for cc, prb and fem (review: the exact solver dropped it silently)
+            if tolerance is not None:
+                check_tolerance(tolerance)
+            check_choosable(scene)
         if models is not None:  # they would be dropped: every flexure is the elastica
             raise ValueError(
                 "models: the exact model solves every flexure as the elastica; give models or "

@@ -286,11 +286,21 @@ def test_numpy_numbers_are_numbers_for_settings_and_tolerance(finger):
 
 def test_the_exact_model_checks_tolerance_and_refuses_models(finger):
     """With model="exact" a tolerance of 'abc' or -5 was accepted (the exact branch returned
-    before the check; the CLI's --tol refused them), and models were dropped silently."""
+    before the check; the CLI's --tol refused them), a good one and a scene's tolerance beside
+    kind exact were dropped (scene.md: exit 2, as cc's), and models were dropped silently."""
     for bad in ("abc", -5.0, 1.0):
         with pytest.raises(ValueError, match=r"tolerance: must be a number in \(0, 1\)"):
             flexgen.solve(finger, model="exact", tolerance=bad)
-    assert flexgen.solve(finger, model="exact", tolerance=1e-3).converged
+    with pytest.raises(ValueError, match="a tolerance chooses smooth curvature modes"):
+        flexgen.solve(finger, model="exact", tolerance=1e-3)  # as with model="cc"
+    exact_scene = flexgen.scene_from_dict(
+        {
+            "model": {"kind": "exact", "tolerance": 1e-6},
+            "flexure": [{"name": "b", "length": 1.0, "EI": 1.0}],
+        }
+    )
+    with pytest.raises(ValueError, match=r"flexure\[0\]\.kind: a tolerance chooses"):
+        flexgen.solve(exact_scene)
     models = {"proximal": build_model(finger.flexures[0])}
     with pytest.raises(ValueError, match="models: the exact model solves every flexure"):
         flexgen.solve(finger, model="exact", models=models)
