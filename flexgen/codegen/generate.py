@@ -45,13 +45,25 @@ def checked_in_spec(name: str) -> KernelSpec | None:
     return None
 
 
+def exact_number(x: float | None) -> str:
+    """``x`` as the command line takes it back exactly: the shortest round-trip form, an integral
+    value without ".0" (90, 1e-11, 45.1234567). ``:g`` kept six digits: a kernel generated with
+    --range 179.9999999 said --range 180, which the command refuses (review)."""
+    assert x is not None  # a KernelSpec's range and tol are set (None: its family's default)
+    text = repr(float(x))
+    return text[:-2] if text.endswith(".0") else text
+
+
 def command_line(kernel: FlexureKernel, prefix: str = "") -> str:
     """The CLI call that reproduces this kernel (no paths, dates or versions)."""
     s = kernel.spec
-    parts = [f"flexgen generate --modes {s.modes} --kernel {s.family} --range {s.range_deg:g}"]
+    parts = [
+        f"flexgen generate --modes {s.modes} --kernel {s.family} "
+        f"--range {exact_number(s.range_deg)}"
+    ]
     parts.append(f"--degree {kernel.degree}" if s.family == "poly" else f"--nodes {kernel.nodes}")
     if s.family == "local":  # the tolerance its in_range certifies
-        parts.append(f"--tol {s.tol:g}")
+        parts.append(f"--tol {exact_number(s.tol)}")
     if prefix:  # the names of its files and functions
         parts.append(f"--prefix {prefix}")
     return " ".join(parts)
@@ -61,7 +73,7 @@ def _common(kernel: FlexureKernel, prefix: str = "") -> dict:
     s = kernel.spec
     what = (
         "closed-form polynomial (cos, sin -> Chebyshev interpolants of degree "
-        f"{kernel.degree} on [-{s.range_deg:g}, {s.range_deg:g}] deg)"
+        f"{kernel.degree} on [-{exact_number(s.range_deg)}, {exact_number(s.range_deg)}] deg)"
         if s.family == "poly"
         else f"{kernel.nodes}-node Gauss-Legendre quadrature"
     )
@@ -94,7 +106,7 @@ def _common(kernel: FlexureKernel, prefix: str = "") -> dict:
         "nodes": kernel.nodes,
         "degree": kernel.degree,
         "phi_max": repr(kernel.a),
-        "range_deg": f"{s.range_deg:g}",
+        "range_deg": exact_number(s.range_deg),
         "bounds": kernel.bounds,
         "range_samples": RANGE_SAMPLES,
     }

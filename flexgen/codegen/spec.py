@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 FAMILIES = ("poly", "gauss", "local")
@@ -45,15 +46,33 @@ class KernelSpec:
     tol: float = DEFAULT_TOL
 
     def __post_init__(self):
-        if not isinstance(self.modes, int) or not 1 <= self.modes <= MAX_MODES:
+        # NumPy numbers as the Python numbers they are, a bool as no number (review: modes=True
+        # generated scmTrue.c, which did not compile; np.int64(3) was "must be an integer ...,
+        # got 3")
+        for name in ("modes", "degree", "nodes"):
+            value = getattr(self, name)
+            if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+                object.__setattr__(self, name, int(value))
+        for name in ("range_deg", "tol"):
+            value = getattr(self, name)
+            if isinstance(value, numbers.Real) and not isinstance(value, bool):
+                try:
+                    object.__setattr__(self, name, float(value))
+                except OverflowError:  # 10**400: no float, refused below
+                    pass
+        if (
+            isinstance(self.modes, bool)
+            or not isinstance(self.modes, int)
+            or not 1 <= self.modes <= MAX_MODES
+        ):
             raise SpecError(f"--modes: must be an integer from 1 to {MAX_MODES}, got {self.modes}")
         if self.family not in FAMILIES:
             raise SpecError(f"--kernel: must be one of {', '.join(FAMILIES)}, got {self.family!r}")
         if self.range_deg is None:
             object.__setattr__(self, "range_deg", DEFAULT_RANGE_DEG[self.family])
         r = self.range_deg
-        if not (isinstance(r, (int, float)) and math.isfinite(r) and r > 0):
-            raise SpecError(f"--range: must be a positive number of degrees, got {r}")
+        if not (isinstance(r, float) and math.isfinite(r) and r > 0):
+            raise SpecError(f"--range: must be a positive number of degrees, got {r!r:.40}")
         if self.family == "poly" and r >= 180:
             raise SpecError(
                 f"--range: the polynomial kernel needs a range below 180 degrees, got {r:g}"
@@ -62,16 +81,20 @@ class KernelSpec:
             raise SpecError(
                 f"--range: {self.family} kernels certify ranges up to 720 degrees, got {r:g}"
             )
-        if not (math.isfinite(self.tol) and 0 < self.tol < 1):
-            raise SpecError(f"--tol: must be in (0, 1), got {self.tol}")
+        if not (isinstance(self.tol, float) and math.isfinite(self.tol) and 0 < self.tol < 1):
+            raise SpecError(f"--tol: must be in (0, 1), got {self.tol!r:.40}")
         if self.degree is not None and not (
-            isinstance(self.degree, int) and 1 <= self.degree <= MAX_DEGREE
+            isinstance(self.degree, int)
+            and not isinstance(self.degree, bool)
+            and 1 <= self.degree <= MAX_DEGREE
         ):
             raise SpecError(
                 f"--degree: must be an integer from 1 to {MAX_DEGREE}, got {self.degree}"
             )
         if self.nodes is not None and not (
-            isinstance(self.nodes, int) and 1 <= self.nodes <= MAX_NODES
+            isinstance(self.nodes, int)
+            and not isinstance(self.nodes, bool)
+            and 1 <= self.nodes <= MAX_NODES
         ):
             raise SpecError(f"--nodes: must be an integer from 1 to {MAX_NODES}, got {self.nodes}")
         if self.family == "poly" and self.nodes is not None:

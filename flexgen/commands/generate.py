@@ -169,9 +169,12 @@ def _refuse_the_shipped_folder(out: Path) -> None:
     regenerated there (`make regen`)."""
     from flexgen.kernels import GENERATED
 
-    if out.resolve() == GENERATED.resolve():
+    folders = [Path()] + [Path(c.folder) for c in BACKENDS.values()]
+    shipped = {(GENERATED / f).resolve() for f in folders}
+    # out itself, or a language's folder in it (a symbolic link into the shipped set: review)
+    if any((out / f).resolve() in shipped for f in folders):
         raise UsageError(
-            f"--out: {out} is flexgen's shipped kernels (flexgen.generated), and a kernel of "
+            f"--out: {out} is, or links into, flexgen's shipped kernels (flexgen.generated), and a kernel of "
             "your own there would replace one of them: give another folder (`make regen` "
             "regenerates the shipped set)"
         )
@@ -185,6 +188,10 @@ def _run_kernels(args) -> int:
     out = args.out if args.out is not None else Path("generated")
     if not args.check:
         check_writable(out)
+        for folder in sorted({out / BACKENDS[lang].folder for lang in args.lang}):
+            # each language's folder too (review: a read-only out/c or a file named out/numpy
+            # failed at the first write, exit 1 with the system's words)
+            check_writable(folder)
     elif out.exists() and not out.is_dir():  # as without --check (it said "stale in", exit 1)
         raise UsageError(f"--out: {out} is not a folder")
     if args.modes is None:

@@ -271,7 +271,10 @@ class FlexureKernel:
         for G in range(1, max_nodes + 1):
             if gauss_rounding(self.modes, G) >= tol:
                 break  # the rounding allowance alone exceeds tol: more nodes cannot help
-            if self._gauss_bounds(G).pose <= tol:
+            bounds = self._gauss_bounds(G)
+            # the Hessian's bound too must exist (a tiny range met tol with too few nodes for
+            # the Hessian's basis, then refused for --nodes the user never gave: review)
+            if bounds.pose <= tol and math.isfinite(bounds.hessian):
                 return G
         raise SpecError(
             f"--tol {tol:g}: no Gauss rule of up to {max_nodes} nodes certifies it on this range "
