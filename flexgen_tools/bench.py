@@ -653,7 +653,14 @@ def compute_targets(data: BenchData, rounds: int, exact_repeats: int) -> dict:
     tg["finger_api_core_ratio"] = tg["finger_scm3_time_api"] / tg["finger_scm3_time_core"]
     tg["finger_overhead_s"] = tg["finger_scm3_time_prepared"] - tg["finger_scm3_time_core"]
     exact = model_def("exact")
-    tg["finger_exact_s"] = time_call(lambda: answer(finger, exact), exact_repeats, budget_s=10.0)
+    # the per-scene table's timing of exact on the finger where it has one, so that the page
+    # quotes one number for one measurement (review: 153.6 ms there, 140 ms here, one run)
+    known = data.times_api.get((exact.label, FINGER_SCENE))
+    tg["finger_exact_s"] = (
+        known
+        if known is not None
+        else time_call(lambda: answer(finger, exact), exact_repeats, budget_s=10.0)
+    )
     for timing in TIMINGS:
         tg[f"exact_ratio_{timing}"] = tg["finger_exact_s"] / tg[f"finger_scm3_{timing}"]
     tg["finger_scm3_error"] = errors(finger, answer_of(r), answer(finger, exact))
