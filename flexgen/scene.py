@@ -11,6 +11,7 @@ frame. Every flexure has the point ``"<flexure>.tip"`` = (0, 0) in its tip frame
 
 from __future__ import annotations
 
+import copy
 import difflib
 import math
 import os
@@ -240,13 +241,19 @@ class Scene:
                 set_value(root, path, value, TABLE_KEYS)
         except PathError as exc:
             raise SceneError(str(exc)) from None
+        as_given = root
         if self.units is not None and self.source is not None:
             from .scenepath import thaw
             from .units import keep_unit_strings
 
+            as_given = copy.deepcopy(root)  # for the messages: the values as the caller gave
             keep_unit_strings(thaw(self.source), root)
         try:
             return scene_from_dict(root, order=self._kinds_in_order(), default_name=self.name)
+        except SceneError:
+            pass
+        try:  # the same failure, told with the caller's values ('-5.0', not '-5.0 Pa': review)
+            scene_from_dict(as_given, order=self._kinds_in_order(), default_name=self.name)
         except SceneError as exc:
             # the validator's message names its key; the paths are prefixed only when it names
             # another (review: "model.modes: model.modes: must be an integer ...")
@@ -254,6 +261,9 @@ class Scene:
             if any(text.startswith(f"{path}:") for path in values):
                 raise SceneError(text) from None
             raise SceneError(f"{', '.join(values)}: {text}") from None
+        # the values are valid as given; only their rewriting as unit strings failed (not
+        # expected: it writes finite numbers in SI): validated once more, to raise its error
+        return scene_from_dict(root, order=self._kinds_in_order(), default_name=self.name)
 
     def editable_source(self) -> dict[str, Any]:
         """A mutable copy of the mapping this scene was read from; SceneError when it has none or

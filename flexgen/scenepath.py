@@ -223,7 +223,9 @@ def plain(value: Any, key: Any) -> Any:
     3.0)."""
     if hasattr(value, "tolist") and getattr(value, "ndim", 0) > 0:
         value = value.tolist()
-    elif hasattr(value, "item") and not isinstance(value, (list, tuple, dict)):
+    elif isinstance(value, (list, tuple)):  # a list of NumPy scalars too (review)
+        value = [plain(v, None) for v in value]
+    elif hasattr(value, "item") and not isinstance(value, dict):
         value = value.item()
     if key in INTEGER_KEYS and isinstance(value, float) and value.is_integer():
         value = int(value)

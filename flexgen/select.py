@@ -521,13 +521,23 @@ def _greedy(ft: FlexureTable, opts: list[int], share: float) -> int:
     return opts[-1]
 
 
+def _handed_over(pb: _Problem, solved: Solved) -> Result:
+    """The Result of a solved choice, for one Selection to own and write (its tolerance,
+    estimate and warnings): no longer cached, so that another tolerance selected from the same
+    table (select_from_table) makes its own (review: a second tolerance's warnings piled onto
+    the first selection's Result)."""
+    res = pb.result(solved)
+    solved.made = None
+    return res
+
+
 def _finish(table: Table, tol: float, t0: float) -> Selection:
     pb, scene = table.problem, table.problem.scene
     if table.reason is not None:
         why = f"no answer to estimate the error of: {table.reason}"
         if table.rich is None:  # no kernel for the rich models: not even a failed result
             raise ValueError(why)
-        res = pb.result(table.rich)
+        res = _handed_over(pb, table.rich)
         res.tolerance, res.error_estimate = tol, None
         if res.converged:
             res.warnings.append(why)
@@ -593,7 +603,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
                     break
     est = float(np.max(tot)) if np.size(tot) else 0.0
     reached = est <= tol
-    res = pb.result(chosen)
+    res = _handed_over(pb, chosen)
     choices = {}
     for k, (name, N) in enumerate(zip(pb.names, modes)):
         share = float(np.max(fts[name].total[N])) if np.size(tot) else 0.0
@@ -610,7 +620,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
                 "pose": float(max(tot[3 * k], tot[3 * k + 1])),
                 "compliance": float(tot[3 * k + 2]),
             }
-    _stress_estimates(pb, chosen)
+    _stress_estimates(pb, chosen, res)
     from .validity import BEND_LIMIT
 
     msg = None
@@ -642,7 +652,7 @@ def _finish(table: Table, tol: float, t0: float) -> Selection:
     return Selection(tol, choices, est, reached, res, pb.solves, time.perf_counter() - t0, msg)
 
 
-def _stress_estimates(pb: _Problem, chosen: Solved) -> None:
+def _stress_estimates(pb: _Problem, chosen: Solved, res: Result) -> None:
     """The chosen answer's flexures with their curvature (so stress) estimates, as every
     answer's (flexgen.estimate: the chosen models against N + 2 from the answer; the selection's
     own comparison is with its richest models, whose own curvature error it does not bound),
@@ -650,7 +660,6 @@ def _stress_estimates(pb: _Problem, chosen: Solved) -> None:
     from .solver import Solver
     from .stress import safety_warnings
 
-    res = pb.result(chosen)
     solver = Solver(pb.scene, pb.models(chosen.modes), pb.settings)
     again = solver.solve(q0=res.q, estimate=True)  # the same equilibrium: Newton from it
     if not again.converged:

@@ -290,9 +290,15 @@ def keep_unit_strings(before: Mapping, after: dict) -> None:
             continue  # the change removed it
         if isinstance(value, bool) or not isinstance(value, int | float):
             continue  # the validator's to refuse
+        try:
+            number = float(value)
+        except OverflowError:  # 10**400
+            continue
+        if not math.isfinite(number):
+            continue  # as given: the validator's message quotes the user's own value (review)
         unit = "Pa" if dim == "stress" else _symbol(si.unit(dim))
         container = _get(after, path[:-1])
-        container[path[-1]] = f"{float(value)!r} {unit}"
+        container[path[-1]] = f"{number!r} {unit}"
 
 
 def _get(d: Any, path: tuple) -> Any:

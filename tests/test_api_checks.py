@@ -326,3 +326,10 @@ def test_with_value_takes_numpy_arrays(finger):
     with pytest.raises(flexgen.SceneError, match=r"load\.0\.force\.1: .*got \[-1\.0\]"):
         finger.with_value("load.0.force.1", np.array([-1.0]))
     assert finger.with_value("load.0.force.1", np.array(-1.0)).loads[0].force == (0.0, -1.0)
+
+
+def test_with_value_takes_a_list_of_numpy_scalars(finger):
+    """Review: a NumPy array was taken, a list of NumPy scalars refused ("must be a finite
+    number ..., got np.float32(0.0)")."""
+    given = [np.float32(0.0), np.int64(-1)]
+    assert finger.with_value("load.0.force", given) == finger.with_value("load.0.force", [0, -1])

@@ -517,3 +517,26 @@ def test_a_newton_metre_written_nm_says_how_to_write_it(moment):
     }
     with pytest.raises(flexgen.SceneError, match=r'load\[0\]\.moment: .*written "N\*m"$'):
         flexgen.scene_from_dict(scene)
+
+
+def test_a_bad_value_for_the_only_unit_string_is_told_as_given():
+    """Review: once the only unit string's replacement was rewritten in SI, 10**400 was a raw
+    OverflowError, nan "'nan Pa': expected a number and a unit" and -5 "got '-5.0 Pa'"."""
+    scene = flexgen.scene_from_dict(
+        {
+            "flexure": [
+                {"name": "beam", "length": 1.0, "E": "200 GPa", "width": 0.01, "thickness": 0.001}
+            ],
+            "load": [{"point": "beam.tip", "force": [0.0, -1.0]}],
+        }
+    )
+    for value, shown in (
+        (10**400, "an integer of about 401 digits"),
+        (math.nan, "nan"),
+        (-5.0, "-5.0"),
+    ):
+        with pytest.raises(flexgen.SceneError) as err:
+            scene.with_value("flexure.0.E", value)
+        assert str(err.value) == (
+            "flexure.0.E: flexure[0].E: must be a positive number in [1e-100, 1e+100], got " + shown
+        )
