@@ -248,22 +248,22 @@ class Scene:
 
             as_given = copy.deepcopy(root)  # for the messages: the values as the caller gave
             keep_unit_strings(thaw(self.source), root)
+        order = self._kinds_in_order()
         try:
-            return scene_from_dict(root, order=self._kinds_in_order(), default_name=self.name)
-        except SceneError:
-            pass
-        try:  # the same failure, told with the caller's values ('-5.0', not '-5.0 Pa': review)
-            scene_from_dict(as_given, order=self._kinds_in_order(), default_name=self.name)
+            return scene_from_dict(root, order=order, default_name=self.name)
         except SceneError as exc:
-            # the validator's message names its key; the paths are prefixed only when it names
-            # another (review: "model.modes: model.modes: must be an integer ...")
-            text = str(exc)
-            if any(text.startswith(f"{path}:") for path in values):
-                raise SceneError(text) from None
-            raise SceneError(f"{', '.join(values)}: {text}") from None
-        # the values are valid as given; only their rewriting as unit strings failed (not
-        # expected: it writes finite numbers in SI): validated once more, to raise its error
-        return scene_from_dict(root, order=self._kinds_in_order(), default_name=self.name)
+            error = exc
+        if as_given is not root:
+            try:  # the same failure told with the caller's values ('-5.0', not '-5.0 Pa': review)
+                scene_from_dict(as_given, order=order, default_name=self.name)
+            except SceneError as exc:
+                error = exc
+        # the validator's message names its key; the paths are prefixed only when it names
+        # another (review: "model.modes: model.modes: must be an integer ...")
+        text = str(error)
+        if any(text.startswith(f"{path}:") for path in values):
+            raise SceneError(text) from None
+        raise SceneError(f"{', '.join(values)}: {text}") from None
 
     def editable_source(self) -> dict[str, Any]:
         """A mutable copy of the mapping this scene was read from; SceneError when it has none or
