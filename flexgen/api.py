@@ -194,7 +194,8 @@ def _same(a: SolverSettings, b: SolverSettings) -> bool:
 class CheckedSolver(Solver):
     """``flexgen.Solver``'s solver: its answers warn as ``flexgen.solve``'s do. ``solve`` runs
     the validity check, only where the core's screen (``validity.calm``: ``fg_answer.calm``)
-    finds that a warning may apply (the usual answer: one flag read). The internal solvers of selection, studies and benchmarks are plain ``Solver``s."""
+    finds that a warning may apply (the usual answer: one flag read). The internal solvers of
+    selection, studies and benchmarks are plain ``Solver``s."""
 
     def _check(self, result: Result) -> None:
         # in Solver.solve, while the workspace holds this answer (validity.calm reads it)

@@ -92,7 +92,8 @@ def scene_tolerance(scene: Scene) -> float | None:
 def check_tolerance(tol: Any) -> float:
     """A relative tolerance: a number in (0, 1) (as ``flexgen solve --tol`` and a scene's
     ``tolerance``); 1 or more would accept any answer."""
-    if isinstance(tol, bool) or not isinstance(tol, numbers.Real) or not 0 < tol < 1:  # type: ignore[operator]
+    real = isinstance(tol, numbers.Real) and not isinstance(tol, bool)
+    if not (real and 0 < tol < 1):  # (a NumPy float32 is a real number too: review)
         raise SelectionError(f"tolerance: must be a number in (0, 1), got {_fmt(tol)}")
     return float(tol)
 
@@ -208,14 +209,15 @@ class _Problem:
         self.names = tuple(f.name for f in scene.flexures)
         self.flex = scene.flexures
         self.gauss_max = max_gauss_modes()
-        from .solver import make_settings
-
+        # the caller's settings as given (time_per_solve: the solve a user then runs)
         self.kw = {k: v for k, v in solve_kwargs.items() if k not in ("tolerance", "q0")}
         # the settings of the selection's solves: the caller's, with every Newton step evaluated
         # (linearized_step 0). A linearized last step leaves the compliance off by about the last
         # residual over the margin to a critical load, alike in every model compared, so the
         # comparison cannot see it (review: a column at 0.9999 of its Euler load claimed 1.07e-7
         # where its compliance was 7.6e-7 off)
+        from .solver import make_settings
+
         given = {k: v for k, v in self.kw.items() if k != "settings"}
         self.settings = replace(make_settings(self.kw.get("settings"), **given), linearized_step=0)
         self.cache: dict[tuple[int, ...], Solved] = {}
