@@ -280,12 +280,15 @@ def _check_same(scene: Scene, result: Result, exact_solution: Any = None) -> Non
 
 def _exact_solution(scene: Scene, result: Result) -> Any:
     """The exact solver's solution of ``scene`` for an exact-model result (a Result keeps only
-    the root loads of the exact solver, not the shapes); None for a chain-model result."""
+    the root loads of the exact solver, not the shapes), by the path ``flexgen.solve`` takes:
+    its cross-check may solve again at shorter steps and take the buckled branch, which a plain
+    ``solve_exact`` misses (review: such results were refused as "of another scene"); None for a
+    chain-model result."""
     if result.solver != "exact":
         return None
-    from .models.exact import solve_exact
+    from . import exact_result
 
-    return solve_exact(scene)
+    return exact_result.solve(scene)[1]
 
 
 def plot(
@@ -540,7 +543,8 @@ def _tendons(ax, scene: Scene, g: Geometry) -> list:
         )
     if not scene.tendons:
         return []
-    tensions = ", ".join(f"{t.tension:g}" for t in scene.tendons)
+    force = _unit(scene, "force")
+    tensions = ", ".join(f"{t.tension:g}" for t in scene.tendons) + (f" {force}" if force else "")
     return [Line2D([], [], color="C3", lw=1.2, marker=".", label=f"tendon (tension {tensions})")]
 
 
@@ -556,12 +560,18 @@ def _loads(ax, scene: Scene, g: Geometry, size: float) -> list:
         xy = g.point(scene, ld.point)
         f = np.asarray(ld.force, float)
         if scale and np.any(f):
+            # to scale from tail to tip: no shrinking at the ends (matplotlib's default takes
+            # 2 points off each: review, the longest arrow read 10 % short, a fifth of it 50 %),
+            # and the head smaller on a short arrow, which it would otherwise be all of
+            share = math.hypot(*f) / fmax
             ax.add_patch(
                 FancyArrowPatch(
                     _xy(xy - scale * f),
                     _xy(xy),
                     arrowstyle="-|>",
-                    mutation_scale=14,
+                    mutation_scale=14 * min(1.0, 3.0 * share),
+                    shrinkA=0,
+                    shrinkB=0,
                     color="C2",
                     lw=1.8,
                     zorder=6,
@@ -585,8 +595,9 @@ def _loads(ax, scene: Scene, g: Geometry, size: float) -> list:
                     gid=f"load:{i}:moment",
                 )
             )
+            moment = _unit(scene, "moment")
             ax.annotate(
-                f"M = {ld.moment:.4g}",
+                f"M = {ld.moment:.4g}{' ' + moment if moment else ''}",
                 _xy(xy),
                 xytext=(10, 16),
                 textcoords="offset points",

@@ -7,6 +7,7 @@ The expected counts come from the TOML files read here with tomllib, not from fl
 
 from __future__ import annotations
 
+import io
 import math
 import tomllib
 from dataclasses import dataclass
@@ -22,6 +23,8 @@ from flexgen.scene_checks import scene_notes
 pytest.importorskip("matplotlib")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
+
+from flexgen.drawing import FIGSIZE  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 EX = ROOT / "examples"
@@ -377,3 +380,82 @@ def test_a_drawing_computes_no_frame_derivatives(monkeypatch):
     monkeypatch.setattr(chain_module, "_compose", refuse)
     got = [line.get_xydata() for line in flexgen.plot(scene, result).get_lines()]
     assert len(got) == len(want) and all(np.array_equal(a, b) for a, b in zip(got, want))
+
+
+def _arrow_lengths(ax) -> dict[str, tuple[float, float]]:
+    """Each force arrow's (stated length: tail to load point, drawn: tail to the head's apex),
+    in data units, from the patch's path."""
+    out = {}
+    for patch in ax.patches:
+        gid = patch.get_gid() or ""
+        if not gid.endswith(":force"):
+            continue
+        tail, point = map(np.asarray, patch._posA_posB)
+        segments = list(patch.get_path().iter_segments(simplify=False))
+        start = np.asarray(segments[0][0][:2])
+        ends = np.array([vertices[-2:] for vertices, code in segments if code in (2, 3, 4)])
+        apex = ends[np.argmin(np.hypot(*(ends - point).T))]
+        out[gid] = (float(np.hypot(*(point - tail))), float(np.hypot(*(apex - start))))
+    return out
+
+
+def test_force_arrows_are_as_long_as_their_scale_says():
+    """Review: the arrows kept matplotlib's default 2-point shrink at each end and a head of one
+    size: the longest read 10 % short of the legend's scale, one of a fifth of its force 52 %
+    short. (The apex of a head sits back from the point by its stroke's width, which the
+    stroke's outline then covers.)"""
+    scene = {
+        "flexure": [{"name": "f", "length": 0.1, "E": 200e9, "width": 0.01, "thickness": 0.001}],
+        "link": [{"name": "L", "parent": "f", "points": {"p": [0.05, 0.0]}}],
+        "load": [
+            {"point": "f.tip", "force": [3.0, -4.0]},
+            {"point": "L.p", "force": [0.0, -1.0]},
+        ],
+    }
+    ax = flexgen.plot(scene, flexgen.solve(scene), ax=Figure(figsize=FIGSIZE).add_subplot())
+    ax.figure.savefig(io.BytesIO(), format="png")  # drawn: the paths as on the page
+    lengths = _arrow_lengths(ax)
+    longest, fifth = lengths["load:0:force"], lengths["load:1:force"]
+    assert fifth[0] == pytest.approx(longest[0] / 5, rel=1e-12)
+    assert longest[1] >= 0.95 * longest[0]  # was 0.90
+    assert fifth[1] >= 0.80 * fifth[0]  # was 0.48
+
+
+def test_moment_and_tension_carry_their_units():
+    """Review: every number on a drawing of a scene with units carried its unit but a moment's
+    ('M = 1000', mN*mm) and the tendons' tension."""
+    scene = {
+        "units": {"length": "mm", "force": "mN"},
+        "base": {"points": {"anchor": [0, 3]}},
+        "flexure": [{"name": "f", "length": 20, "EI": "1 N*mm**2"}],
+        "link": [{"name": "L", "parent": "f", "points": {"p": [5, 1]}}],
+        "load": [{"point": "f.tip", "force": [0, 0], "moment": "0.01 N*mm"}],
+        "tendon": [{"tension": 10, "route": ["base.anchor", "L.p"]}],
+    }
+    ax = flexgen.plot(scene, flexgen.solve(scene), ax=Figure().add_subplot())
+    texts = [t.get_text() for t in ax.texts] + [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "M = 10 mN*mm" in texts
+    assert "tendon (tension 10 mN)" in texts
+
+
+def test_an_exact_result_that_buckled_on_its_checked_path_is_drawn():
+    """Review: flexgen.solve's exact answer may come from its cross-check's shorter load steps
+    (the buckled branch), the drawing solved plain solve_exact again (the straight branch) and
+    refused the result as "of a scene with other loads"."""
+    scene = flexgen.scene_from_dict(
+        {
+            "model": {"kind": "exact"},
+            "flexure": [
+                {"name": "a", "length": 1.0, "EI": 1.0},
+                {"name": "b", "parent": "base", "at": [0.0, 0.5, 0.0], "length": 1.0, "EI": 1.0},
+            ],
+            "load": [
+                {"point": "a.tip", "force": [-2.6, 0.001]},
+                {"point": "b.tip", "force": [-3.0, -0.001]},
+            ],
+        }
+    )
+    result = flexgen.solve(scene)
+    assert result.converged and abs(result.points["a.tip"].pose[1]) > 0.1  # buckled
+    ax = flexgen.plot(scene, result, ax=Figure().add_subplot())
+    assert ax.lines
