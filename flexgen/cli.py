@@ -1,7 +1,8 @@
 """The command line: builds the parser from flexgen/commands/, turns errors into one-line
 messages and exit codes.
 
-Exit codes: 0 success, 1 the work ran but failed (stale files, no equilibrium), 2 bad input.
+Exit codes: 0 success, 1 the work ran but failed (stale files, no equilibrium), 2 bad input,
+130 interrupted (Ctrl-C), 141 the reader of stdout went away (``| head``), as other Unix tools.
 With `solve --json` or `select --json`, a scene that cannot be solved at all (bad input, or a bug)
 still prints the contract's object on stdout: ``"converged": false`` and the ``"reason"``.
 Bad input, a missing optional extra, an unusable or failed output file: the commands raise and
@@ -198,14 +199,41 @@ def _json_failure(argv: list, args, message: str) -> None:
     if args is not None:
         scene = str(getattr(args, "scene", "") or "")
     else:  # the scene file as given: the first argument after the command that is no option
-        scene = next((str(a) for a in argv[1:] if not str(a).startswith("-")), "")
+        scene = _scene_argument(argv)
     scene = scene_name_of(scene) if scene else scene  # its name, as a solved answer's
     reason = printable(_shortened(" ".join(str(message).split())))
     try:
         print(Result.unsolvable(printable(scene), reason).to_json(indent=2), flush=True)
+    except BrokenPipeError:  # the reader went away (`| head`): quiet, as main's own handler
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     except OSError as exc:  # stdout refuses it: the one line on stderr stands
         if not _stdout_refused(exc):
             raise
+
+
+def _scene_argument(argv: list) -> str:
+    """The scene file among arguments that did not parse: the first after the command that is
+    neither an option nor the value of one (review: `solve --tol 2 --json x.toml` named its
+    answer "2")."""
+    takes_value: set[str] = set()
+    for action in build_parser()._actions:
+        if isinstance(action, argparse._SubParsersAction) and argv[0] in action._name_parser_map:
+            takes_value = {
+                opt
+                for option in action._name_parser_map[argv[0]]._actions
+                if option.nargs != 0
+                for opt in option.option_strings
+            }
+    value_next, found = False, []
+    for arg in map(str, argv[1:]):
+        if value_next:
+            value_next = False
+        elif arg.startswith("-"):
+            value_next = "=" not in arg and arg in takes_value
+        else:
+            found.append(arg)
+    # an unknown option's value looks like a scene: a TOML file's name is preferred
+    return next((a for a in found if a.endswith(".toml")), found[0] if found else "")
 
 
 # a quoted name or value in a message: shortened past 80 characters (docs/scene.md, Errors). A

@@ -218,36 +218,52 @@ class Result:
                 if k != "kind"
             )
             qs = " ".join(f"{x:+.6g}" for x in self.q.get(name, []))
+            coordinates = (
+                "root loads [Fx Fy M0]"
+                if spec.get("kind") == "exact"
+                else "q (generalized coordinates)"
+            )
             lines.append(
                 f"  {name}: {spec.get('kind')}"
                 + (f" ({detail})" if detail else "")
-                + (
-                    f"  {'root loads [Fx Fy M0]' if spec.get('kind') == 'exact' else 'q'} = [{qs}]"
-                    if qs
-                    else ""
-                )
+                + (f"  {coordinates} = [{qs}]" if qs else "")
             )
+        unit = _unit_labels(self.units)
         if self.points:
             w = max(len(ref) for ref in self.points)
             with_est = any(p.error_estimate is not None for p in self.points.values())
             lines.append(
                 f"  {'point':<{w}}  {'x':>12} {'y':>12} {'angle':>10}  "
-                f"{'major':>11} {'minor':>11} {'ell. angle':>10}"
+                f"{'C major':>15} {'C minor':>15} {'C angle':>10}"
                 + (f"  {'est. pose':>9} {'est. C':>8}" if with_est else "")
+            )
+            length, compliance = f"[{unit['length']}]", f"[{unit['compliance']}]"
+            lines.append(
+                f"  {'':<{w}}  {length:>12} {length:>12} {'[rad]':>10}  "
+                f"{compliance:>15} {compliance:>15} {'[rad]':>10}"
+                + (f"  {'[rel.]':>9} {'[rel.]':>8}" if with_est else "")
             )
             for ref, p in self.points.items():
                 e = p.ellipse
                 pe = p.error_estimate
                 lines.append(
                     f"  {ref:<{w}}  {p.pose[0]:>12.6g} {p.pose[1]:>12.6g} {p.pose[2]:>10.5f}  "
-                    f"{e['major']:>11.5g} {e['minor']:>11.5g} {e['angle']:>10.5f}"
+                    f"{e['major']:>15.5g} {e['minor']:>15.5g} {e['angle']:>10.5f}"
                     + (
                         f"  {pe['pose']:>9.2g} {pe['compliance']:>8.2g}"
                         if with_est and pe is not None
                         else ""
                     )
                 )
-        lines += _flexure_lines(self.flexures)
+            lines.append(
+                "  (x, y, angle: the point's pose; C major, C minor: its compliance ellipse, the "
+                "largest and smallest"
+            )
+            lines.append(
+                "  displacement per unit force, C angle: the direction of the largest"
+                + ("; est.: estimated errors, relative)" if with_est else ")")
+            )
+        lines += _flexure_lines(self.flexures, unit)
         if self.tolerance is not None or self.error_estimate is not None:
             est = math.inf if self.error_estimate is None else self.error_estimate
             lines.append(
@@ -301,9 +317,23 @@ LAZY_FIELDS = frozenset(
 )
 
 
-def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
+# a table's unit labels for a scene of plain numbers (any consistent set: named by quantity)
+PLAIN_UNITS = {
+    "length": "length",
+    "compliance": "length/force",
+    "curvature": "1/length",
+    "stress": "force/length^2",
+}
+
+
+def _unit_labels(units: dict[str, str] | None) -> dict[str, str]:
+    """The table's unit of each quantity: the scene's (a Result's ``units``), else its name."""
+    return PLAIN_UNITS if units is None else {k: units.get(k, v) for k, v in PLAIN_UNITS.items()}
+
+
+def _flexure_lines(flexures: dict[str, FlexureStress], unit: dict[str, str]) -> list[str]:
     """The table's flexure section: maxima, their relative error estimate, where, safety
-    factor ("—" where unknown)."""
+    factor ("—" where unknown), with a row of units."""
     if not flexures:
         return []
 
@@ -311,9 +341,12 @@ def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
         return "—" if v is None or not math.isfinite(v) else format(v, fmt)
 
     w = max(max(len(n) for n in flexures), len("flexure"))
+    stress = f"[{unit['stress']}]"
     lines = [
-        f"  {'flexure':<{w}}  {'max kappa':>11} {'max strain':>11} {'max stress':>11} "
-        f"{'axial':>11} {'est.':>8} {'at s/L':>7} {'safety':>8}"
+        f"  {'flexure':<{w}}  {'max curvature':>14} {'max strain':>11} {'max stress':>16} "
+        f"{'axial stress':>16} {'est.':>8} {'at s/L':>7}  safety factor",
+        f"  {'':<{w}}  {'[' + unit['curvature'] + ']':>14} {'[-]':>11} {stress:>16} "
+        f"{stress:>16} {'[rel.]':>8} {'[-]':>7}",
     ]
     for name, st in flexures.items():
         sf = st.safety_factor
@@ -326,9 +359,9 @@ def _flexure_lines(flexures: dict[str, FlexureStress]) -> list[str]:
         e = st.error_estimate
         estimate = "—" if e is None else "inf" if math.isinf(e) else format(e, ".2g")
         lines.append(
-            f"  {name:<{w}}  {num(st.max_curvature, '.5g'):>11} {num(st.max_strain, '.5g'):>11} "
-            f"{num(st.max_stress, '.5g'):>11} {num(st.max_axial_stress, '.5g'):>11} "
-            f"{estimate:>8} {st.at:>7.3f} {safety:>8}"
+            f"  {name:<{w}}  {num(st.max_curvature, '.5g'):>14} {num(st.max_strain, '.5g'):>11} "
+            f"{num(st.max_stress, '.5g'):>16} {num(st.max_axial_stress, '.5g'):>16} "
+            f"{estimate:>8} {st.at:>7.3f}  {safety}"
         )
     return lines
 

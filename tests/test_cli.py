@@ -440,3 +440,46 @@ def test_ctrl_c_while_the_subcommands_load_is_one_line(monkeypatch, capsys):
     assert cli.main(["solve", "x.toml"]) == 130
     out, err = capsys.readouterr()
     assert (out, err) == ("", "flexgen: interrupted\n")
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["solve", "--tol", "2", "--json", "SCENE"],
+        ["solve", "--model", "smc", "--json", "SCENE"],
+        ["solve", "--tol=2", "--json", "SCENE"],
+        ["select", "--modes", "3", "--json", "SCENE"],
+    ],
+)
+def test_a_json_failure_names_the_scene_not_an_options_value(args, tmp_path, capsys):
+    """Review: before the arguments parsed, the first argument that was no option was taken for
+    the scene: `solve --tol 2 --json x.toml` answered for a scene named "2"."""
+    from flexgen.cli import main
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml"
+    assert main([str(scene) if a == "SCENE" else a for a in args]) == 2
+    assert json.loads(capsys.readouterr().out)["scene"] == "two-link finger"
+
+
+def test_a_json_failure_into_a_closed_pipe_is_quiet(monkeypatch, capsys):
+    """Review: `flexgen select fem.toml --tol 1e-6 --json | head -3` printed a BrokenPipeError
+    traceback: the failure's JSON was written while the first error was being handled, past
+    main's handler of a closed pipe."""
+    import io
+    import os
+
+    from flexgen.cli import main
+
+    class ClosedPipe(io.StringIO):
+        def write(self, text):
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def fileno(self):  # what the quiet exit points at /dev/null
+            return self._devnull
+
+    closed = ClosedPipe()
+    closed._devnull = os.open(os.devnull, os.O_WRONLY)  # type: ignore[attr-defined]
+    monkeypatch.setattr(sys, "stdout", closed)
+    scene = Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml"
+    assert main(["solve", str(scene), "--model", "cc", "--tol", "1e-6", "--json"]) == 2
+    assert capsys.readouterr().err.startswith("flexgen: error:")

@@ -62,3 +62,11 @@ def test_the_transcripts_units_and_warning_lines_are_the_commands(answers):
     assert len(want) == 3
     for line in want:
         assert line in text, line
+    # and every line the page quotes of the command's table is the command's (its columns and
+    # their units row changed with the output: review of the CLI)
+    block = re.search(r"`flexgen solve steel_finger_mm.toml`:\n\n```\n(.*?)```", text, re.S)
+    assert block is not None
+    quoted = [ln for ln in block.group(1).splitlines() if ln.strip() != "..."]
+    assert len(quoted) > 15 and all(ln in lines for ln in quoted), [
+        ln for ln in quoted if ln not in lines
+    ]
