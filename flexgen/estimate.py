@@ -61,8 +61,8 @@ answer is claimed exact.
 Each flexure's curvature (so its strain and stress) is estimated from the same richer
 equilibrium, which ``fg_estimate`` also returns (``Estimate.rich_q``): the answer's curvature
 profile against the richer model's on the same arc lengths, relative to the larger peak,
-times the same margin, and for a smooth curvature flexure at least its miss at its ends, where
-equilibrium fixes the curvature (``end_floor``) (``CurvatureEstimates.of``, asked when
+times the same margin, and for a smooth curvature or fem flexure at least its miss at its ends,
+where equilibrium fixes the curvature (``end_floor``) (``CurvatureEstimates.of``, asked when
 ``Result.flexures`` is built). It is usually far larger than the pose's: the modes approximate
 the curvature, the pose is its integral.
 
@@ -291,7 +291,10 @@ class CurvatureEstimates(NamedTuple):
     rich_slices: dict[str, slice]
     factor: float
     fem_h: dict[str, float]
-    smooth: frozenset[str] = frozenset()  # the smooth curvature flexures (scm, cc): end_floor
+    # the flexures whose profile is held to the curvature equilibrium fixes at its ends
+    # (end_floor): smooth curvature (scm, cc) and fem (its end values are extrapolated over half
+    # a cell: review, fem5 at a 122 deg bend 1.58 times its estimate without it)
+    end_checked: frozenset[str] = frozenset()
 
     def of(
         self,
@@ -306,7 +309,7 @@ class CurvatureEstimates(NamedTuple):
         arc lengths (``curvature_difference``), plus ``ROUNDING_CURVATURE``; inf where the
         richer model has no equilibrium, and for a fem chain whose joint turns by more than
         ``FEM_COARSE_TURN`` (too coarse to resolve the curvature). ``ends``: {flexure: kappa at
-        its root and tip by equilibrium} (``statics.end_curvatures``): a smooth curvature
+        its root and tip by equilibrium} (``statics.end_curvatures``): a smooth curvature or fem
         profile's estimate is at least its miss there (``end_floor``)."""
         out: dict[str, float] = {}
         for name, st in stresses.items():
@@ -322,7 +325,7 @@ class CurvatureEstimates(NamedTuple):
                 continue
             rq = est.rich_q[self.rich_slices[name]]
             d = self.factor * curvature_difference(st.s, st.curvature, rich, rq)
-            if ends is not None and name in ends and name in self.smooth:
+            if ends is not None and name in ends and name in self.end_checked:
                 d = max(d, end_floor(st.curvature, ends[name]))
             out[name] = d + ROUNDING_CURVATURE
         return out
@@ -432,9 +435,11 @@ class Estimator:
             rw.iwork_ptr,
             double_ptr(self.out),
         )
-        smooth = frozenset(n for n, m in solver.models.items() if getattr(m, "kind", "") == "scm")
+        end_checked = frozenset(
+            n for n, m in solver.models.items() if getattr(m, "kind", "") in ("scm", "fem")
+        )
         self.curvature = CurvatureEstimates(
-            rich, self.rich_slices, self.factor, self._fem_h, smooth
+            rich, self.rich_slices, self.factor, self._fem_h, end_checked
         )
         self._solved_args = (
             rp.struct,
