@@ -213,3 +213,37 @@ def test_a_strain_past_any_linear_material_is_a_warning_on_every_path():
     study = flexgen.sweep(heavy, {"load.0.force.1": [-10.0, -5000.0]}, workers=1, estimate=False)
     assert [STRAINED in w for w in study["warnings"]] == [False, True]
     assert not any(STRAINED in w for w in flexgen.solve(_steel_finger(10.0)).warnings)
+
+
+def test_prb_in_its_fitted_case_by_value_claims_its_accuracy():
+    """Review: a tendon without tension, or the tip force given at a link point on the tip,
+    made prb's answer "outside its fitted case; no accuracy is claimed", though the answer was
+    exactly Howell's case (the same pose and estimate as with the force at the tip)."""
+    import flexgen
+
+    scene = {
+        "flexure": [{"name": "beam", "length": 1.0, "EI": 1.0}],
+        "link": [{"name": "pad", "parent": "beam", "points": {"a": [0.0, 0.1], "p": [0.0, 0.0]}}],
+        "base": {"points": {"r": [0.0, 0.1]}},
+        "load": [{"point": "beam.tip", "force": [0.0, -1.0]}],
+        "output": {"points": ["beam.tip"]},
+    }
+    plain = flexgen.solve(scene, model="prb")
+    slack = flexgen.solve(
+        {**scene, "tendon": [{"tension": 0.0, "route": ["base.r", "pad.a"]}]}, model="prb"
+    )
+    on_tip = flexgen.solve(
+        {**scene, "load": [{"point": "pad.p", "force": [0.0, -1.0]}]}, model="prb"
+    )
+    for answer in (plain, slack, on_tip):
+        assert answer.warnings == []
+        assert answer.points["beam.tip"].pose == plain.points["beam.tip"].pose
+    # a tendon under tension, a force off the tip: outside the case, said
+    pulled = flexgen.solve(
+        {**scene, "tendon": [{"tension": 0.5, "route": ["base.r", "pad.a"]}]}, model="prb"
+    )
+    off_tip = flexgen.solve(
+        {**scene, "load": [{"point": "pad.a", "force": [0.0, -1.0]}]}, model="prb"
+    )
+    assert "this scene has a tendon; no accuracy is claimed" in pulled.warnings[0]
+    assert "a load at 'pad.a', not at the tip" in off_tip.warnings[0]
