@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import difflib
 import math
+import numbers
 import os
 import re
 import reprlib
@@ -629,7 +630,9 @@ def _fail(key: str, msg: str, value: Any = _MISSING) -> SceneError:
 
 
 def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
+    # any real number, a NumPy scalar of a dict built by a script too (review: np.int64 was
+    # "must be a finite number"); a bool is no number
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
 
 def _number(v: Any, key: str, sign: str = "") -> float:
@@ -654,7 +657,11 @@ def _number(v: Any, key: str, sign: str = "") -> float:
 
 
 def _integer(v: Any, key: str, minimum: int, maximum: int) -> int:
-    if not isinstance(v, int) or isinstance(v, bool) or not minimum <= v <= maximum:
+    if (
+        not isinstance(v, numbers.Integral)
+        or isinstance(v, bool)
+        or not minimum <= int(v) <= maximum
+    ):
         raise _fail(key, f"must be an integer in [{minimum}, {maximum}]", v)
     return int(v)
 

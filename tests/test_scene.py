@@ -896,3 +896,25 @@ def test_a_scene_pickles_and_deep_copies_read_only():
             assert again.with_value("load.0.force.1", -0.1) == scene.with_value(
                 "load.0.force.1", -0.1
             )
+
+
+def test_numpy_numbers_in_a_scene_dict_are_numbers():
+    """Review: a scene dict built by a script with np.int64 or np.float32 values was refused
+    ("must be a finite number ..., got np.int64(0)"); NumPy's bool stays no number."""
+    np = pytest.importorskip("numpy")
+    scene = scene_from_dict(
+        {
+            "flexure": [
+                {"name": "beam", "length": np.float32(0.5), "EI": np.int64(2), "modes": np.int64(4)}
+            ],
+            "load": [{"point": "beam.tip", "force": [np.int64(0), np.float64(-1.0)]}],
+        }
+    )
+    assert (scene.flexures[0].length, scene.flexures[0].EI, scene.flexures[0].model.modes) == (
+        0.5,
+        2.0,
+        4,
+    )
+    assert type(scene.flexures[0].model.modes) is int and scene.loads[0].force == (0.0, -1.0)
+    with pytest.raises(SceneError, match="got np.True_"):
+        scene_from_dict({"flexure": [{"name": "beam", "length": np.bool_(True), "EI": 1.0}]})
