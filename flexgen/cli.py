@@ -16,6 +16,7 @@ Nothing below this module exits.
 from __future__ import annotations
 
 import argparse
+import difflib
 import errno
 import importlib
 import os
@@ -37,8 +38,37 @@ USER_ERRORS: tuple[type[Exception], ...] = (UsageError, SpecError, OutputError)
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, no usage dump
-        raise UsageError(message)
+    def error(self, message):  # one line, no usage dump, with a hint for a misspelled word
+        raise UsageError(message + _hint(self, message))
+
+
+def _hint(parser: argparse.ArgumentParser, message: str) -> str:
+    """ "; did you mean 'solve'?" for a misspelled subcommand or option (as a scene key's
+    message has: review, `flexgen slove` and `--modle` got none), or where to look."""
+    choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+    if choice is not None:
+        known = re.findall(r"'([^']*)'", choice[2])
+        close = difflib.get_close_matches(choice[1], known, n=1)
+        return f"; did you mean {close[0]!r}?" if close else ""
+    if message.startswith("unrecognized arguments:"):
+        known = [
+            option
+            for action in parser._actions
+            if isinstance(action, argparse._SubParsersAction)
+            for sub in action._name_parser_map.values()
+            for option_action in sub._actions
+            for option in option_action.option_strings
+        ] + [option for action in parser._actions for option in action.option_strings]
+        for word in message.split(":", 1)[1].split():
+            close = difflib.get_close_matches(
+                word.split("=")[0], sorted(set(known)), n=2, cutoff=0.75
+            )
+            if word.startswith("-") and close:
+                return f"; did you mean {' or '.join(map(repr, close))}?"
+        return " (see flexgen COMMAND --help)"
+    if "the following arguments are required: command" in message:
+        return " (one of: " + ", ".join(COMMANDS) + "; see flexgen --help)"
+    return ""
 
 
 def _version() -> str:

@@ -483,3 +483,25 @@ def test_a_json_failure_into_a_closed_pipe_is_quiet(monkeypatch, capsys):
     scene = Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml"
     assert main(["solve", str(scene), "--model", "cc", "--tol", "1e-6", "--json"]) == 2
     assert capsys.readouterr().err.startswith("flexgen: error:")
+
+
+@pytest.mark.parametrize(
+    "args, hint",
+    [
+        (["slove", "x.toml"], "; did you mean 'solve'?"),
+        (["solve", "x.toml", "--jsn"], "; did you mean '--json'?"),
+        (["solve", "x.toml", "--modle", "scm"], "'--model'"),
+        (["solve", "x.toml", "--zzz"], " (see flexgen COMMAND --help)"),
+        (
+            [],
+            " (one of: generate, solve, plot, select, sweep, bench, stability; see flexgen --help)",
+        ),
+    ],
+)
+def test_a_misspelled_command_or_option_gets_a_hint(args, hint, capsys):
+    """Review: scene keys said "did you mean ...", the command line's own words did not."""
+    from flexgen.cli import main
+
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("flexgen: error: ") and hint in err and err.count("\n") == 1
