@@ -246,7 +246,11 @@ def _scene_argument(argv: list) -> str:
     neither an option nor the value of one (review: `solve --tol 2 --json x.toml` named its
     answer "2")."""
     takes_value: set[str] = set()
-    for action in build_parser()._actions:
+    try:
+        actions = build_parser()._actions
+    except Exception:  # the parser itself failed (the error being reported): all flags then
+        actions = []
+    for action in actions:
         if isinstance(action, argparse._SubParsersAction) and argv[0] in action._name_parser_map:
             takes_value = {
                 opt

@@ -505,3 +505,23 @@ def test_a_misspelled_command_or_option_gets_a_hint(args, hint, capsys):
     assert main(args) == 2
     err = capsys.readouterr().err
     assert err.startswith("flexgen: error: ") and hint in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("command", ["solve", "select", "plot", "generate", "sweep"])
+def test_every_help_example_is_a_valid_command_and_the_help_is_wrapped(command, capsys):
+    """Review: only sweep's --help had examples, and its description was one unwrapped line."""
+    import shlex
+
+    from flexgen.cli import build_parser, main
+
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = capsys.readouterr().out
+    examples = text.split("examples:\n", 1)[1].split("\n\n", 1)[0].replace("\\\n", " ")
+    lines = [ln.strip() for ln in examples.splitlines() if ln.strip().startswith("flexgen ")]
+    assert lines, text
+    for line in lines:
+        words = shlex.split(line.split(" > ")[0])  # a shell redirection is not the command's
+        args = build_parser().parse_args(words[1:])  # parses: no UsageError
+        assert args.command == command
+    assert max(len(ln) for ln in text.split("examples:\n", 1)[0].splitlines()) <= 100

@@ -7,6 +7,17 @@ import math
 from pathlib import Path
 
 
+class ExamplesFormatter(argparse.HelpFormatter):
+    """argparse's help, with an epilog of examples ("examples:" first) printed as written: the
+    description and the options' help are wrapped to the terminal as usual (RawDescription-
+    HelpFormatter left a description of one long line)."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if text.startswith("examples:"):
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
 class UsageError(Exception):
     """Bad command-line input: one line on stderr, exit code 2."""
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from flexgen.codegen.spec import BACKENDS, DEFAULT_TOL, FAMILIES, MAX_MODES, KernelSpec
 from flexgen.codegen.spec import DEFAULT_RANGE_DEG as RANGE
-from flexgen.commands.common import UsageError, integer, output_path
+from flexgen.commands.common import ExamplesFormatter, UsageError, integer, output_path
 
 LANGS = tuple(BACKENDS)  # each with its config (codegen/spec.py) and emitter (codegen/generate.py)
 
@@ -39,6 +39,8 @@ def register(sub) -> None:
             "self-contained C99 solver of that mechanism for a controller: NAME.h, NAME.c, "
             "NAME_example.c, CMakeLists.txt and NAME.mk (docs/controller.md)."
         ),
+        epilog="examples:\n  flexgen generate --modes 4 --out mykernels\n  flexgen generate --modes 4 --kernel local --prefix arm --lang c --out mykernels\n  flexgen generate --scene examples/two_link_finger.toml --out finger_controller",
+        formatter_class=ExamplesFormatter,
     )
     gen.add_argument(
         "--scene",

@@ -7,7 +7,13 @@ from __future__ import annotations
 
 import sys
 
-from flexgen.commands.common import MissingExtra, UsageError, output_file, printable
+from flexgen.commands.common import (
+    ExamplesFormatter,
+    MissingExtra,
+    UsageError,
+    output_file,
+    printable,
+)
 from flexgen.commands.solve import add_model_options, one_line, solve_args
 
 
@@ -27,6 +33,8 @@ def register(sub) -> None:
             "error estimate, a safety factor below 1) are printed on stderr. In Python, flexgen.plot(scene, result) draws on a matplotlib "
             "Axes and returns it (docs/solve.md)."
         ),
+        epilog="examples:\n  flexgen plot examples/two_link_finger.toml -o finger.png\n  flexgen plot examples/arc_moment.toml --model exact -o arc.svg",
+        formatter_class=ExamplesFormatter,
     )
     add_model_options(p)
     p.add_argument(

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import sys
 
-from flexgen.commands.common import UsageError, integer, printable, tolerance
+from flexgen.commands.common import ExamplesFormatter, UsageError, integer, printable, tolerance
 from flexgen.models.registry import MODEL_KINDS
 from flexgen.scene import MAX_ELEMENTS, MAX_MODES
 
@@ -48,8 +48,9 @@ def add_model_options(p) -> None:
         dest="tolerance",
         metavar="T",
         help="choose per scm flexure the fewest modes (and the kernel) whose error "
-        "estimate on the output poses and compliances is <= T (relative); the "
-        "result reports the choice and the estimate (docs/selection.md)",
+        "estimate on the output poses and compliances is <= T (relative, in (0, 1); not with "
+        "--modes or --elements); the result reports the choice and the estimate "
+        "(docs/selection.md)",
     )
 
 
@@ -99,8 +100,9 @@ def register(sub) -> None:
         help="solve a scene: loaded shape, stability, compliance ellipses",
         description=(
             "Solve a scene (flexures, rigid links, dead loads, tendons) by load continuation "
-            "from the unloaded state, and report each output point's pose, 2x2 compliance and "
-            "compliance ellipse with their error estimates, and each flexure's largest "
+            "from the unloaded state, and report each output point's pose and compliance (the "
+            "table: its ellipse; --json: the 2x2 and the 3x3 compliance3) with their error "
+            "estimates, and each flexure's largest "
             "curvature, strain and stress, where it is, their error estimate and the safety "
             "factor against the scene's strengths (when the scene gives a section), in the "
             "scene's units. Without --json: a table. Exit codes: 0 equilibrium found, 1 no "
@@ -109,6 +111,14 @@ def register(sub) -> None:
             'holds the JSON object in every case: "converged": false and "reason" when there is '
             "no answer."
         ),
+        epilog=(
+            "examples:\n"
+            "  flexgen solve examples/two_link_finger.toml\n"
+            "  flexgen solve examples/two_link_finger.toml --json > answer.json\n"
+            "  flexgen solve examples/cantilever_tip_load.toml --model fem --elements 32\n"
+            "  flexgen solve examples/steel_finger.toml --tol 1e-4"
+        ),
+        formatter_class=ExamplesFormatter,
     )
     add_model_options(p)
     p.add_argument(

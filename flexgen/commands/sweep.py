@@ -12,14 +12,20 @@ checked before anything is solved).
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from flexgen.commands.common import MissingExtra, UsageError, integer, output_file, printable
+from flexgen.commands.common import (
+    ExamplesFormatter,
+    MissingExtra,
+    UsageError,
+    integer,
+    output_file,
+    printable,
+)
 from flexgen.outfiles import write_all
 from flexgen.sweep_plan import CHUNK_SIZE, DISTRIBUTIONS, plan
 
@@ -52,7 +58,7 @@ def register(sub) -> None:
             "--out; progress on stderr."
         ),
         epilog=EXAMPLE,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=ExamplesFormatter,
     )
     p.add_argument("scene", metavar="SCENE", help="scene file (TOML; see docs/scene.md)")
     p.add_argument(
@@ -65,7 +71,13 @@ def register(sub) -> None:
         "KEY=uniform:LOW:HIGH; plain numbers in the scene's units; repeat for more keys",
     )
     p.add_argument("--samples", type=integer(1), metavar="N", help="Monte-Carlo: N cases")
-    p.add_argument("--seed", type=integer(0), metavar="S", help="Monte-Carlo: the random seed")
+    p.add_argument(
+        "--seed",
+        type=integer(0),
+        metavar="S",
+        help="Monte-Carlo: the random seed, so that a rerun draws the same cases (without it "
+        "every run draws others)",
+    )
     p.add_argument(
         "--out",
         type=output_file,
