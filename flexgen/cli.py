@@ -38,34 +38,44 @@ USER_ERRORS: tuple[type[Exception], ...] = (UsageError, SpecError, OutputError)
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, no usage dump, with a hint for a misspelled word
-        raise UsageError(message + _hint(self, message))
+    def error(self, message):  # one line, no usage dump (main adds a hint: _hint)
+        raise _ParseError(message)
 
 
-def _hint(parser: argparse.ArgumentParser, message: str) -> str:
-    """ "; did you mean 'solve'?" for a misspelled subcommand or option (as a scene key's
-    message has: review, `flexgen slove` and `--modle` got none), or where to look."""
+class _ParseError(UsageError):
+    """The parser's own message: main adds the hint for a misspelled word (_hint)."""
+
+
+def _options(parser: argparse.ArgumentParser, command: str | None) -> tuple[set[str], set[str]]:
+    """(every option string, those that take a value) of ``command``'s subparser and the top
+    level (argparse reports an unknown word on the top-level parser, which alone does not know
+    which subcommand's options were meant)."""
+    actions = list(parser._actions)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction) and command in action._name_parser_map:
+            actions += action._name_parser_map[command]._actions
+    options = {option for action in actions for option in action.option_strings}
+    valued = {o for action in actions if action.nargs != 0 for o in action.option_strings}
+    return options, valued
+
+
+def _hint(parser: argparse.ArgumentParser, argv: list, message: str) -> str:
+    """ "; did you mean 'solve'?" for a misspelled subcommand or option of the command given
+    (as a scene key's message has: review, `flexgen slove` and `--modle` got none), or where
+    to look."""
     choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
     if choice is not None:
         known = re.findall(r"'([^']*)'", choice[2])
         close = difflib.get_close_matches(choice[1], known, n=1)
         return f"; did you mean {close[0]!r}?" if close else ""
     if message.startswith("unrecognized arguments:"):
-        known = [
-            option
-            for action in parser._actions
-            if isinstance(action, argparse._SubParsersAction)
-            for sub in action._name_parser_map.values()
-            for option_action in sub._actions
-            for option in option_action.option_strings
-        ] + [option for action in parser._actions for option in action.option_strings]
+        command = str(argv[0]) if argv else None
+        options = sorted(_options(parser, command)[0])
         for word in message.split(":", 1)[1].split():
-            close = difflib.get_close_matches(
-                word.split("=")[0], sorted(set(known)), n=2, cutoff=0.75
-            )
+            close = difflib.get_close_matches(word.split("=")[0], options, n=2, cutoff=0.75)
             if word.startswith("-") and close:
                 return f"; did you mean {' or '.join(map(repr, close))}?"
-        return " (see flexgen COMMAND --help)"
+        return f" (see flexgen {command if command in COMMANDS else 'COMMAND'} --help)"
     if "the following arguments are required: command" in message:
         return " (one of: " + ", ".join(COMMANDS) + "; see flexgen --help)"
     return ""
@@ -150,11 +160,13 @@ def _needs_the_core(error: ImportError):
 def _main(argv) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = None
+    parser = None
     try:
         # inside the try: building the parser imports every subcommand's module, and a Ctrl-C
         # then is an interruption like any other (the package's own import, before main, is
         # not covered: docs/sweep.md)
-        args = build_parser().parse_args(argv)
+        parser = build_parser()
+        args = parser.parse_args(argv)
         status = args.run(args)
         sys.stdout.flush()  # a write error of the answer surfaces here, not at exit
         return status
@@ -165,8 +177,11 @@ def _main(argv) -> int:
         _error(f"cannot write {exc.path}: {exc.why}")
         return 1
     except _user_errors() as exc:
-        _error(f"error: {exc}")
-        _json_failure(argv, args, str(exc))
+        text = str(exc)
+        if isinstance(exc, _ParseError) and parser is not None:
+            text += _hint(parser, argv, text)
+        _error(f"error: {text}")
+        _json_failure(argv, args, text)
         return 2
     except MissingExtra as exc:  # the install, not the input: exit 1, as flexgen plot's
         _error(f"error: {exc}")
@@ -243,27 +258,21 @@ def _json_failure(argv: list, args, message: str) -> None:
 
 def _scene_argument(argv: list) -> str:
     """The scene file among arguments that did not parse: the first after the command that is
-    neither an option nor the value of one (review: `solve --tol 2 --json x.toml` named its
-    answer "2")."""
-    takes_value: set[str] = set()
+    neither an option (or an abbreviation argparse takes for one) nor the value of one (review:
+    `solve --tol 2 --json x.toml` named its answer "2")."""
     try:
-        actions = build_parser()._actions
+        options, valued = _options(build_parser(), str(argv[0]))
     except Exception:  # the parser itself failed (the error being reported): all flags then
-        actions = []
-    for action in actions:
-        if isinstance(action, argparse._SubParsersAction) and argv[0] in action._name_parser_map:
-            takes_value = {
-                opt
-                for option in action._name_parser_map[argv[0]]._actions
-                if option.nargs != 0
-                for opt in option.option_strings
-            }
+        options, valued = set(), set()
     value_next, found = False, []
     for arg in map(str, argv[1:]):
         if value_next:
             value_next = False
         elif arg.startswith("-"):
-            value_next = "=" not in arg and arg in takes_value
+            name = arg.split("=", 1)[0]
+            prefixed = [o for o in options if o.startswith(name)]
+            option = name if name in options else prefixed[0] if len(prefixed) == 1 else name
+            value_next = "=" not in arg and option in valued
         else:
             found.append(arg)
     # an unknown option's value looks like a scene: a TOML file's name is preferred

@@ -230,25 +230,27 @@ class Result:
             )
         unit = _unit_labels(self.units)
         if self.points:
-            w = max(len(ref) for ref in self.points)
+            w = max(max(len(ref) for ref in self.points), len("point"))
             with_est = any(p.error_estimate is not None for p in self.points.values())
+            length, compliance = f"[{unit['length']}]", f"[{unit['compliance']}]"
+            cw = max(15, len(compliance) + 1)  # a compound unit may be wider than the numbers
+            lw = max(12, len(length) + 1)
             lines.append(
-                f"  {'point':<{w}}  {'x':>12} {'y':>12} {'angle':>10}  "
-                f"{'C major':>15} {'C minor':>15} {'C angle':>10}"
+                f"  {'point':<{w}}  {'x':>{lw}} {'y':>{lw}} {'angle':>10}  "
+                f"{'C major':>{cw}} {'C minor':>{cw}} {'C angle':>10}"
                 + (f"  {'est. pose':>9} {'est. C':>8}" if with_est else "")
             )
-            length, compliance = f"[{unit['length']}]", f"[{unit['compliance']}]"
             lines.append(
-                f"  {'':<{w}}  {length:>12} {length:>12} {'[rad]':>10}  "
-                f"{compliance:>15} {compliance:>15} {'[rad]':>10}"
+                f"  {'':<{w}}  {length:>{lw}} {length:>{lw}} {'[rad]':>10}  "
+                f"{compliance:>{cw}} {compliance:>{cw}} {'[rad]':>10}"
                 + (f"  {'[rel.]':>9} {'[rel.]':>8}" if with_est else "")
             )
             for ref, p in self.points.items():
                 e = p.ellipse
                 pe = p.error_estimate
                 lines.append(
-                    f"  {ref:<{w}}  {p.pose[0]:>12.6g} {p.pose[1]:>12.6g} {p.pose[2]:>10.5f}  "
-                    f"{e['major']:>15.5g} {e['minor']:>15.5g} {e['angle']:>10.5f}"
+                    f"  {ref:<{w}}  {p.pose[0]:>{lw}.6g} {p.pose[1]:>{lw}.6g} {p.pose[2]:>10.5f}  "
+                    f"{e['major']:>{cw}.5g} {e['minor']:>{cw}.5g} {e['angle']:>10.5f}"
                     + (
                         f"  {pe['pose']:>9.2g} {pe['compliance']:>8.2g}"
                         if with_est and pe is not None
@@ -341,12 +343,13 @@ def _flexure_lines(flexures: dict[str, FlexureStress], unit: dict[str, str]) -> 
         return "—" if v is None or not math.isfinite(v) else format(v, fmt)
 
     w = max(max(len(n) for n in flexures), len("flexure"))
-    stress = f"[{unit['stress']}]"
+    stress, curvature = f"[{unit['stress']}]", f"[{unit['curvature']}]"
+    sw, kw = max(16, len(stress) + 1), max(14, len(curvature) + 1)  # compound units: wider
     lines = [
-        f"  {'flexure':<{w}}  {'max curvature':>14} {'max strain':>11} {'max stress':>16} "
-        f"{'axial stress':>16} {'est.':>8} {'at s/L':>7}  safety factor",
-        f"  {'':<{w}}  {'[' + unit['curvature'] + ']':>14} {'[-]':>11} {stress:>16} "
-        f"{stress:>16} {'[rel.]':>8} {'[-]':>7}",
+        f"  {'flexure':<{w}}  {'max curvature':>{kw}} {'max strain':>11} {'max stress':>{sw}} "
+        f"{'axial stress':>{sw}} {'est.':>8} {'at s/L':>7}  safety factor",
+        f"  {'':<{w}}  {curvature:>{kw}} {'[-]':>11} {stress:>{sw}} "
+        f"{stress:>{sw}} {'[rel.]':>8} {'[-]':>7}",
     ]
     for name, st in flexures.items():
         sf = st.safety_factor
@@ -359,8 +362,8 @@ def _flexure_lines(flexures: dict[str, FlexureStress], unit: dict[str, str]) -> 
         e = st.error_estimate
         estimate = "—" if e is None else "inf" if math.isinf(e) else format(e, ".2g")
         lines.append(
-            f"  {name:<{w}}  {num(st.max_curvature, '.5g'):>14} {num(st.max_strain, '.5g'):>11} "
-            f"{num(st.max_stress, '.5g'):>16} {num(st.max_axial_stress, '.5g'):>16} "
+            f"  {name:<{w}}  {num(st.max_curvature, '.5g'):>{kw}} {num(st.max_strain, '.5g'):>11} "
+            f"{num(st.max_stress, '.5g'):>{sw}} {num(st.max_axial_stress, '.5g'):>{sw}} "
             f"{estimate:>8} {st.at:>7.3f}  {safety}"
         )
     return lines

@@ -448,6 +448,9 @@ def test_ctrl_c_while_the_subcommands_load_is_one_line(monkeypatch, capsys):
         ["solve", "--tol", "2", "--json", "SCENE"],
         ["solve", "--model", "smc", "--json", "SCENE"],
         ["solve", "--tol=2", "--json", "SCENE"],
+        # an abbreviation argparse takes, before a scene file not named .toml (review)
+        ["solve", "--to", "2", "--json", "SCENE_NOT_TOML"],
+        ["solve", "--json", "--model", "fem", "--ele", "0", "SCENE_NOT_TOML"],
         ["select", "--modes", "3", "--json", "SCENE"],
     ],
 )
@@ -457,7 +460,10 @@ def test_a_json_failure_names_the_scene_not_an_options_value(args, tmp_path, cap
     from flexgen.cli import main
 
     scene = Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml"
-    assert main([str(scene) if a == "SCENE" else a for a in args]) == 2
+    plain = tmp_path / "finger"
+    plain.write_bytes(scene.read_bytes())
+    given = {"SCENE": str(scene), "SCENE_NOT_TOML": str(plain)}
+    assert main([given.get(a, a) for a in args]) == 2
     assert json.loads(capsys.readouterr().out)["scene"] == "two-link finger"
 
 
@@ -491,7 +497,10 @@ def test_a_json_failure_into_a_closed_pipe_is_quiet(monkeypatch, capsys):
         (["slove", "x.toml"], "; did you mean 'solve'?"),
         (["solve", "x.toml", "--jsn"], "; did you mean '--json'?"),
         (["solve", "x.toml", "--modle", "scm"], "'--model'"),
-        (["solve", "x.toml", "--zzz"], " (see flexgen COMMAND --help)"),
+        (["solve", "x.toml", "--zzz"], " (see flexgen solve --help)"),
+        # only the command's own options (review: "--samples 3; did you mean '--samples'?")
+        (["solve", "x.toml", "--samples", "3"], " (see flexgen solve --help)"),
+        (["generate", "--sceen", "x.toml"], "; did you mean '--scene'?\n"),
         (
             [],
             " (one of: generate, solve, plot, select, sweep, bench, stability; see flexgen --help)",

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -503,3 +504,35 @@ def test_without_loads_or_output_the_free_tips_are_reported(tmp_path, capsys):
     for model in ("scm", "exact"):
         code, out, _ = run(capsys, "solve", scene, "--json", "--model", model)
         assert code == 0 and list(json.loads(out)["points"]) == ["b.tip"]
+
+
+def test_the_solve_tables_headers_line_up_with_their_units_and_numbers():
+    """Review: with a point name shorter than "point" every header sat two characters right of
+    its units row and numbers, and a compound unit's label ran into the next column."""
+    import flexgen
+
+    scenes = [
+        {
+            "flexure": [{"name": "f", "length": 1.0, "EI": 1.0}],
+            "link": [{"name": "L", "parent": "f", "points": {"p": [0.5, 0.0]}}],
+            "load": [{"point": "L.p", "force": [0, -1]}],
+        },
+        {
+            "units": {"length": "mm", "force": "g*cm/s^2"},
+            "flexure": [{"name": "f", "length": 20, "E": "200 GPa", "width": 1, "thickness": 0.1}],
+            "load": [{"point": "f.tip", "force": [0, -1]}],
+        },
+    ]
+    for scene in scenes:
+        lines = flexgen.solve(scene).table().splitlines()
+        for title in ("  point ", "  flexure "):
+            i = next(k for k, line in enumerate(lines) if line.startswith(title))
+            header, units, numbers = lines[i], lines[i + 1], lines[i + 2]
+
+            def ends(line):  # where each right-aligned column ends
+                return [m.end() for m in re.finditer(r"\S+(?: \S+)?(?=\s{2,}|\s\[|$)", line)]
+
+            unit_ends = [m.end() for m in re.finditer(r"\[[^\]]*\]", units)]
+            assert set(unit_ends) <= set(ends(header)), (header, units)
+            number_ends = [m.end() for m in re.finditer(r"\S+", numbers)][1 : len(unit_ends) + 1]
+            assert number_ends == unit_ends, (units, numbers)

@@ -13,9 +13,16 @@ class ExamplesFormatter(argparse.HelpFormatter):
     HelpFormatter left a description of one long line)."""
 
     def _fill_text(self, text: str, width: int, indent: str) -> str:
-        if text.startswith("examples:"):
-            return "".join(indent + line for line in text.splitlines(keepends=True))
-        return super()._fill_text(text, width, indent)
+        if not text.startswith("examples:"):
+            return super()._fill_text(text, width, indent)
+        examples, _, rest = text.partition("\n\n")  # prose after the examples is wrapped
+        shown = "".join(indent + line for line in examples.splitlines(keepends=True))
+        paragraphs = [
+            super(ExamplesFormatter, self)._fill_text(p, width, indent)
+            for p in rest.split("\n\n")
+            if p.strip()
+        ]
+        return "\n\n".join([shown, *paragraphs])
 
 
 class UsageError(Exception):
