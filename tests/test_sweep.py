@@ -9,6 +9,7 @@ import json
 import math
 import os
 import stat
+import subprocess
 import sys
 from pathlib import Path
 
@@ -1224,3 +1225,55 @@ def test_a_rows_checks_read_its_own_loads():
     for row, fy in zip(df.to_dict("records"), (-2.0, -5000.0)):
         solved = flexgen.solve(scm.with_value("load.0.force.1", fy), estimate=False)
         assert row["warnings"] == "\n".join(solved.warnings)
+
+
+@pytest.mark.parametrize(
+    "reply, message",
+    [
+        (None, "no Dask scheduler answered at"),  # accepts, stays silent (a dashboard's port)
+        (b"HTTP/1.1 400 Bad Request\r\n\r\n", "no Dask scheduler at"),  # answers, not Dask
+    ],
+)
+def test_a_port_that_is_no_scheduler_is_one_line_exit_1(reply, message, tmp_path):
+    """Review: --scheduler at a port that accepted and stayed silent hung for ever (Client's
+    timeout bounds the connection, not the handshake), and one that answered with other bytes
+    was 'internal error: MemoryError: Unable to allocate 3.07 EiB' (its reply read as a
+    length)."""
+    pytest.importorskip("distributed")
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    port = server.getsockname()[1]
+    held = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if reply is not None:
+                conn.sendall(reply)
+
+    threading.Thread(target=serve, daemon=True).start()
+    code = (
+        "import sys, flexgen.commands.sweep as s; s.CONNECT_DEADLINE = 3.0\n"
+        "from flexgen.cli import main\n"
+        f"sys.exit(main(['sweep', {str(FINGER)!r}, '--vary', 'tendon.0.tension=0:1:2', "
+        f"'--scheduler', 'tcp://127.0.0.1:{port}']))"
+    )
+    try:
+        run = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, cwd=tmp_path
+        )
+    finally:
+        server.close()
+        for conn in held:
+            conn.close()
+    assert run.returncode == 1, run.stderr
+    assert run.stderr.count("\n") == 1 and message in run.stderr, run.stderr
+    assert run.stdout == ""

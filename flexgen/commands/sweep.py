@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -279,12 +280,44 @@ def _client(address: str) -> Any:
     from distributed import Client
 
     _check_address(address)
-    try:
-        return Client(address, timeout="10s")
-    except ValueError as exc:  # what the check above leaves to the scheme's own backend
+    # Client's timeout bounds the connection, not the handshake after it: a port that accepts
+    # and stays silent (the dashboard's, 8787, for the scheduler's 8786) blocked for ever
+    # (review). So the whole connection runs in a thread of its own, given CONNECT_DEADLINE.
+    made: dict[str, Any] = {}
+
+    def connect() -> None:
+        try:
+            made["client"] = Client(address, timeout=f"{CONNECT_TIMEOUT}s")
+        except BaseException as exc:  # handed to the main thread below
+            made["error"] = exc
+
+    thread = threading.Thread(target=connect, name="flexgen-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_DEADLINE)
+    if thread.is_alive():
+        raise SchedulerError(
+            f"--scheduler: no Dask scheduler answered at {address!r} in {CONNECT_DEADLINE:g} s "
+            "(is it the scheduler's port, 8786 by default, not the dashboard's?)"
+        )
+    exc = made.get("error")
+    if exc is None:
+        return made["client"]
+    if isinstance(exc, ValueError):  # what the check above leaves to the scheme's own backend
         raise UsageError(f"--scheduler: not a scheduler address {address!r}: {exc}") from None
-    except (OSError, TimeoutError) as exc:
+    if isinstance(exc, OSError | TimeoutError):
         raise SchedulerError(f"--scheduler: cannot reach {address!r}: {exc}") from None
+    if isinstance(exc, Exception):  # a reply that is no Dask scheduler's, a scheme not set up
+        hint = (
+            "; tls needs a security context: flexgen.sweep(..., client=Client(address, "
+            "security=...)) in Python"
+            if address.startswith("tls://")
+            else ""
+        )
+        raise SchedulerError(
+            f"--scheduler: no Dask scheduler at {address!r}, or the handshake failed "
+            f"({type(exc).__name__}: {' '.join(str(exc).split())[:200]}){hint}"
+        ) from None
+    raise exc  # a KeyboardInterrupt, SystemExit: as they came
 
 
 def _check_address(address: str) -> None:
@@ -309,6 +342,9 @@ def _check_address(address: str) -> None:
 
 
 HOST_PORT_SCHEMES = ("tcp", "tls", "ws", "wss")
+# the Client's own connection timeout, and the deadline of the whole connection (handshake
+# included) after which --scheduler gives up (s)
+CONNECT_TIMEOUT, CONNECT_DEADLINE = 10.0, 20.0
 
 
 class SchedulerError(Exception):
