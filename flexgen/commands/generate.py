@@ -39,7 +39,12 @@ def register(sub) -> None:
             "self-contained C99 solver of that mechanism for a controller: NAME.h, NAME.c, "
             "NAME_example.c, CMakeLists.txt and NAME.mk (docs/controller.md)."
         ),
-        epilog="examples:\n  flexgen generate --modes 4 --out mykernels\n  flexgen generate --modes 4 --kernel local --prefix arm --lang c --out mykernels\n  flexgen generate --scene examples/two_link_finger.toml --out finger_controller",
+        epilog=(
+            "examples:\n"
+            "  flexgen generate --modes 4 --out mykernels\n"
+            "  flexgen generate --modes 4 --kernel local --prefix arm --lang c --out mykernels\n"
+            "  flexgen generate --scene examples/two_link_finger.toml --out finger_controller"
+        ),
         formatter_class=ExamplesFormatter,
     )
     gen.add_argument(
@@ -176,9 +181,9 @@ def _refuse_the_shipped_folder(out: Path) -> None:
     # out itself, or a language's folder in it (a symbolic link into the shipped set: review)
     if any((out / f).resolve() in shipped for f in folders):
         raise UsageError(
-            f"--out: {out} is, or links into, flexgen's shipped kernels (flexgen.generated), and a kernel of "
-            "your own there would replace one of them: give another folder (`make regen` "
-            "regenerates the shipped set)"
+            f"--out: {out} is, or links into, flexgen's shipped kernels (flexgen.generated), "
+            "and a kernel of your own there would replace one of them: give another folder "
+            "(`make regen` regenerates the shipped set)"
         )
 
 

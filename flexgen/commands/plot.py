@@ -33,7 +33,11 @@ def register(sub) -> None:
             "error estimate, a safety factor below 1) are printed on stderr. In Python, flexgen.plot(scene, result) draws on a matplotlib "
             "Axes and returns it (docs/solve.md)."
         ),
-        epilog="examples:\n  flexgen plot examples/two_link_finger.toml -o finger.png\n  flexgen plot examples/arc_moment.toml --model exact -o arc.svg",
+        epilog=(
+            "examples:\n"
+            "  flexgen plot examples/two_link_finger.toml -o finger.png\n"
+            "  flexgen plot examples/arc_moment.toml --model exact -o arc.svg"
+        ),
         formatter_class=ExamplesFormatter,
     )
     add_model_options(p)

@@ -28,7 +28,11 @@ def register(sub) -> None:
             "compliances (relative, spectral norm) is <= TOL, and print the choice with its "
             "estimate and cost. Exit 1 if TOL is out of reach (the best estimate is printed)."
         ),
-        epilog="examples:\n  flexgen select examples/two_link_finger.toml --tol 1e-6\n  flexgen select examples/steel_finger.toml --tol 1e-4 --json",
+        epilog=(
+            "examples:\n"
+            "  flexgen select examples/two_link_finger.toml --tol 1e-6\n"
+            "  flexgen select examples/steel_finger.toml --tol 1e-4 --json"
+        ),
         formatter_class=ExamplesFormatter,
     )
     p.add_argument("scene", type=Path, metavar="SCENE", help="scene file (TOML)")
