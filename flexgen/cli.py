@@ -46,17 +46,33 @@ class _ParseError(UsageError):
     """The parser's own message: main adds the hint for a misspelled word (_hint)."""
 
 
-def _options(parser: argparse.ArgumentParser, command: str | None) -> tuple[set[str], set[str]]:
-    """(every option string, those that take a value) of ``command``'s subparser and the top
-    level (argparse reports an unknown word on the top-level parser, which alone does not know
-    which subcommand's options were meant)."""
-    actions = list(parser._actions)
+def _command_of(argv: list) -> str | None:
+    """The subcommand among arguments that did not parse: the first that is one (options such
+    as --version may come before it)."""
+    return next((str(a) for a in argv if str(a) in COMMANDS), None)
+
+
+def _options(
+    parser: argparse.ArgumentParser, command: str | None, top: bool = True
+) -> tuple[set[str], set[str]]:
+    """(every option string, those that take a value) of ``command``'s subparser, and with
+    ``top`` of the top level too (argparse reports an unknown word on the top-level parser,
+    which alone does not know which subcommand's options were meant)."""
+    actions = list(parser._actions) if top else []
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction) and command in action._name_parser_map:
             actions += action._name_parser_map[command]._actions
     options = {option for action in actions for option in action.option_strings}
     valued = {o for action in actions if action.nargs != 0 for o in action.option_strings}
     return options, valued
+
+
+def _resolved(word: str, options: set[str]) -> str:
+    """The option ``word`` names: itself, or the one option it abbreviates (argparse takes
+    unique prefixes), else ``word``."""
+    name = word.split("=", 1)[0]
+    prefixed = [o for o in options if o.startswith(name)]
+    return name if name in options else prefixed[0] if len(prefixed) == 1 else name
 
 
 def _hint(parser: argparse.ArgumentParser, argv: list, message: str) -> str:
@@ -69,13 +85,20 @@ def _hint(parser: argparse.ArgumentParser, argv: list, message: str) -> str:
         close = difflib.get_close_matches(choice[1], known, n=1)
         return f"; did you mean {close[0]!r}?" if close else ""
     if message.startswith("unrecognized arguments:"):
-        command = str(argv[0]) if argv else None
-        options = sorted(_options(parser, command)[0])
+        command = _command_of(argv)
+        own = _options(parser, command, top=command is None)[0]
+        top = {o for action in parser._actions for o in action.option_strings}
         for word in message.split(":", 1)[1].split():
-            close = difflib.get_close_matches(word.split("=")[0], options, n=2, cutoff=0.75)
-            if word.startswith("-") and close:
+            name = word.split("=", 1)[0]
+            if not word.startswith("-"):
+                continue
+            if command is not None and name in top - own:  # flexgen solve x.toml --version
+                return f"; {name} goes before the command (flexgen {name})"
+            candidates = sorted(own - {name})
+            close = difflib.get_close_matches(name, candidates, n=2, cutoff=0.75)
+            if close:
                 return f"; did you mean {' or '.join(map(repr, close))}?"
-        return f" (see flexgen {command if command in COMMANDS else 'COMMAND'} --help)"
+        return f" (see flexgen {command or 'COMMAND'} --help)"
     if "the following arguments are required: command" in message:
         return " (one of: " + ", ".join(COMMANDS) + "; see flexgen --help)"
     return ""
@@ -233,8 +256,15 @@ def _json_failure(argv: list, args, message: str) -> None:
     line on stderr. Before the arguments parse, ``--json`` is looked for among them."""
     if args is not None:
         wanted = args.command in JSON_COMMANDS and getattr(args, "json", False)
-    else:
-        wanted = bool(argv) and argv[0] in JSON_COMMANDS and "--json" in argv
+    else:  # --json as given, or abbreviated as argparse takes it (review: --js)
+        command = _command_of(argv)
+        try:
+            options = _options(build_parser(), command)[0]
+        except Exception:  # the parser itself failed (the error being reported)
+            options = {"--json"}
+        wanted = command in JSON_COMMANDS and any(
+            str(a).startswith("--") and _resolved(str(a), options) == "--json" for a in argv
+        )
     if not wanted:
         return
     from flexgen.commands.common import printable
@@ -260,19 +290,18 @@ def _scene_argument(argv: list) -> str:
     """The scene file among arguments that did not parse: the first after the command that is
     neither an option (or an abbreviation argparse takes for one) nor the value of one (review:
     `solve --tol 2 --json x.toml` named its answer "2")."""
+    command = _command_of(argv)
     try:
-        options, valued = _options(build_parser(), str(argv[0]))
+        options, valued = _options(build_parser(), command)
     except Exception:  # the parser itself failed (the error being reported): all flags then
         options, valued = set(), set()
+    rest = argv[argv.index(command) + 1 :] if command is not None else argv
     value_next, found = False, []
-    for arg in map(str, argv[1:]):
+    for arg in map(str, rest):
         if value_next:
             value_next = False
         elif arg.startswith("-"):
-            name = arg.split("=", 1)[0]
-            prefixed = [o for o in options if o.startswith(name)]
-            option = name if name in options else prefixed[0] if len(prefixed) == 1 else name
-            value_next = "=" not in arg and option in valued
+            value_next = "=" not in arg and _resolved(arg, options) in valued
         else:
             found.append(arg)
     # an unknown option's value looks like a scene: a TOML file's name is preferred

@@ -451,6 +451,9 @@ def test_ctrl_c_while_the_subcommands_load_is_one_line(monkeypatch, capsys):
         # an abbreviation argparse takes, before a scene file not named .toml (review)
         ["solve", "--to", "2", "--json", "SCENE_NOT_TOML"],
         ["solve", "--json", "--model", "fem", "--ele", "0", "SCENE_NOT_TOML"],
+        # --json abbreviated, and an unknown option before the command (review: no JSON)
+        ["solve", "--js", "--to", "2", "SCENE_NOT_TOML"],
+        ["--zzz", "solve", "--json", "SCENE"],
         ["select", "--modes", "3", "--json", "SCENE"],
     ],
 )
@@ -501,6 +504,9 @@ def test_a_json_failure_into_a_closed_pipe_is_quiet(monkeypatch, capsys):
         # only the command's own options (review: "--samples 3; did you mean '--samples'?")
         (["solve", "x.toml", "--samples", "3"], " (see flexgen solve --help)"),
         (["generate", "--sceen", "x.toml"], "; did you mean '--scene'?\n"),
+        # a top-level option after the command; the command after an unknown option (review)
+        (["solve", "x.toml", "--version"], "; --version goes before the command"),
+        (["--zzz", "solve", "x.toml", "--modle", "2"], "'--model'"),
         (
             [],
             " (one of: generate, solve, plot, select, sweep, bench, stability; see flexgen --help)",
