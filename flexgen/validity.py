@@ -178,10 +178,16 @@ def prb_structure_problem(scene: Scene, by_value: bool = False) -> str | None:
         return f"{len(scene.flexures)} flexures"
     if any(t.tension != 0.0 or not by_value for t in scene.tendons):
         return "a tendon"
-    for ld in scene.loads:
-        if not _at_tip(scene, ld.point) and (ld.force != (0.0, 0.0) or not by_value):
-            return f"a load at {ld.point!r}, not at the tip"
+    for i in prb_off_tip_loads(scene):
+        if scene.loads[i].force != (0.0, 0.0) or not by_value:
+            return f"a load at {scene.loads[i].point!r}, not at the tip"
     return None
+
+
+def prb_off_tip_loads(scene: Scene) -> list[int]:
+    """The indices of a one-flexure scene's loads that are not at its tip (whose force, where
+    not zero, leaves the prb fitted case: the emitted controller checks them per call)."""
+    return [i for i, ld in enumerate(scene.loads) if not _at_tip(scene, ld.point)]
 
 
 def _at_tip(scene: Scene, ref: str) -> bool:

@@ -1677,3 +1677,48 @@ def test_the_strain_warning_is_flag_no_claim(tmp_path, kind):
         other = any("no accuracy is claimed" in w for w in r.warnings)
         assert bool(flags & 8) == (warned or other), (t, flags, r.warnings)
     assert any(strained) and not all(strained)  # both sides of the limit met
+
+
+PRB_CASE = """name = "prb case"
+[model]
+kind = "prb"
+[base]
+points = {{ r0 = [-0.1, 0.05] }}
+[[flexure]]
+name = "beam"
+length = 1.0
+EI = 1.0
+[[link]]
+name = "tipbody"
+points = {{ t = [0.0, 0.0], a = [0.1, 0.05] }}
+[[load]]
+point = "tipbody.t"
+force = [0.0, -1.0]
+[[load]]
+point = "tipbody.a"
+force = [{off_tip!r}, 0.0]
+[[tendon]]
+tension = {tension!r}
+route = ["base.r0", "tipbody.a"]
+[output]
+points = ["tipbody.t"]
+"""
+
+
+@NEEDS_GCC
+@pytest.mark.parametrize("tension, off_tip", [(0.0, 0.0), (0.5, 0.0), (0.0, 0.2), (0.5, 0.2)])
+def test_prb_claims_follow_the_tension_and_the_force_off_the_tip(tmp_path, tension, off_tip):
+    """Review: the library judges prb's fitted case by each answer's values (a tendon without
+    tension, a zero force off the tip are no part of it), the controller judged the scene's
+    structure and flagged every answer. Now both say the same, warning for warning."""
+    scene = tmp_path / "prb.toml"
+    scene.write_text(PRB_CASE.format(tension=tension, off_tip=off_tip))
+    write_files(controller_files(scene, "prb"), tmp_path)
+    exe = tmp_path / "prb_example"
+    sources = [str(tmp_path / "prb.c"), str(tmp_path / "prb_example.c")]
+    subprocess.run(["gcc", *STRICT, *sources, "-lm", "-o", str(exe)], check=True)
+    emitted = json.loads(subprocess.check_output([str(exe), "--no-timing"], text=True))
+    library = json.loads(flexgen.solve(scene).to_json())
+    assert emitted["warnings"] == library["warnings"]
+    claimed = tension == 0.0 and off_tip == 0.0
+    assert claimed == (not any("pseudo-rigid-body" in w for w in library["warnings"]))

@@ -415,24 +415,29 @@ def _tip0(values: Any, number) -> list[str] | None:
     return None if values is None else [number(float(v)) for v in values]
 
 
-def _prb_moment_check(scene: Scene, models: dict) -> bool:
-    """Whether a prb flexure's claim depends on the loads' moments at run time: its scene has
-    the fitted structure (validity.prb_structure_problem), which a moment leaves."""
-    from flexgen.models.registry import model_info
-    from flexgen.validity import prb_structure_problem
+def _prb_static(scene: Scene) -> str | None:
+    """What leaves the prb fitted case in every answer of the scene: several flexures (a
+    tendon's pull and a force off the tip depend on the inputs: _prb_runtime)."""
+    return f"{len(scene.flexures)} flexures" if len(scene.flexures) != 1 else None
 
-    has_prb = any(model_info(m)["kind"] == "prb" for m in models.values())
-    return has_prb and prb_structure_problem(scene) is None
+
+def _prb_runtime(scene: Scene, models: dict) -> dict | None:
+    """What the controller checks per call for a prb flexure of a one-flexure scene, as the
+    library judges each answer (validity._prb_case_problem): a moment in any load, a tendon
+    that pulls, a force in a load off the tip (the indices); None without a prb flexure or
+    where the scene leaves the case in every answer."""
+    from flexgen.validity import prb_off_tip_loads
+
+    if not any(_kind(m) == "prb" for m in models.values()) or _prb_static(scene) is not None:
+        return None
+    return {"tendons": bool(scene.tendons), "off_tip": prb_off_tip_loads(scene)}
 
 
 def _prb_structure(scene: Scene, models: dict) -> str | None:
-    """What in the scene's structure leaves the prb fitted case, when it has a prb flexure
-    (validity.prb_structure_problem: several flexures, a tendon, a load not at the tip)."""
-    from flexgen.validity import prb_structure_problem
-
+    """What leaves the prb fitted case in every answer (_prb_static), for the header."""
     if not any(_kind(m) == "prb" for m in models.values()):
         return None
-    problem = prb_structure_problem(scene)
+    problem = _prb_static(scene)
     return None if problem is None else c_comment(problem)
 
 
@@ -445,12 +450,12 @@ def _kind(model: Any) -> str:
 def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
     """The bend of each flexure (body order) past which flexgen/validity.py claims no accuracy:
     BEND_LIMIT; for prb, its pin-rotation validity, or -1 (never claimed) in a scene whose
-    structure its constants are not fitted for (a moment, a load value, is checked at run
-    time: _prb_moment_check)."""
+    structure its constants are not fitted for in every answer (a moment, a tendon's pull, a
+    force off the tip are checked at run time: _prb_runtime)."""
     from flexgen.models.registry import model_info
-    from flexgen.validity import BEND_LIMIT, PRB_LIMIT, prb_structure_problem
+    from flexgen.validity import BEND_LIMIT, PRB_LIMIT
 
-    prb_problem = prb_structure_problem(scene)
+    prb_problem = _prb_static(scene)
     thick = _thick_flexures(scene)
     limits = []
     for name in order:
@@ -539,7 +544,7 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
     texts, or a head and a tail around a bend in degrees (``%.0f deg``) or a point name. The
     near-critical warning's numbers (the margin) are not computed in C: its text is the C's."""
     from flexgen.scene_checks import scene_warnings
-    from flexgen.validity import _deg, _names, model_label, prb_structure_problem
+    from flexgen.validity import _deg, _names, model_label
 
     flex_index = {f.name: i for i, f in enumerate(scene.flexures)}
     idents = dict(zip([f.name for f in scene.flexures], [i for i, _ in _enum_names(scene)]))
@@ -580,7 +585,8 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
         "of a single flexure, and this scene has "
     )
     case_tail = "; no accuracy is claimed"
-    structure = prb_structure_problem(scene) if prb else None
+    structure = _prb_static(scene) if prb else None
+    runtime = _prb_runtime(scene, models)
     return {
         "unstable": c_json_string(UNSTABLE),
         "prb_limit": c_double(PRB_LIMIT),
@@ -590,6 +596,21 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
         "prb_structure": None
         if structure is None
         else c_json_string(case_head + structure + case_tail),
+        # checked per call, after a moment, in the library's order (validity._prb_case_problem)
+        "prb_tendon": c_json_string(case_head + "a tendon" + case_tail)
+        if runtime is not None and runtime["tendons"]
+        else None,
+        "prb_off_tip": []
+        if runtime is None
+        else [
+            {
+                "index": i,
+                "text": c_json_string(
+                    f"{case_head}a load at {scene.loads[i].point!r}, not at the tip{case_tail}"
+                ),
+            }
+            for i in runtime["off_tip"]
+        ],
         "scene": [c_json_string(w) for w in scene_warnings(scene)],
         # the library's order (validity._prb_case_problem): a moment first, then the structure
         "prb_moment": None
@@ -736,7 +757,7 @@ def controller_context(path: Path, options: Options) -> dict[str, Any]:
         "prb_structure": _prb_structure(scene, models),
         "tolerance_note": tolerance_note,
         "thick": [c_comment(repr(n)) for n in _thick_flexures(scene)],
-        "prb_moment_check": _prb_moment_check(scene, models),
+        "prb_runtime": _prb_runtime(scene, models),
         "near_critical": f"{NEAR_SINGULAR!r}",
         "float_margin": f"{FLOAT_MARGIN!r}",
         "near_critical_percent": f"{NEAR_SINGULAR:.0%}",
