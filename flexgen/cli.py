@@ -204,7 +204,7 @@ def _main(argv) -> int:
         if isinstance(exc, _ParseError) and parser is not None:
             text += _hint(parser, argv, text)
         _error(f"error: {text}")
-        _json_failure(argv, args, text)
+        _json_failure(argv, args, text, parser)
         return 2
     except MissingExtra as exc:  # the install, not the input: exit 1, as flexgen plot's
         _error(f"error: {exc}")
@@ -220,7 +220,9 @@ def _main(argv) -> int:
     except Exception as exc:
         if _core_unavailable(exc):  # the install or build, not the input: exit 1
             _error(f"error: {exc}")
-            _json_failure(argv, None if getattr(args, "core_missing", False) else args, str(exc))
+            _json_failure(
+                argv, None if getattr(args, "core_missing", False) else args, str(exc), parser
+            )
             return 1
         if isinstance(exc, OSError) and _stdout_refused(exc):
             # a full disk or device behind stdout: the answer is lost, said in one line
@@ -231,7 +233,7 @@ def _main(argv) -> int:
             raise
         message = f"internal error: {type(exc).__name__}: {exc} (please report it)"
         _error(message)
-        _json_failure(argv, args, message)
+        _json_failure(argv, args, message, parser)
         return 1
 
 
@@ -250,7 +252,7 @@ def _stdout_refused(exc: OSError) -> bool:
     return True
 
 
-def _json_failure(argv: list, args, message: str) -> None:
+def _json_failure(argv: list, args, message: str, parser: argparse.ArgumentParser | None) -> None:
     """With `solve --json` (or `select --json`), the answer to a scene that could not be solved
     still goes to stdout (the contract: ``"converged": false`` and the reason), after the one
     line on stderr. Before the arguments parse, ``--json`` is looked for among them."""
@@ -258,10 +260,7 @@ def _json_failure(argv: list, args, message: str) -> None:
         wanted = args.command in JSON_COMMANDS and getattr(args, "json", False)
     else:  # --json as given, or abbreviated as argparse takes it (review: --js)
         command = _command_of(argv)
-        try:
-            options = _options(build_parser(), command)[0]
-        except Exception:  # the parser itself failed (the error being reported)
-            options = {"--json"}
+        options = _options(parser, command)[0] if parser is not None else set()
         wanted = command in JSON_COMMANDS and any(
             str(a).startswith("--") and _resolved(str(a), options) == "--json" for a in argv
         )
@@ -274,7 +273,7 @@ def _json_failure(argv: list, args, message: str) -> None:
     if args is not None:
         scene = str(getattr(args, "scene", "") or "")
     else:  # the scene file as given: the first argument after the command that is no option
-        scene = _scene_argument(argv)
+        scene = _scene_argument(argv, parser)
     scene = scene_name_of(scene) if scene else scene  # its name, as a solved answer's
     reason = printable(_shortened(" ".join(str(message).split())))
     try:
@@ -286,15 +285,13 @@ def _json_failure(argv: list, args, message: str) -> None:
             raise
 
 
-def _scene_argument(argv: list) -> str:
+def _scene_argument(argv: list, parser: argparse.ArgumentParser | None) -> str:
     """The scene file among arguments that did not parse: the first after the command that is
     neither an option (or an abbreviation argparse takes for one) nor the value of one (review:
     `solve --tol 2 --json x.toml` named its answer "2")."""
     command = _command_of(argv)
-    try:
-        options, valued = _options(build_parser(), command)
-    except Exception:  # the parser itself failed (the error being reported): all flags then
-        options, valued = set(), set()
+    # no parser (building it failed: the error being reported): every option a flag then
+    options, valued = _options(parser, command) if parser is not None else (set(), set())
     rest = argv[argv.index(command) + 1 :] if command is not None else argv
     value_next, found = False, []
     for arg in map(str, rest):
