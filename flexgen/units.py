@@ -277,10 +277,8 @@ def keep_unit_strings(before: Mapping, after: dict) -> None:
     of the only unit-string value, E)."""
     if "units" in after:
         return
-    strings = [
-        (path, dim) for path, _, dim in locations(before) if isinstance(_get(before, path), str)
-    ]
-    if not strings or any(isinstance(_get(after, path), str) for path, _, _ in locations(after)):
+    strings = [(path, dim) for path, _, dim, _ in _unit_strings(before)]
+    if not strings or _unit_strings(after):
         return
     si = _system("SI")
     for path, dim in strings:
@@ -299,6 +297,15 @@ def keep_unit_strings(before: Mapping, after: dict) -> None:
         unit = "Pa" if dim == "stress" else _symbol(si.unit(dim))
         container = _get(after, path[:-1])
         container[path[-1]] = f"{number!r} {unit}"
+
+
+def _unit_strings(d: Mapping) -> list[tuple[tuple, str, str, str]]:
+    """(path, key, dimension, text) of every value of a scene dict written with a unit."""
+    return [
+        (path, key, dim, value)
+        for path, key, dim in locations(d)
+        if isinstance(value := _get(d, path), str)
+    ]
 
 
 def _get(d: Any, path: tuple) -> Any:
@@ -505,11 +512,7 @@ def normalise(
     as written for its messages: ``'-20 mm' (-0.02 m)``)."""
     if not isinstance(d, Mapping):
         return d, None  # the validator's error
-    found = [
-        (path, key, dim, value)
-        for path, key, dim in locations(d)
-        if isinstance(value := _get(d, path), str)
-    ]
+    found = _unit_strings(d)
     if not found and "units" not in d:
         return d, None
     system = _system(d.get("units", "SI"))
