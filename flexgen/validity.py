@@ -162,26 +162,37 @@ def _scene_constants(scene: Scene) -> str | None:
 
 
 def _prb_case_problem(scene: Scene) -> str | None:
+    """What in this answer's scene (its loads and tensions) leaves the PRB fitted case, a force
+    at the tip of a single flexure, or None; in this order, which the emitted controller keeps
+    (it checks the values per call): a moment, several flexures, a tendon that pulls, a force
+    off the tip. A load at a link point on the tip is at the tip; a tendon without tension and
+    a zero force are no part of it (review: a tension sweep's first row, at 0, claimed no
+    accuracy)."""
     for ld in scene.loads:
         if ld.moment != 0.0:
             return f"a moment at {ld.point!r}"
-    return prb_structure_problem(scene, by_value=True)
-
-
-def prb_structure_problem(scene: Scene, by_value: bool = False) -> str | None:
-    """What in the scene's structure leaves the PRB fitted case (the moments aside, which are
-    load values: the emitted controller checks them at run time), or None. A load at a link
-    point on the tip is at the tip. ``by_value`` (the library's check of one answer, whose
-    loads and tensions are known): a tendon without tension and a load of zero force are no
-    part of it either (review: a tension sweep's first row, at 0, claimed no accuracy)."""
-    if len(scene.flexures) != 1:
-        return f"{len(scene.flexures)} flexures"
-    if any(t.tension != 0.0 or not by_value for t in scene.tendons):
-        return "a tendon"
+    several = prb_several_flexures(scene)
+    if several is not None:
+        return several
+    if any(t.tension != 0.0 for t in scene.tendons):
+        return PRB_TENDON
     for i in prb_off_tip_loads(scene):
-        if scene.loads[i].force != (0.0, 0.0) or not by_value:
-            return f"a load at {scene.loads[i].point!r}, not at the tip"
+        if scene.loads[i].force != (0.0, 0.0):
+            return prb_off_tip(scene.loads[i].point)
     return None
+
+
+# what leaves the prb fitted case, as the warnings say it (the controller's too)
+PRB_TENDON = "a tendon"
+
+
+def prb_off_tip(point: str) -> str:
+    return f"a load at {point!r}, not at the tip"
+
+
+def prb_several_flexures(scene: Scene) -> str | None:
+    """What leaves the prb fitted case in every answer of the scene: several flexures."""
+    return f"{len(scene.flexures)} flexures" if len(scene.flexures) != 1 else None
 
 
 def prb_off_tip_loads(scene: Scene) -> list[int]:

@@ -415,29 +415,25 @@ def _tip0(values: Any, number) -> list[str] | None:
     return None if values is None else [number(float(v)) for v in values]
 
 
-def _prb_static(scene: Scene) -> str | None:
-    """What leaves the prb fitted case in every answer of the scene: several flexures (a
-    tendon's pull and a force off the tip depend on the inputs: _prb_runtime)."""
-    return f"{len(scene.flexures)} flexures" if len(scene.flexures) != 1 else None
-
-
 def _prb_runtime(scene: Scene, models: dict) -> dict | None:
     """What the controller checks per call for a prb flexure of a one-flexure scene, as the
     library judges each answer (validity._prb_case_problem): a moment in any load, a tendon
     that pulls, a force in a load off the tip (the indices); None without a prb flexure or
     where the scene leaves the case in every answer."""
-    from flexgen.validity import prb_off_tip_loads
+    from flexgen.validity import prb_off_tip_loads, prb_several_flexures
 
-    if not any(_kind(m) == "prb" for m in models.values()) or _prb_static(scene) is not None:
+    if not any(_kind(m) == "prb" for m in models.values()) or prb_several_flexures(scene):
         return None
     return {"tendons": bool(scene.tendons), "off_tip": prb_off_tip_loads(scene)}
 
 
 def _prb_structure(scene: Scene, models: dict) -> str | None:
-    """What leaves the prb fitted case in every answer (_prb_static), for the header."""
+    """What leaves the prb fitted case in every answer (several flexures), for the header."""
+    from flexgen.validity import prb_several_flexures
+
     if not any(_kind(m) == "prb" for m in models.values()):
         return None
-    problem = _prb_static(scene)
+    problem = prb_several_flexures(scene)
     return None if problem is None else c_comment(problem)
 
 
@@ -453,9 +449,9 @@ def _claim_limits(scene: Scene, models: dict, order: list[str]) -> list[float]:
     structure its constants are not fitted for in every answer (a moment, a tendon's pull, a
     force off the tip are checked at run time: _prb_runtime)."""
     from flexgen.models.registry import model_info
-    from flexgen.validity import BEND_LIMIT, PRB_LIMIT
+    from flexgen.validity import BEND_LIMIT, PRB_LIMIT, prb_several_flexures
 
-    prb_problem = _prb_static(scene)
+    prb_problem = prb_several_flexures(scene)
     thick = _thick_flexures(scene)
     limits = []
     for name in order:
@@ -544,7 +540,14 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
     texts, or a head and a tail around a bend in degrees (``%.0f deg``) or a point name. The
     near-critical warning's numbers (the margin) are not computed in C: its text is the C's."""
     from flexgen.scene_checks import scene_warnings
-    from flexgen.validity import _deg, _names, model_label
+    from flexgen.validity import (
+        PRB_TENDON,
+        _deg,
+        _names,
+        model_label,
+        prb_off_tip,
+        prb_several_flexures,
+    )
 
     flex_index = {f.name: i for i, f in enumerate(scene.flexures)}
     idents = dict(zip([f.name for f in scene.flexures], [i for i, _ in _enum_names(scene)]))
@@ -585,7 +588,7 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
         "of a single flexure, and this scene has "
     )
     case_tail = "; no accuracy is claimed"
-    structure = _prb_static(scene) if prb else None
+    structure = prb_several_flexures(scene) if prb else None
     runtime = _prb_runtime(scene, models)
     return {
         "unstable": c_json_string(UNSTABLE),
@@ -597,7 +600,7 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
         if structure is None
         else c_json_string(case_head + structure + case_tail),
         # checked per call, after a moment, in the library's order (validity._prb_case_problem)
-        "prb_tendon": c_json_string(case_head + "a tendon" + case_tail)
+        "prb_tendon": c_json_string(case_head + PRB_TENDON + case_tail)
         if runtime is not None and runtime["tendons"]
         else None,
         "prb_off_tip": []
@@ -605,9 +608,7 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
         else [
             {
                 "index": i,
-                "text": c_json_string(
-                    f"{case_head}a load at {scene.loads[i].point!r}, not at the tip{case_tail}"
-                ),
+                "text": c_json_string(case_head + prb_off_tip(scene.loads[i].point) + case_tail),
             }
             for i in runtime["off_tip"]
         ],
