@@ -1,7 +1,5 @@
 """python -m flexgen"""
 
-import sys
+from flexgen.cli import entry
 
-from flexgen.cli import main
-
-sys.exit(main())
+entry()

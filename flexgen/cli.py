@@ -165,6 +165,19 @@ def main(argv=None) -> int:
         return 1
 
 
+def entry() -> None:
+    """The ``flexgen`` program (console script and ``python -m flexgen``): ``main``, then exit
+    with its status, a Ctrl-C after ``main`` returned ignored. By then the answer is out and the
+    files are written; Python's shutdown (joining threads, flushing) turned a Ctrl-C there into
+    a death by SIGINT (130, no message) or a traceback with exit 0 (review: a script dropped a
+    finished study). ``main`` itself leaves the handler alone (tests call it in process)."""
+    import signal
+
+    status = main()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.exit(status)
+
+
 def _core_unavailable(exc: BaseException) -> bool:
     """The compiled core is missing or older than its sources (flexgen.core.CoreUnavailable,
     named so that this module does not import the core)."""

@@ -73,12 +73,16 @@ def folder_problem(folder: Path) -> str | None:
     return None
 
 
-def check_writable(out_dir: Path) -> None:
-    """OutputError unless out_dir is, or can be created as, a folder this user may write (so
-    that a bad --out fails before any work: generate, bench, stability)."""
+def check_writable(out_dir: Path, names: Sequence[str] = ()) -> None:
+    """OutputError unless out_dir is, or can be created as, a folder this user may write, and
+    UnusableTarget if one of the files ``names`` in it exists as no regular file (so that a bad
+    --out fails before any work: generate, bench, stability; review: a folder named like a page
+    failed after minutes of solving)."""
     problem = folder_problem(out_dir)
     if problem is not None:
         raise OutputError(f"--out: cannot write {out_dir}: {problem}")
+    for name in names:
+        _replaceable(Path(out_dir) / name)
 
 
 def write_all(targets: Sequence[tuple[Path, Writer]]) -> None:

@@ -52,11 +52,18 @@ def scene_notes(scene: Scene) -> list[str]:
         if reach > joined:
             notes.append(
                 f"flexure {f.name!r} starts at the origin of link {link.name!r} (the tip of "
-                f"flexure {link.parent!r}) while the link's point {name!r} lies {reach:.4g} "
+                f"flexure {link.parent!r}) while the link's point {name!r} lies "
+                f"{reach:.4g}{_length_unit(scene)} "
                 f"from that origin: a link has no length; if {f.name!r} should start further "
                 f"along, give it at = [x, y, angle] in the frame of {link.name!r}"
             )
     return notes
+
+
+def _length_unit(scene: Scene) -> str:
+    """ " mm" where the scene names its units (review: "lies 30 from that origin" in an mm
+    scene), else "" (plain SI numbers, as the answers)."""
+    return "" if scene.units is None else " " + scene.units.label("length")
 
 
 # below this length/thickness the model's slender beam (no shear, plane sections: the elastica
@@ -166,11 +173,12 @@ def scene_warnings(scene: Scene) -> list[str]:
     if mixed:
         out.append(mixed)
     out.extend(implausible_stresses(scene))
+    unit = _length_unit(scene)
     for f in thick_flexures(scene):
         t = cast(float, f.thickness)  # given: thick_flexures reads only given thicknesses
         out.append(
-            f"flexure {f.name!r}: length {f.length:.4g} is only {f.length / t:.2g} times its "
-            f"thickness {t:.4g}: the model is a slender beam (no shear), off by several "
+            f"flexure {f.name!r}: length {f.length:.4g}{unit} is only {f.length / t:.2g} times "
+            f"its thickness {t:.4g}{unit}: the model is a slender beam (no shear), off by several "
             f"percent below {MIN_SLENDERNESS:g} thicknesses (check the units of both)"
         )
     return out

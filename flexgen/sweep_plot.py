@@ -77,6 +77,12 @@ def draw_study(
             ax.plot(x[unstable], y[unstable], "x", color="C3", label="unstable")
             for xf in x[~ok]:
                 ax.axvline(xf, color="0.7", lw=0.8)
+            if not ok.any() and np.isfinite(x).any():
+                # axvline does not set the limits (review: every case failed, the key's values
+                # of 1e-6 and 2e-6 were drawn on an axis of -0.055..0.055)
+                lo, hi = float(np.nanmin(x)), float(np.nanmax(x))
+                pad = 0.05 * (hi - lo) if hi > lo else 0.05 * abs(lo) or 0.05
+                ax.set_xlim(lo - pad, hi + pad)
             ax.set_xlabel(_text(_key_label(keys[0], units)))
             ax.set_ylabel(_text(label))
         else:

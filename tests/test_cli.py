@@ -3,6 +3,7 @@
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -203,6 +204,69 @@ def test_an_unwritable_out_fails_before_the_run(tmp_path, command):
         result = _flexgen(command, "--quick", "--out", str(out))
         assert result.returncode == 2, result.stderr
         assert len(result.stderr.strip().splitlines()) == 1 and "--out" in result.stderr
+
+
+@pytest.mark.parametrize(
+    "command, page", [("stability", "stability.md"), ("bench", "accuracy-vs-speed.png")]
+)
+def test_a_page_that_cannot_be_replaced_fails_before_the_run(tmp_path, command, page):
+    """A folder or a symbolic link named like one of the pages is refused before the run
+    (review: found by write_all after minutes of solving)."""
+    import flexgen_tools.bench
+    import flexgen_tools.stability
+
+    def ran(**kw):
+        raise AssertionError("solved for pages not written")
+
+    out = tmp_path / "out"
+    for make in (lambda p: p.mkdir(), lambda p: p.symlink_to(tmp_path / "elsewhere")):
+        shutil.rmtree(out, ignore_errors=True)
+        out.mkdir()
+        make(out / page)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(flexgen_tools.stability, "run_stability", ran)
+            mp.setattr(flexgen_tools.bench, "run_bench", ran)
+            result = _main_capture(command, "--quick", "--out", str(out))
+        assert result[0] == 2 and page in result[2] and len(result[2].splitlines()) == 1
+        assert sorted(p.name for p in out.iterdir()) == [page]
+
+
+@pytest.mark.parametrize("command", ["stability", "bench"])
+def test_pages_without_matplotlib_are_one_line_before_the_run(tmp_path, command, monkeypatch):
+    """Their chart needs matplotlib (the plot extra): said at once, exit 1, as flexgen plot
+    says it (review: the whole sweep ran, then "internal error: ImportError")."""
+    import importlib.util
+
+    import flexgen_tools.bench
+    import flexgen_tools.stability
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "matplotlib" else real(name)
+    )
+
+    def ran(**kw):
+        raise AssertionError("solved for pages not written")
+
+    monkeypatch.setattr(flexgen_tools.stability, "run_stability", ran)
+    monkeypatch.setattr(flexgen_tools.bench, "run_bench", ran)
+    rc, out, err = _main_capture(command, "--quick", "--out", str(tmp_path / "out"))
+    assert rc == 1 and out == "" and len(err.splitlines()) == 1, err
+    assert "matplotlib" in err and "flexgen[plot]" in err
+    assert not (tmp_path / "out").exists()
+
+
+def _main_capture(*args: str) -> tuple[int, str, str]:
+    """flexgen's main in this process (so monkeypatches hold): exit code, stdout, stderr."""
+    import contextlib
+    import io
+
+    from flexgen.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main(list(args))
+    return rc, out.getvalue(), err.getvalue()
 
 
 FINGER_TOML = str(Path(__file__).resolve().parents[1] / "examples" / "two_link_finger.toml")
@@ -440,6 +504,35 @@ def test_ctrl_c_while_the_subcommands_load_is_one_line(monkeypatch, capsys):
     assert cli.main(["solve", "x.toml"]) == 130
     out, err = capsys.readouterr()
     assert (out, err) == ("", "flexgen: interrupted\n")
+
+
+def test_ctrl_c_after_main_returned_is_ignored():
+    """A Ctrl-C while Python shuts down (after the answer and files are out: joining a worker
+    thread, here one that sends the SIGINT itself) was a death by SIGINT with no message or a
+    traceback with exit 0 (review); the program now exits with main's status."""
+    runner = (
+        "import os, signal, threading, time\n"
+        "import flexgen.cli as cli\n"
+        "def late():\n"
+        "    time.sleep(0.2)\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "    time.sleep(0.3)\n"
+        "def main(argv=None):\n"
+        "    threading.Thread(target=late).start()  # joined by the shutdown\n"
+        "    print('answer', flush=True)\n"
+        "    return 0\n"
+        "cli.main = main\n"
+        "cli.entry()\n"
+    )
+    r = subprocess.run([sys.executable, "-c", runner], capture_output=True, text=True)
+    assert (r.returncode, r.stdout, r.stderr) == (0, "answer\n", "")
+
+
+def test_the_program_is_entry_in_both_spellings():
+    """The console script and python -m flexgen both run cli.entry (its SIGINT handling)."""
+    root = Path(__file__).resolve().parents[1]
+    assert 'flexgen = "flexgen.cli:entry"' in (root / "pyproject.toml").read_text()
+    assert "entry()" in (root / "flexgen" / "__main__.py").read_text()
 
 
 @pytest.mark.parametrize(

@@ -77,3 +77,16 @@ def test_buckling_solve_agrees():
     (row,) = S.buckling_table((5,))
     assert row["solve_first"] == pytest.approx(S.euler(1), rel=1e-7)
     assert abs(row["solve_first"] - row["loads"][0]) < 1e-8 * row["loads"][0]
+
+
+def test_the_convergence_sentence_names_only_the_rows_shown():
+    """A --quick page (N = 3 and 5) quoted "0.3 % from N = 6" from the full run's table
+    (review): the sentence reads the rows it follows."""
+    rows = [
+        {"modes": 3, "rel": [1e-4, 0.2, 0.9]},
+        {"modes": 5, "rel": [8.6e-9, 3.3e-4, 0.022]},
+    ]
+    text = S._convergence_sentence(rows)
+    assert "3 % from N = 5" in text and "0.3 % at no N shown (N <= 5)" in text
+    rows.append({"modes": 6, "rel": [1e-12, 1e-6, 0.002]})
+    assert "0.3 % from N = 6" in S._convergence_sentence(rows)

@@ -309,6 +309,31 @@ def test_steel_finger_root_stress_is_the_pad_force_times_its_lever_arm():
         assert any("'proximal'" in w and "yield strength" in w for w in r.warnings)
 
 
+def test_may_be_below_one_is_the_axial_peak_plus_the_bending_peak_over_one_minus_estimate(
+    tmp_path,
+):
+    """docs/design.md's rule, from the answer's own fields: the true stress may reach
+    axial peak + E t/2 max|kappa| / (1 - estimate); a strength just below that is a "may be
+    below 1" warning, one just above it none (review: the page gave strength (1 - est) / max
+    stress, which warned 2376 MPa that the code, rightly, did not)."""
+    text = (ROOT / "examples" / "steel_finger.toml").read_text()
+    st = flexgen.solve(ROOT / "examples" / "steel_finger.toml").flexures["proximal"]
+    bending = 200e9 * 0.0003 / 2 * st.max_curvature
+    bound = (st.max_axial_stress or 0.0) + bending / (1.0 - st.error_estimate)
+    assert bound > st.max_stress  # the rule reaches past the answer
+    for factor, warned in ((0.999, True), (1.001, False)):
+        path = tmp_path / f"finger{factor}.toml"
+        strength = repr(factor * bound)
+        path.write_text(
+            text.replace("yield_strength = 1.4e9", f"yield_strength = {strength}").replace(
+                "fatigue_strength = 5.0e8", f"fatigue_strength = {strength}"
+            )
+        )
+        r = flexgen.solve(path)
+        said = [w for w in r.warnings if "'proximal'" in w and "may be below 1" in w]
+        assert bool(said) is warned, (factor, r.warnings)
+
+
 # ---- laziness, pickling, units -------------------------------------------------------------------
 
 

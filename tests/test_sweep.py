@@ -717,6 +717,23 @@ def test_cli_plot_renders(tmp_path, vary):
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and plot.stat().st_size > 10_000
 
 
+def test_a_plot_where_every_case_failed_spans_the_keys_values(tmp_path, monkeypatch):
+    """The failed cases' grey lines are where the key's values are (review: with nothing
+    converged, thicknesses of 1e-6 and 2e-6 were drawn on an axis of -0.055..0.055)."""
+    import flexgen.sweep_plot as sweep_plot
+
+    key = "flexure.proximal.thickness"
+    df = flexgen.sweep(FINGER, {key: [1e-6, 2e-6]}, workers=1)
+    assert not df["converged"].any()
+    drawn = []
+    monkeypatch.setattr(sweep_plot, "_save", lambda fig, path: drawn.append(fig))
+    sweep_plot.draw_study(df, [key], False, tmp_path / "study.png")
+    [fig] = drawn
+    for ax in (a for a in fig.axes if a.get_visible()):
+        lo, hi = ax.get_xlim()
+        assert lo < 1e-6 and 2e-6 < hi and hi - lo < 1e-5, (lo, hi)
+
+
 def test_plot_labels_carry_the_scenes_units():
     from flexgen.sweep_plot import outputs
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from flexgen.commands.common import UsageError, output_path
+from flexgen.commands.common import MissingExtra, UsageError, output_path
 
 
 def register(sub) -> None:
@@ -44,9 +44,17 @@ def run(args) -> int:
         raise UsageError(
             f"flexgen stability needs the flexgen_tools package of a source checkout ({exc})"
         ) from None
+    import importlib.util
+
     from flexgen.outfiles import check_writable
 
-    check_writable(args.out)  # before minutes of solving, not after
+    check_writable(
+        args.out, ("stability.md", "stability-map.png")
+    )  # before minutes of solving, not after
+    if importlib.util.find_spec("matplotlib") is None:  # its chart: found before, not after
+        raise MissingExtra(
+            "flexgen stability draws its chart with matplotlib: pip install 'flexgen[plot]'"
+        )
     try:
         data = run_stability(quick=args.quick, out=args.out)
     except NeedsCheckout as exc:
