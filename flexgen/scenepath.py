@@ -180,6 +180,12 @@ def _walk(
             continue
         child = node[key] if isinstance(node, list) else node.get(key)
         if child is None:  # only a mapping's key may be missing
+            # an entry of a list the scene lacks (review: "has no key '2' (known: none)")
+            if _position(segs[i + 1]) is not None:
+                raise PathError(
+                    f"{path}: {'.'.join(segs[: i + 1])} is not in the scene, so it has no "
+                    f"entry {segs[i + 1]!r}: give it whole in the scene to vary one entry"
+                )
             child = node[key] = {}
         if kind == "" and seg in tables:
             kind = seg

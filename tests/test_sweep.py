@@ -139,6 +139,8 @@ def test_with_value_keeps_what_it_does_not_change(finger):
             "link.middle.points has no key 'palm' (known: pad, hole, joint)",
         ),
         ("gravity", 9.81, "the scene has no key 'gravity'"),
+        # review: "flexure.proximal.at has no key '2' (known: none)"
+        ("flexure.proximal.at.2", 0.1, "flexure.proximal.at is not in the scene, so it has no"),
         ("flexure.proximal", 1.0, "names a whole [[flexure]] table"),
         (
             "tendon.0.tension",
