@@ -44,6 +44,8 @@ The richer model (``richer``), per flexure:
     fem n (n > 4)   -> fem 2n (the joint rotations are the curvature at the cell midpoints
                        times h: interpolated); fem converges as 1/n^2, so
                        err(n) = 4/3 |x_n - x_2n| (Richardson), times ``FEM_FACTOR``'s margin.
+                       In a scene that also has flexures of other models: scm 8, as below
+                       (``mixes_fem``).
     fem n (n <= 4)  -> scm 8 (q: the Legendre polynomial through the joints' curvatures), margin
                        ``COARSE_FACTOR``: so few elements are not in Richardson's range, and
                        near a limit load fem n and fem 2n are both far from it
@@ -206,13 +208,15 @@ def _fem_refine(n: int, m: int):
 
 
 def _fem_to_scm(n: int, m: int):
-    """fem n joint rotations -> scm m modes (n <= m): the Legendre polynomial of degree n - 1
-    through the joints' curvatures (kappa L = n q_i at x_i = 2 (i + 1/2) / n - 1), zero beyond."""
+    """fem n joint rotations -> scm m modes: the Legendre polynomial of degree n - 1 through the
+    joints' curvatures (kappa L = n q_i at x_i = 2 (i + 1/2) / n - 1), zero beyond; for n > m
+    the least-squares one of degree m - 1 (a start for Newton on scm m, not an answer)."""
     x = 2.0 * (np.arange(n) + 0.5) / n - 1.0
+    k = min(n, m)
 
     def f(q: np.ndarray) -> np.ndarray:
         out = np.zeros(m)
-        out[:n] = legendre.legfit(x, q * n, n - 1)
+        out[:k] = legendre.legfit(x, q * n, k - 1)
         return out
 
     return f
@@ -227,8 +231,28 @@ def _tip_angle(n: int):
     return f
 
 
-def richer(model: Any) -> tuple[Any, Any, float, str]:
-    """(richer model, map of q to its coordinates, factor, label) for one flexure model."""
+def refined_fem(model: Any) -> bool:
+    """A fem model checked against fem 2n (Richardson) where its scene lets it be."""
+    return getattr(model, "kind", None) == "fem" and int(model.n_dof) >= FEM_REFINED
+
+
+def mixes_fem(models: Iterable[Any]) -> bool:
+    """Whether refined fem flexures share the scene with flexures of another model. fem 2n's
+    own error is a quarter of fem n's, the richer smooth curvature models' next to none of
+    theirs: where a scene mixes the two, the answer's errors from its flexures may cancel at a
+    point while fem 2n's error there does not, and the difference then understates the
+    answer's error whatever the margin (review: fem8 with scm2 and cc, a pose 1.26 times its
+    estimate, a scm6 flexure's stress 2.4 times). In such a scene every fem flexure is checked
+    against scm FEM_COARSE_REFERENCE instead, so that every richer model is far richer than its
+    flexure's: the difference is the answer's error, cancelled or not."""
+    refined = [refined_fem(m) for m in models]
+    return any(refined) and not all(refined)
+
+
+def richer(model: Any, mixed: bool = False) -> tuple[Any, Any, float, str]:
+    """(richer model, map of q to its coordinates, factor, label) for one flexure model;
+    ``mixed``: its scene ``mixes_fem`` (a refined fem flexure is then checked against scm
+    FEM_COARSE_REFERENCE)."""
     kind = getattr(model, "kind", None)
     if kind == "scm":
         from .models.scm import SCMModel
@@ -249,7 +273,7 @@ def richer(model: Any) -> tuple[Any, Any, float, str]:
         from .models.fem import FEMModel
 
         n = int(model.n_dof)
-        if n < FEM_REFINED:
+        if n < FEM_REFINED or mixed:
             from .models.scm import SCMModel
 
             k = FEM_COARSE_REFERENCE
@@ -359,8 +383,9 @@ class Estimator:
         self.maps: dict[str, Any] = {}
         factors = []
         labels = {}
+        mixed = mixes_fem(solver.models.values())
         for name, m in solver.models.items():
-            r, f, fac, lab = richer(m)
+            r, f, fac, lab = richer(m, mixed)
             rich[name], self.maps[name], labels[name] = r, f, lab
             factors.append(fac)
         self.labels = labels
@@ -371,7 +396,7 @@ class Estimator:
         self._fem_h = {
             name: float(m.length) / int(m.n_dof)
             for name, m in solver.models.items()
-            if getattr(m, "kind", None) == "fem" and int(m.n_dof) >= FEM_REFINED
+            if refined_fem(m) and not mixed
         }
         # the poorest pair decides the margin (flexures of a chain interact)
         self.factor = max(factors, default=1.0)
