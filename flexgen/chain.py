@@ -2,7 +2,9 @@
 
 The solver core (chain_solver.c) has its own, faster kinematics; this module gives the scene's
 structure (body order, the frame each body moves with, the packing of q) to the problem builder,
-and the geometry of an answer to plots and tests (a plain product-rule reference).
+the frame poses of an answer (``frame_poses``, ``frame_poses_batch``: what the axial stress and
+the curvature estimate's end floor read, in every Result and every study, and what drawings
+draw), and a plain product-rule reference of the Jacobian and Hessian to tests.
 
 A scene is a tree of bodies. The base is the world frame. A flexure's root frame is its ``at``
 offset in its parent body's frame; its tip frame is the root frame composed with the tip transform

@@ -1,6 +1,6 @@
 """The result of solving a scene: equilibrium, stability, compliance of the output points.
 
-``Result.to_json()`` gives every field of the public contract (``scene-format.md``; a chain
+``Result.to_json()`` gives every field of the public contract (``scene-format.md``, beside the checkout in ``../shared/``; a chain
 model's ``error_estimate`` null where none was asked for), the few of flexgen's own that
 docs/solve.md lists, and ``"reason"`` when not converged; ``Result`` itself carries more for the
 Python API

@@ -101,10 +101,18 @@ def strain_warnings(scene: Scene, max_curvature: Mapping[str, float]) -> list[st
 
 def _strain_warning(name: str, strain: float) -> str:
     """The warning of a flexure strained past STRAIN_LIMIT."""
+    head, tail = strain_warning_parts(name)
+    return f"{head}{strain:.3g} ({100 * strain:.2g} %){tail}"
+
+
+def strain_warning_parts(name: str) -> tuple[str, str]:
+    """The strain warning's text before and after its numbers (the emitted controller's
+    example prints them around its own, "%.3g (%.2g %%)")."""
     return (
-        f"flexure {name!r}: outer-fibre bending strain {strain:.3g} ({100 * strain:.2g} %) is past the "
-        f"{100 * STRAIN_LIMIT:g} % beyond which no flexure material is linear, as every model "
-        f"here assumes: the answer does not hold for a real strip (check the load and the units)"
+        f"flexure {name!r}: outer-fibre bending strain ",
+        f" is past the {100 * STRAIN_LIMIT:g} % beyond which no flexure material is linear, as "
+        "every model here assumes: the answer does not hold for a real strip (check the load "
+        "and the units)",
     )
 
 

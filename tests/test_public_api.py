@@ -22,7 +22,7 @@ EULER = math.pi**2 / 4
 
 def column(load_fraction: float, model: dict) -> flexgen.Solver:
     """A straight cantilever along +x under an axial compressive tip force of load_fraction of
-    Euler's load: solved straight, with margin 1 - P/P_cr (docs/model-notes)."""
+    Euler's load: solved straight, with margin 1 - P/P_cr (../shared/model-notes.md)."""
     scene = scene_from_dict(
         {
             "model": model,

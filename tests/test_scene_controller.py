@@ -1212,6 +1212,15 @@ WARNING_SCENES = {
         '[[flexure]]\nname = "f"\nlength = 0.001\nE = 2e11\nwidth = 0.005\n'
         'thickness = 0.0003\n[[load]]\npoint = "f.tip"\nforce = [0.0, -0.1]\n'
     ),
+    # strained past 3 %: the flag was set, the example's warnings empty (review); a second,
+    # calm flexure with a thickness prints nothing
+    "strained": (
+        '[[flexure]]\nname = "f"\nlength = 0.02\nE = 200e9\nwidth = 0.01\nthickness = 0.0016\n'
+        '[[link]]\nname = "l"\npoints = { p = [0.01, 0.0] }\n'
+        '[[flexure]]\nname = "g"\nat = [0.01, 0.0, 0.0]\nlength = 0.02\nE = 200e9\n'
+        "width = 0.01\nthickness = 0.0005\n"
+        '[[load]]\npoint = "l.p"\nforce = [0.0, 0.0]\nmoment = 34.0\n'
+    ),
 }
 
 
@@ -1245,6 +1254,8 @@ def test_example_warnings_are_the_library_warnings(tmp_path, case):
         assert "it has 2 flexures" in header
     if case == "prb in its case":
         assert ref["warnings"] == []
+    if case == "strained":
+        assert len(ref["warnings"]) == 1 and "bending strain" in ref["warnings"][0]
     if case == "short and thick":
         assert len(ref["warnings"]) == 1 and "3.3 times its thickness" in ref["warnings"][0]
         assert "flexure 'f' is" in (tmp_path / "s.h").read_text()

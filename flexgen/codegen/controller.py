@@ -542,11 +542,13 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
     from flexgen.scene_checks import scene_warnings
     from flexgen.validity import (
         PRB_TENDON,
+        STRAIN_LIMIT,
         _deg,
         _names,
         model_label,
         prb_off_tip,
         prb_several_flexures,
+        strain_warning_parts,
     )
 
     flex_index = {f.name: i for i, f in enumerate(scene.flexures)}
@@ -631,6 +633,18 @@ def _warning_texts(scene: Scene, models: dict, order: list[str]) -> dict[str, An
             f", past the {_deg(BEND_LIMIT)} to which the error estimate's Gauss kernels are "
             "certified; no accuracy is claimed"
         ),
+        # every flexure with a thickness, in the scene's order (validity.strain_warnings)
+        "strain": [
+            {
+                "ident": idents[f.name],
+                "half": c_double(0.5 * float(f.thickness)),
+                "head": c_json_string(strain_warning_parts(f.name)[0]),
+                "tail": c_json_string(strain_warning_parts(f.name)[1]),
+            }
+            for f in scene.flexures
+            if f.thickness is not None
+        ],
+        "strain_limit": c_double(STRAIN_LIMIT),
     }
 
 

@@ -39,14 +39,16 @@ class FlexureModel(Protocol):
         ...
 
     def shape(self, q: np.ndarray, num: int = 64) -> np.ndarray:
-        """(num, 2) centreline points in the root frame, root first, for plots."""
+        """(num, 2) centreline points in the root frame, root first, for plots (fem: its
+        n + 2 joint and end points, ``num`` ignored)."""
         ...
 
 
 def core_tip(model, q) -> TipKinematics:
     """The tip kinematics of a model the solver core evaluates by itself (the n-element chain,
     the pseudo-rigid body): ``fg_flexure_tip`` on the model's ``fg_flexure``, so the formula
-    exists once, in C. (Smooth curvature models evaluate their generated NumPy kernels.)"""
+    with its derivatives exists once, in C (their ``tip_poses``, the pose alone and batched, is
+    tested against it). (Smooth curvature models evaluate their generated NumPy kernels.)"""
     from ..core import ffi, lib
 
     k = int(model.n_dof)

@@ -43,7 +43,9 @@ class PRBModel:
 
     def tip(self, q: np.ndarray) -> TipKinematics:
         """Tip pose, Jacobian and Hessian: the solver core's own evaluation of this model
-        (``fg_flexure_tip``; the pseudo-rigid body is written once, in C)."""
+        (``fg_flexure_tip``: the pseudo-rigid body with its derivatives is written once, in C;
+        ``tip_poses`` repeats only its pose, batched, for the frame poses of stresses and
+        drawings, tested against this)."""
         return core_tip(self, q)
 
     def tip_poses(self, Q) -> np.ndarray:

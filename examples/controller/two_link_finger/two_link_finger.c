@@ -4214,10 +4214,12 @@ static const fg_real two_link_finger_claim_limit[2] = {3.141592653589793, 3.1415
 
 /* the strain check (flexgen/validity.py, STRAIN_LIMIT: no flexure material is linear past it),
  * per flexure in body order: thickness / 2 (0: none given, no check) and its model's
- * curvature_bound(): max |kappa| <= factor x (the largest |q_i| where by_max, else their sum);
- * a prb flexure's is its curvature itself, K |q| / EI */
+ * curvature_bound(): max |kappa| <= factor x (the largest |q_i| where by_max, else their sum) */
 static const fg_real two_link_finger_strain_half[2] = {0.000125, 0.0001};
 static const int two_link_finger_bound_by_max[2] = {0, 0};
+
+/* each flexure's curvature_bound() factor, in body order (the strain check's screen; a prb
+ * flexure's curvature itself: K / EI) */
 static const fg_real two_link_finger_bound_factor[2] = {50.0, 66.66666666666667};
 
 /* The largest |curvature| of flexure j (body order) at q, as flexgen.stress.max_abs_curvature
@@ -4225,7 +4227,7 @@ static const fg_real two_link_finger_bound_factor[2] = {50.0, 66.66666666666667}
  * through the two nearest joints is extended; smooth curvature kappa L = sum q_n P_n(x) on
  * x in [-1, 1] at 513 points (the ends included; the library's maximum is exact on the
  * polynomial, these samples miss an interior peak by a few 1e-6 of it at most) */
-static fg_real two_link_finger_max_curvature(int j, const fg_real *q)
+static fg_real two_link_finger_body_max_curvature(int j, const fg_real *q)
 {
     const fg_flexure *f = &two_link_finger_flexures[j];
     const fg_real *c = q + f->offset;
@@ -4261,6 +4263,16 @@ static fg_real two_link_finger_max_curvature(int j, const fg_real *q)
     return best / f->length;
 }
 
+double two_link_finger_max_curvature(int flexure, const double q[TWO_LINK_FINGER_NDOF])
+{
+    int j;
+    for (j = 0; j < TWO_LINK_FINGER_NFLEXURES; ++j)
+        if (two_link_finger_scene_flexure[j] == flexure)
+            return two_link_finger_body_max_curvature(j, q);
+    return (double)NAN;
+}
+
+
 /* 1 if flexure j (body order) is strained past the limit at q: its model's cheap bound first (as
  * flexgen.validity.calm screens it), so that the usual answer, far below the limit, costs a few
  * additions */
@@ -4281,7 +4293,7 @@ static int two_link_finger_strained(int j, const fg_real *q)
     }
     if (bound * two_link_finger_bound_factor[j] * half <= 0.03)
         return 0;
-    return two_link_finger_max_curvature(j, q) * half > 0.03;
+    return two_link_finger_body_max_curvature(j, q) * half > 0.03;
 }
 
 /* A warm start (from state->q) is accepted only on the load path from the unloaded state, as

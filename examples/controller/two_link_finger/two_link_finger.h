@@ -215,6 +215,13 @@ void two_link_finger_inputs_default(two_link_finger_inputs *in);
  * time (docs/controller.md, "Worst-case time"). */
 int two_link_finger_solve(const two_link_finger_inputs *in, two_link_finger_state *state, two_link_finger_outputs *out);
 
+/* The largest |curvature| along flexure `flexure` (TWO_LINK_FINGER_FLEX_*) at the coordinates q (an
+ * answer's out->q), in 1/L, as flexgen's Result.flexures max_curvature; times
+ * E thickness / 2 it is the outer-fibre bending strain times E, the bending stress. Not computed by
+ * two_link_finger_solve (a smooth curvature flexure samples its profile at 513 points: an interior peak
+ * is missed by a few 1e-6 of it at most). NaN for a flexure index out of range. */
+double two_link_finger_max_curvature(int flexure, const double q[TWO_LINK_FINGER_NDOF]);
+
 
 #ifdef __cplusplus
 }

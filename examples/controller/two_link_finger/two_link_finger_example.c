@@ -48,6 +48,13 @@ static void item_degrees(int *count, const char *head, double angle, const char 
     ++*count;
 }
 
+static void item_strain(int *count, const char *head, double strain, const char *tail)
+{
+    /* as flexgen/validity.py writes a strain: "{:.3g} ({:.2g} %)" of strain and 100 strain */
+    printf("%s\"%s%.3g (%.2g %%)%s\"", *count ? ", " : "", head, strain, 100.0 * strain, tail);
+    ++*count;
+}
+
 static void item_named(int *count, const char *head, const char *name, const char *tail)
 {
     printf("%s\"%s%s%s\"", *count ? ", " : "", head, name, tail);
@@ -91,6 +98,18 @@ static void print_warnings(const two_link_finger_inputs *in, const two_link_fing
                 most = body_order[i];
         if (out->bend[most] > 3.141592653589793)
             item_degrees(&n, heads[most], out->bend[most], ", past the 180 deg to which the error estimate's Gauss kernels are certified; no accuracy is claimed");
+    }
+    {
+        /* outer-fibre bending strain past the limit (flexgen/validity.py: strain_warnings) */
+        double strain = two_link_finger_max_curvature(TWO_LINK_FINGER_FLEX_PROXIMAL, out->q) * 0.000125;
+        if (strain > 0.03)
+            item_strain(&n, "flexure 'proximal': outer-fibre bending strain ", strain, " is past the 3 % beyond which no flexure material is linear, as every model here assumes: the answer does not hold for a real strip (check the load and the units)");
+    }
+    {
+        /* outer-fibre bending strain past the limit (flexgen/validity.py: strain_warnings) */
+        double strain = two_link_finger_max_curvature(TWO_LINK_FINGER_FLEX_DISTAL, out->q) * 0.0001;
+        if (strain > 0.03)
+            item_strain(&n, "flexure 'distal': outer-fibre bending strain ", strain, " is past the 3 % beyond which no flexure material is linear, as every model here assumes: the answer does not hold for a real strip (check the load and the units)");
     }
     if (out->flags & TWO_LINK_FINGER_FLAG_NEAR_CRITICAL)
         item(&n, "near a critical load: the stiffness is less than 5% from singular, so the compliance amplifies any model error by more than 20x");
