@@ -201,7 +201,7 @@ class CheckedSolver(Solver):
         # in Solver.solve, while the workspace holds this answer (validity.calm reads it)
         scene = loads_scene(self)
         if result.converged:
-            if scene is not self.scene or not validity_calm(self, result):
+            if scene is not self.scene or not validity_calm(self):
                 check(scene, result, self.models)
         else:
             _units_hint(scene, result)

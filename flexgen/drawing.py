@@ -369,7 +369,7 @@ def draw_on(ax, scene: Scene, result: Result | None, exact_solution=None, title=
         handles.append(Line2D([], [], **style, label="flexures (unloaded)"))
     else:
         handles.append(Line2D([], [], **style, label="unloaded flexures"))
-        handles += _loaded_flexures(ax, scene, g1, colouring(scene, result))
+        handles += _loaded_flexures(ax, g1, colouring(scene, result))
     handles += _tendons(ax, scene, shown)
     handles += _loads(ax, scene, shown, size)
     if result is not None:
@@ -466,7 +466,7 @@ def _links(ax, scene: Scene, g: Geometry, margin: float, unloaded_outline: bool)
         )
 
 
-def _loaded_flexures(ax, scene: Scene, g: Geometry, colour: Colouring | None) -> list:
+def _loaded_flexures(ax, g: Geometry, colour: Colouring | None) -> list:
     """The loaded centrelines: one colour, or coloured along their length with a colour bar and
     the largest value marked."""
     from matplotlib.collections import LineCollection

@@ -372,7 +372,7 @@ class Estimator:
     ``Problem`` (sharing the answer's load and tension arrays), a ``Workspace``, the q map and
     the per-point scales and floors, and the buffer ``fg_estimate`` writes into."""
 
-    def __init__(self, solver: Any, solver_class: Any):
+    def __init__(self, solver: Any):
         from .models.registry import build_models
         from .problem import Problem, Workspace
 
@@ -585,26 +585,24 @@ _WHY = {
 }
 
 
-def estimator_of(solver: Any, solver_class: Any) -> Estimator:
-    """The solver's Estimator, prepared on first use and kept on the solver; ``solver_class``
-    prepares the richer model (``flexgen.solver.Solver``, passed in by it: this module does not
-    import the solver; from outside, ``Solver.estimator()``)."""
+def estimator_of(solver: Any) -> Estimator:
+    """The solver's Estimator, prepared on first use and kept on the solver (from outside,
+    ``Solver.estimator()``)."""
     est = solver._estimator
     if est is None:
-        est = solver._estimator = Estimator(solver, solver_class)
+        est = solver._estimator = Estimator(solver)
     return est
 
 
-def estimate_answer(solver: Any, status: int, solver_class: Any) -> Estimate:
+def estimate_answer(solver: Any, status: int) -> Estimate:
     """The estimate of the answer a ``solver.run`` just left in its workspace (``status``: what
-    ``run`` returned; ``solver_class``: see ``estimator_of``); no answer: an empty Estimate (its
-    Result says inf)."""
+    ``run`` returned); no answer: an empty Estimate (its Result says inf)."""
     if status != _SOLVED:
         return estimate_of([], [])
     est = solver._estimator
     if est is None:
         try:
-            est = estimator_of(solver, solver_class)
+            est = estimator_of(solver)
         except ValueError as exc:  # a flexure model with no richer model (a user's own)
             n = len(solver.problem.outputs)
             return estimate_of([math.inf] * n, [math.inf] * n, f"error estimate: unknown ({exc})")

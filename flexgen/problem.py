@@ -60,7 +60,9 @@ class Problem:
         self._keep: list[Any] = []  # what the structs point into
 
         flex = ffi.new("fg_flexure[]", max(len(order), 1))
-        self.stiffness = np.zeros(chain.ndof)  # diagonal of the elastic energy's Hessian
+        # the elastic stiffness D: the diagonal of the elastic energy's Hessian (unloaded; the
+        # loaded stiffness K of an answer is Result.stiffness)
+        self.stiffness = np.zeros(chain.ndof)
         for i, name in enumerate(order):
             fl, f = chain.flexures[name], flex[i]
             frame = chain.frame_of(fl.parent)

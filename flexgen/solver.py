@@ -239,9 +239,7 @@ class Solver:
             raise RuntimeError(CONCURRENT)
         try:  # the answer read from the workspace before another solve may overwrite it
             status = self._run(loads, tensions, q0)
-            result = self._result(
-                status, estimate_answer(self, status, Solver) if estimate else None
-            )
+            result = self._result(status, estimate_answer(self, status) if estimate else None)
             self._check(result)
             return result
         finally:
@@ -498,7 +496,7 @@ class Solver:
         model's prepared solver), built on first use and kept."""
         from .estimate import estimator_of
 
-        return estimator_of(self, Solver)
+        return estimator_of(self)
 
     def margin_above(self, margin: float) -> bool:
         """Whether the last solve's answer's margin to a critical load (``margin()``) exceeds

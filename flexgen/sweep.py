@@ -360,7 +360,7 @@ def _solve_timed(solver: Solver, chunk: Chunk, probes: int) -> float:
     for _ in range(probes):
         status = solver.run(q0=q0)
         if chunk.estimate:
-            estimate_answer(solver, status, Solver)
+            estimate_answer(solver, status)
         if chunk.stress:
             stress_columns(solver, solver.workspace.q)
         q0 = {n: solver.workspace.q[sl].copy() for n, sl in solver.problem.chain.slices.items()}

@@ -226,7 +226,7 @@ def _record(
     row = [1.0, 1.0 if a.stable else 0.0, float(a.iterations)]
     n = len(solver.problem.outputs)
     poses, ellipses = ws.pose[:n].tolist(), ws.ellipse[:n].tolist()
-    est = estimate_answer(solver, status, Solver) if chunk.estimate else None
+    est = estimate_answer(solver, status) if chunk.estimate else None
     reasons[c] = ("", *_messages(solver, status, est))
     errors = [max(p, q) for p, q in zip(est.pose, est.compliance)] if est else [math.nan] * n
     for pose, ellipse, error in zip(poses, ellipses, errors):
@@ -254,7 +254,7 @@ def _messages(solver: Solver, status: int, est: Any) -> tuple[str, str]:
     # the checks read the case's own loads where they could differ from the scene's (a
     # moment at a prb flexure, a load level that suggests the wrong units: review)
     scene = validity_loads_scene(solver)
-    calm = scene is solver.scene and validity_calm(solver, None)  # a flag read (once)
+    calm = scene is solver.scene and validity_calm(solver)  # a flag read (once)
     if calm and solver.quiet(est):  # the usual case (about 1 us a case on the finger)
         return "", ""
     result = solver._result(status, est, stress=False)

@@ -505,9 +505,9 @@ def loads_scene(solver) -> Scene:
     return with_loads(scene, p.loads.tolist(), p.tensions.tolist())
 
 
-def calm(solver, result) -> bool:
+def calm(solver) -> bool:
     """True when ``check(solver.scene, result, solver.models)`` would add no warning to the
-    converged ``result`` that ``solver`` (a prepared ``flexgen.Solver``) just solved, decided
+    converged result that ``solver`` (a prepared ``flexgen.Solver``) just solved, decided
     from the core's bend and kernel per flexure still in ``solver.workspace`` (call it before
     the solver solves again) without building the Result's dicts: ``flexgen.solve``'s usual
     answer then skips ``check``. Conservative: False whenever a warning may apply (it needs every

@@ -47,3 +47,41 @@ def near_edge(modes: int, phi_max: float, count: int, seed: int = 0) -> np.ndarr
     q[:, 1:] *= rng.choice([1.0, 3.0, 10.0, 30.0], size=(count, 1))
     q = np.concatenate([q, np.eye(modes), -np.eye(modes)])
     return q * phi_max * rng.uniform(0.97, 1.0, size=(len(q), 1)) / max_angle(q)[:, None]
+
+
+# -- a plain Newton on one clamped flexure model (the reference tests of fem and prb models) ----
+def solve_cantilever(
+    model,
+    force=(0.0, 0.0),
+    moment: float = 0.0,
+    q0=None,
+    steps: int = 20,
+    tol: float = 1e-13,
+    max_iter: int = 50,
+):
+    """Equilibrium of any FlexureModel clamped at its root under a dead tip load: a plain
+    NumPy Newton, independent of the solver core (which fem and prb models are checked against
+    in tests/test_reference_models.py).
+
+    Solves grad U(q) - J(q)^T (Fx, Fy, M) = 0 by Newton's method on the stiffness
+    K = hess U - sum_k H_k w_k, with the load applied in ``steps`` equal increments from q0
+    (default: unloaded). Returns (q, TipKinematics). Raises RuntimeError if Newton fails.
+    """
+    w_full = np.array([force[0], force[1], moment], dtype=float)
+    q = np.zeros(model.n_dof) if q0 is None else np.array(q0, dtype=float)
+    scale = model.EI / model.length
+    for lam in np.linspace(0.0, 1.0, steps + 1)[1:]:
+        w = lam * w_full
+        for _ in range(max_iter):
+            tk = model.tip(q)
+            r = model.energy_gradient(q) - tk.J.T @ w
+            K = model.energy_hessian(q) - np.einsum("k,kij->ij", w, tk.H)
+            dq = np.linalg.solve(K, -r)
+            q = q + dq
+            if np.max(np.abs(dq)) < tol and np.max(np.abs(r)) < 1e3 * tol * scale:
+                break
+        else:
+            raise RuntimeError(
+                f"solve_cantilever: Newton did not converge at load factor {lam:.3g}"
+            )
+    return q, model.tip(q)

@@ -87,16 +87,16 @@ def test_calm_only_when_check_adds_nothing(case):
     if not result.converged:
         pytest.skip("check assesses converged answers only")
     result.stability_margin = solver.margin()
-    calm = validity.calm(solver, result)  # the first answer: screened by fg_calm
+    calm = validity.calm(solver)  # the first answer: screened by fg_calm
     before = list(result.warnings)
     validity.check(scene, result, solver.models)
     added = result.warnings[len(before) :]
     assert calm == (added == []) if expected is None else (not calm and added)
     # from the second answer on fg_solve screens it (fg_answer.calm): the same verdict, and the
     # same as fg_calm's on that answer
-    again = solver.solve(estimate=True)
+    solver.solve(estimate=True)
     screen = solver._validity_screen
-    assert validity.calm(solver, again) == calm
+    assert validity.calm(solver) == calm
     if not screen.empty and not screen.always:  # (else calm decides without an answer)
         ws = solver.workspace
         lib = flexgen.core.lib

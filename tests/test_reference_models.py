@@ -11,11 +11,12 @@ import math
 
 import numpy as np
 import pytest
+from reference import solve_cantilever
 from scipy.special import ellipe, ellipk
 
 import flexgen
 from flexgen.models.exact import cantilever, euler_load, post_buckled, solve_exact, tip_compliance
-from flexgen.models.fem import FEMModel, solve_cantilever
+from flexgen.models.fem import FEMModel
 from flexgen.models.prb import PRBModel
 from flexgen.scene import Flexure, Link, Load, ModelSpec, Scene, Tendon
 from flexgen_tools.honesty import REFERENCE_NOISE
@@ -896,3 +897,18 @@ def test_the_exact_compliance_of_an_arc_is_the_closed_form(m):
     # this: measured 4.9e-15 (m = 1) to 3.2e-13 (m = 4 pi)
     assert np.abs(c - ref).max() <= REFERENCE_NOISE * np.abs(ref).max(), (c, ref)
     assert r.warnings == [] and r.notes == []
+
+
+@pytest.mark.parametrize(
+    "model",
+    [FEMModel(0.7, 1.3, 1), FEMModel(0.7, 1.3, 9), PRBModel(0.7, 1.3)],
+    ids=["fem1", "fem9", "prb"],
+)
+def test_tip_poses_repeat_the_cores_tip_pose(model):
+    """fem's and prb's batched tip_poses (NumPy: the frame poses behind every answer's stress)
+    are the pose the core's fg_flexure_tip gives, row for row: the two spellings of one formula
+    stay in step."""
+    Q = np.random.default_rng(3).uniform(-1.5, 1.5, (6, model.n_dof))
+    batched = model.tip_poses(Q)
+    for q, pose in zip(Q, batched):
+        assert np.allclose(pose, model.tip(q).pose, rtol=0, atol=1e-14)

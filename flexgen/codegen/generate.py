@@ -176,7 +176,6 @@ def numpy_files(kernel: FlexureKernel, prefix: str = "") -> dict[str, str]:
         context |= {
             "trig_coeffs": numpy_array(coeffs),
             "trig_odd": "[" + ", ".join(str(x) for x in odd) + "]",
-            "horner_steps": len(coeffs[0]) - 1,
         }
     if kernel.spec.family == "local":
         rows = kernel.local_rows

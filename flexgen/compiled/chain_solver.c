@@ -11,8 +11,9 @@
  * smallest eigenvalue, then the stable side taken by descent, cross_bifurcation) or else
  * overshoots a limit point (a shorter step); where the path ends the solve descends to the
  * equilibrium it snaps to (a snap-through). Each such critical load factor is reported in
- * fg_answer.critical with its kind, and so is every flexure whose "auto" model switched from its
- * polynomial to its Gauss kernel (fg_answer.switched).
+ * fg_answer.critical with its kind, and so is every flexure whose first kernel (polynomial or
+ * local: "auto" and "local" models) left its range and whose Gauss kernel took over
+ * (fg_answer.switched).
  *
  * Every solve ends with an answer (FG_SOLVED) or with the reason there is none
  * (FG_NO_EQUILIBRIUM): fg_answer.failure (FG_FAIL_*: the unloaded state cannot be evaluated, the
@@ -30,8 +31,9 @@
  * flexgen/solver.py calls fg_solve and builds the Result from fg_answer (the buckling and
  * snap-through warnings from the critical events: BUCKLING_SIDES words the FG_BUCKLING_* kinds),
  * and flexgen/reasons.py words the FG_FAIL_* and FG_ERR_* codes. A C program gets the structs of a
- * scene from flexgen generate --scene (examples/controller/two_link_finger/two_link_finger.c). flexgen/chain.py's kinematics is a plain
- * reference for plots and tests; this file has its own.
+ * scene from flexgen generate --scene (examples/controller/two_link_finger/two_link_finger.c).
+ * flexgen/chain.py has kinematics of its own: the frame poses of an answer (its stresses, its
+ * drawing) and a reference Jacobian and Hessian for tests; the solver's are this file's.
  *
  * Tests: tests/test_solver_core.py checks the answers against independent references (the exact
  * elastica, closed forms such as Euler's critical loads, finite differences of the residual and

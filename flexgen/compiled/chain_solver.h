@@ -194,7 +194,8 @@ typedef struct {
     const int *route_len;        /* ntendons */
     const int *route;            /* point indices */
     const int *outputs;          /* noutputs point indices */
-    const fg_real *stiffness;     /* ndof: diagonal of the elastic energy's Hessian */
+    const fg_real *stiffness;     /* ndof: the elastic stiffness D, diagonal of the elastic energy's
+                                  * Hessian (unloaded; not fg_answer.stiffness, the loaded K) */
     fg_settings settings;
     fg_lapack lapack;
     const fg_real *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
@@ -216,8 +217,9 @@ typedef struct {
     int *critical_kind;   /* max_critical: FG_SNAP_THROUGH or FG_BUCKLING_* of each */
     int max_critical;     /* their capacity: only the first max_critical events are stored */
     int ncritical;        /* how many were met (every one, also those beyond max_critical) */
-    int *switched;        /* nflex (in fg_problem.flex order): 1 if that flexure's "auto" model
-                           * used its Gauss kernel during the solve; NULL: not reported */
+    int *switched;        /* nflex (in fg_problem.flex order): 1 if that flexure's first kernel
+                           * (polynomial or local) left its range and its Gauss kernel took
+                           * over during the solve; NULL: not reported */
     /* FG_NO_EQUILIBRIUM: why (FG_FAIL_*) and at which load factor (the reason's lam) */
     int failure;
     fg_real failure_load_factor;
@@ -305,7 +307,8 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out);
 
 /* One flexure's tip pose (3), J (3 x k) and H (3 x k x k) in its root frame, physical units, at
  * its coordinates q, as the solver evaluates it (the one implementation of the n-element chain
- * and the pseudo-rigid body; flexgen.models.fem and .prb call it); scratch: 4 (k + 1) doubles.
+ * and the pseudo-rigid body with their derivatives; flexgen.models.fem and .prb call it, and
+ * their NumPy tip_poses repeat only the pose, tested against it); scratch: 4 (k + 1) doubles.
  * 0 if the model cannot be evaluated at q (a polynomial-only kernel past its range). */
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch);

@@ -123,38 +123,3 @@ class FEMModel:
         pts[1:, 0] = np.cumsum(self.segments * np.cos(phi))
         pts[1:, 1] = np.cumsum(self.segments * np.sin(phi))
         return pts
-
-
-def solve_cantilever(
-    model,
-    force=(0.0, 0.0),
-    moment: float = 0.0,
-    q0=None,
-    steps: int = 20,
-    tol: float = 1e-13,
-    max_iter: int = 50,
-):
-    """Equilibrium of any FlexureModel clamped at its root under a dead tip load.
-
-    Solves grad U(q) - J(q)^T (Fx, Fy, M) = 0 by Newton's method on the stiffness
-    K = hess U - sum_k H_k w_k, with the load applied in ``steps`` equal increments from q0
-    (default: unloaded). Returns (q, TipKinematics). Raises RuntimeError if Newton fails.
-    """
-    w_full = np.array([force[0], force[1], moment], dtype=float)
-    q = np.zeros(model.n_dof) if q0 is None else np.array(q0, dtype=float)
-    scale = model.EI / model.length
-    for lam in np.linspace(0.0, 1.0, steps + 1)[1:]:
-        w = lam * w_full
-        for _ in range(max_iter):
-            tk = model.tip(q)
-            r = model.energy_gradient(q) - tk.J.T @ w
-            K = model.energy_hessian(q) - np.einsum("k,kij->ij", w, tk.H)
-            dq = np.linalg.solve(K, -r)
-            q = q + dq
-            if np.max(np.abs(dq)) < tol and np.max(np.abs(r)) < 1e3 * tol * scale:
-                break
-        else:
-            raise RuntimeError(
-                f"solve_cantilever: Newton did not converge at load factor {lam:.3g}"
-            )
-    return q, model.tip(q)

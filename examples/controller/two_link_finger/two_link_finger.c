@@ -38,8 +38,9 @@
  * smallest eigenvalue, then the stable side taken by descent, cross_bifurcation) or else
  * overshoots a limit point (a shorter step); where the path ends the solve descends to the
  * equilibrium it snaps to (a snap-through). Each such critical load factor is reported in
- * fg_answer.critical with its kind, and so is every flexure whose "auto" model switched from its
- * polynomial to its Gauss kernel (fg_answer.switched).
+ * fg_answer.critical with its kind, and so is every flexure whose first kernel (polynomial or
+ * local: "auto" and "local" models) left its range and whose Gauss kernel took over
+ * (fg_answer.switched).
  *
  * Every solve ends with an answer (FG_SOLVED) or with the reason there is none
  * (FG_NO_EQUILIBRIUM): fg_answer.failure (FG_FAIL_*: the unloaded state cannot be evaluated, the
@@ -57,8 +58,9 @@
  * flexgen/solver.py calls fg_solve and builds the Result from fg_answer (the buckling and
  * snap-through warnings from the critical events: BUCKLING_SIDES words the FG_BUCKLING_* kinds),
  * and flexgen/reasons.py words the FG_FAIL_* and FG_ERR_* codes. A C program gets the structs of a
- * scene from flexgen generate --scene (examples/controller/two_link_finger/two_link_finger.c). flexgen/chain.py's kinematics is a plain
- * reference for plots and tests; this file has its own.
+ * scene from flexgen generate --scene (examples/controller/two_link_finger/two_link_finger.c).
+ * flexgen/chain.py has kinematics of its own: the frame poses of an answer (its stresses, its
+ * drawing) and a reference Jacobian and Hessian for tests; the solver's are this file's.
  *
  * Tests: tests/test_solver_core.py checks the answers against independent references (the exact
  * elastica, closed forms such as Euler's critical loads, finite differences of the residual and
@@ -288,7 +290,8 @@ typedef struct {
     const int *route_len;        /* ntendons */
     const int *route;            /* point indices */
     const int *outputs;          /* noutputs point indices */
-    const fg_real *stiffness;     /* ndof: diagonal of the elastic energy's Hessian */
+    const fg_real *stiffness;     /* ndof: the elastic stiffness D, diagonal of the elastic energy's
+                                  * Hessian (unloaded; not fg_answer.stiffness, the loaded K) */
     fg_settings settings;
     fg_lapack lapack;
     const fg_real *q0;            /* NULL, or a warm start: Newton at the full load from q0 */
@@ -310,8 +313,9 @@ typedef struct {
     int *critical_kind;   /* max_critical: FG_SNAP_THROUGH or FG_BUCKLING_* of each */
     int max_critical;     /* their capacity: only the first max_critical events are stored */
     int ncritical;        /* how many were met (every one, also those beyond max_critical) */
-    int *switched;        /* nflex (in fg_problem.flex order): 1 if that flexure's "auto" model
-                           * used its Gauss kernel during the solve; NULL: not reported */
+    int *switched;        /* nflex (in fg_problem.flex order): 1 if that flexure's first kernel
+                           * (polynomial or local) left its range and its Gauss kernel took
+                           * over during the solve; NULL: not reported */
     /* FG_NO_EQUILIBRIUM: why (FG_FAIL_*) and at which load factor (the reason's lam) */
     int failure;
     fg_real failure_load_factor;
@@ -399,7 +403,8 @@ FG_API void fg_ellipse(const fg_real *C, fg_real circle_tol, fg_real *out);
 
 /* One flexure's tip pose (3), J (3 x k) and H (3 x k x k) in its root frame, physical units, at
  * its coordinates q, as the solver evaluates it (the one implementation of the n-element chain
- * and the pseudo-rigid body; flexgen.models.fem and .prb call it); scratch: 4 (k + 1) doubles.
+ * and the pseudo-rigid body with their derivatives; flexgen.models.fem and .prb call it, and
+ * their NumPy tip_poses repeat only the pose, tested against it); scratch: 4 (k + 1) doubles.
  * 0 if the model cannot be evaluated at q (a polynomial-only kernel past its range). */
 FG_API int fg_flexure_tip(const fg_flexure *f, const fg_real *q, fg_real *pose, fg_real *J, fg_real *H,
                    fg_real *scratch);
