@@ -1149,8 +1149,12 @@ def estimate_section(data: BenchData) -> list[str]:
     ]
 
 
+# the files write_outputs writes into --out (the command checks them before the run)
+PAGES = ("accuracy-vs-speed.png", "accuracy-vs-speed.md")
+
+
 def write_outputs(data: BenchData, out: Path) -> tuple[Path, Path]:
-    png, md = out / "accuracy-vs-speed.png", out / "accuracy-vs-speed.md"
+    png, md = (out / name for name in PAGES)
     text = render_markdown(data)
 
     def write_page(tmp: Path) -> None:

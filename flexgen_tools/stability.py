@@ -643,8 +643,12 @@ def _convergence_sentence(rows: list[dict]) -> str:
     )
 
 
+# the files write_outputs writes into --out (the command checks them before the run)
+PAGES = ("stability-map.png", "stability.md")
+
+
 def write_outputs(data: StabilityData, out: Path) -> tuple[Path, Path]:
-    png, md = out / "stability-map.png", out / "stability.md"
+    png, md = (out / name for name in PAGES)
     text = render_markdown(data)
 
     def write_page(tmp: Path) -> None:

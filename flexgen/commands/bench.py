@@ -51,7 +51,7 @@ def register(sub) -> None:
 def run(args) -> int:
     try:
         from flexgen_tools import NeedsCheckout
-        from flexgen_tools.bench import TIMINGS, run_bench, timing_inconsistencies
+        from flexgen_tools.bench import PAGES, TIMINGS, run_bench, timing_inconsistencies
     except ImportError as exc:
         raise UsageError(
             f"flexgen bench needs the flexgen_tools package of a source checkout ({exc})"
@@ -60,9 +60,7 @@ def run(args) -> int:
 
     from flexgen.outfiles import check_writable
 
-    check_writable(
-        args.out, ("accuracy-vs-speed.md", "accuracy-vs-speed.png")
-    )  # before minutes of solving, not after
+    check_writable(args.out, PAGES)  # before minutes of solving, not after
     if importlib.util.find_spec("matplotlib") is None:  # its chart: found before, not after
         raise MissingExtra(
             "flexgen bench draws its chart with matplotlib: pip install 'flexgen[plot]'"

@@ -39,7 +39,7 @@ def register(sub) -> None:
 def run(args) -> int:
     try:
         from flexgen_tools import NeedsCheckout
-        from flexgen_tools.stability import run_stability
+        from flexgen_tools.stability import PAGES, run_stability
     except ImportError as exc:
         raise UsageError(
             f"flexgen stability needs the flexgen_tools package of a source checkout ({exc})"
@@ -48,9 +48,7 @@ def run(args) -> int:
 
     from flexgen.outfiles import check_writable
 
-    check_writable(
-        args.out, ("stability.md", "stability-map.png")
-    )  # before minutes of solving, not after
+    check_writable(args.out, PAGES)  # before minutes of solving, not after
     if importlib.util.find_spec("matplotlib") is None:  # its chart: found before, not after
         raise MissingExtra(
             "flexgen stability draws its chart with matplotlib: pip install 'flexgen[plot]'"
