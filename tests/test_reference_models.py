@@ -912,3 +912,23 @@ def test_tip_poses_repeat_the_cores_tip_pose(model):
     batched = model.tip_poses(Q)
     for q, pose in zip(Q, batched):
         assert np.allclose(pose, model.tip(q).pose, rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("tension", [1.0, 0.0])
+def test_a_tendon_segment_of_zero_length_is_refused_by_exact_as_by_the_chain_models(tension):
+    """A segment between two bodies that starts at zero length has no direction: the chain
+    models refuse the scene (no equilibrium of the unloaded scene), and so does exact (review:
+    it pulled along the rounding of the tip's position and answered, exit 0). Without tension
+    the tendon is no tendon, and both solve."""
+    scene = flexgen.scene_from_dict(
+        {
+            "base": {"points": {"p": [1.0, 0.0]}},
+            "flexure": [{"name": "a", "length": 1.0, "EI": 1.0}],
+            "tendon": [{"tension": tension, "route": ["base.p", "a.tip"]}],
+        }
+    )
+    for model in ("scm", "exact"):
+        r = flexgen.solve(scene, model=model)
+        assert r.converged is (tension == 0.0), (model, r.reason)
+        if tension:
+            assert "'base.p' -> 'a.tip' has zero length" in r.reason, r.reason

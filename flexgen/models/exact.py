@@ -849,6 +849,31 @@ def _short_tendon(prob, z, lam) -> tuple[str, str] | None:
     return None
 
 
+# a tendon segment this short (of the longest flexure) in the unloaded state is of zero length
+# (the shooting puts a straight flexure's tip off by a few 1e-16 of its length)
+ZERO_SEGMENT = 1e-12
+
+
+def _zero_segment(prob) -> tuple[str, str] | None:
+    """The first tendon segment (its two points' names) under tension, between two bodies,
+    of zero length in the unloaded state: it has no direction, so the chain models refuse the
+    scene (the core's fail_route, "no equilibrium of the unloaded scene"), and so does this
+    solver (review: it pulled along the rounding of the tip's position, exit 0). Zero up to
+    the shooting's rounding of the straight flexures (ZERO_SEGMENT of the longest; the chain
+    models' unloaded poses are exact)."""
+    if not prob.tendons:
+        return None
+    _, rest, *_ = prob.evaluate(np.zeros((1, 3 * prob.n)), 0.0)
+    zero = ZERO_SEGMENT * float(np.max(prob.L))
+    for tension, ids in prob.tendons:
+        for a, b in zip(ids[:-1], ids[1:]):
+            if tension == 0.0 or prob.P_owner[a] == prob.P_owner[b]:
+                continue
+            if float(np.hypot(*(rest[0, b] - rest[0, a]))) <= zero:
+                return prob.point_names[a], prob.point_names[b]
+    return None
+
+
 def solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
     """See ``_solve_exact``. Floating-point overflow on the way (a hostile scene's huge or tiny
     numbers) is expected and shows in the answer (not converged, or non-finite compliance, which
@@ -980,6 +1005,12 @@ def _solve_exact(scene, num: int = 65, max_step: float = 0.25) -> SceneSolution:
             f"exact solver's cap of {MAX_LOAD:g}, where the elastica winds too often to follow"
         )
         lam = -1.0  # no step is taken; reported as load factor 0 below
+    zero = _zero_segment(prob)
+    if zero is not None:
+        warnings.append(
+            f"tendon segment {zero[0]!r} -> {zero[1]!r} has zero length in the unloaded scene"
+        )
+        lam = -1.0
     while 0.0 <= lam < 1.0:
         lam_new = min(1.0, lam + dlam)
         if len(hist) >= 2:
