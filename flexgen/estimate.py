@@ -38,7 +38,9 @@ The richer model (``richer``), per flexure:
     scm 7, 8        -> scm N - 2 (no richer kernel ships): the difference then measures the
                        error of N - 2, which bounds N's (more modes are never worse); the
                        estimate is conservative by about one convergence step (scm7 gets
-                       scm5's estimate, scm8 scm6's).
+                       scm5's estimate, scm8 scm6's; margin ``POORER_FACTOR``). Beside
+                       flexures of other models, the two groups are checked apart and their
+                       estimates added (``SplitEstimator``).
     cc (scm 1), prb -> scm 3 (q: the tip angle; the rest zero). Both are far poorer than scm3
                        (margin ``COARSE_FACTOR``).
     fem n (n > 4)   -> fem 2n (the joint rotations are the curvature at the cell midpoints
@@ -77,7 +79,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 from numpy.polynomial import legendre
@@ -89,6 +91,10 @@ from .scene import Scene
 # rho <= 1/3 (measured: err(N) / d at most 1.12 on the suite of tests/test_estimate.py, at bends
 # near 150 deg; typically 1.00)
 SCM_FACTOR = 1.5
+# scm N against scm N - 2 (N = 7, 8: no richer kernel): d = err(N) - err(N - 2), so
+# err(N) <= rho / (1 - rho) d where err(N) = rho err(N - 2) with one sign; 2 covers rho <= 2/3
+# (review: scm7's root curvature 0.64 of scm5's, 1.02 times its estimate at 1.5)
+POORER_FACTOR = 2.0
 # Richardson for O(h^2): err(n) = 4/3 d, times 1.25 for n before the asymptotic range
 # (measured: err(n) / d = 1.333 for fem16 and fem32, at most 1.36 for fem4)
 FEM_FACTOR = 4.0 / 3.0 * 1.25
@@ -261,9 +267,11 @@ def richer(model: Any, mixed: bool = False) -> tuple[Any, Any, float, str]:
         if n == 1:
             m = SCMModel(model.length, model.EI, 3, "local", name=model.name)
             return m, _scm_pad(3), COARSE_FACTOR, "scm3"
-        k = n + 2 if n + 2 <= MAX_SCM else n - 2
-        m = SCMModel(model.length, model.EI, k, "local", name=model.name)
-        return m, _scm_pad(k), SCM_FACTOR, f"scm{k}"
+        if n + 2 <= MAX_SCM:
+            m = SCMModel(model.length, model.EI, n + 2, "local", name=model.name)
+            return m, _scm_pad(n + 2), SCM_FACTOR, f"scm{n + 2}"
+        m = SCMModel(model.length, model.EI, n - 2, "local", name=model.name)
+        return m, _scm_pad(n - 2), POORER_FACTOR, f"scm{n - 2}"
     if kind == "prb":
         from .models.scm import SCMModel
 
@@ -372,7 +380,9 @@ class Estimator:
     ``Problem`` (sharing the answer's load and tension arrays), a ``Workspace``, the q map and
     the per-point scales and floors, and the buffer ``fg_estimate`` writes into."""
 
-    def __init__(self, solver: Any):
+    def __init__(self, solver: Any, only: frozenset[str] | None = None):
+        """``only``: the flexures made richer (the rest keep their own model: the difference
+        is then theirs alone; ``SplitEstimator``); None: every flexure."""
         from .models.registry import build_models
         from .problem import Problem, Workspace
 
@@ -385,6 +395,9 @@ class Estimator:
         labels = {}
         mixed = mixes_fem(solver.models.values())
         for name, m in solver.models.items():
+            if only is not None and name not in only:
+                rich[name], self.maps[name] = m, _scm_pad(int(m.n_dof))  # itself, q as it is
+                continue
             r, f, fac, lab = richer(m, mixed)
             rich[name], self.maps[name], labels[name] = r, f, lab
             factors.append(fac)
@@ -396,7 +409,7 @@ class Estimator:
         self._fem_h = {
             name: float(m.length) / int(m.n_dof)
             for name, m in solver.models.items()
-            if refined_fem(m) and not mixed
+            if refined_fem(m) and not mixed and name in labels
         }
         # the poorest pair decides the margin (flexures of a chain interact)
         self.factor = max(factors, default=1.0)
@@ -585,12 +598,73 @@ _WHY = {
 }
 
 
-def estimator_of(solver: Any) -> Estimator:
-    """The solver's Estimator, prepared on first use and kept on the solver (from outside,
-    ``Solver.estimator()``)."""
+class SplitEstimator:
+    """The estimate of a scene whose flexures are not all checked against a richer model: scm7
+    and scm8 against scm N - 2 (no richer kernel ships), which is poorer, beside flexures
+    checked against far richer ones. One Estimator per group (``estimate_groups``), each making
+    only its flexures richer; the estimates add per point. A difference over the whole scene
+    at once could not be trusted: the answer's errors from its flexures may cancel at a point
+    while scm N - 2's own error, far larger than scm N's, does not (review: scm7 with fem16, a
+    pose 4.9 times its estimate; scm8 with scm4, a compliance 3.5 times; scm5 with scm7, whose
+    richer models were the same scene with its flexures swapped). By groups, each difference is
+    that group's error alone (or, for scm N, scm N - 2's, which bounds it), and their sum
+    bounds the answer's: one more core call than the Estimator's."""
+
+    def __init__(self, solver: Any, groups: list[frozenset[str]]):
+        self.parts = [Estimator(solver, only=g) for g in groups]
+        rich_models: dict[str, Any] = {}
+        rich_slices: dict[str, slice] = {}
+        offset = 0  # the parts' richer coordinates follow one another in the Estimate's rich_q
+        for part, group in zip(self.parts, groups):
+            for name in group:
+                rich_models[name] = part.rich_models[name]
+                sl = part.rich_slices[name]
+                rich_slices[name] = slice(sl.start + offset, sl.stop + offset)
+            offset += part.workspace.q.size
+        curves = [part.curvature for part in self.parts]
+        self.curvature = CurvatureEstimates(
+            rich_models,
+            rich_slices,
+            max(c.factor for c in curves),
+            {k: v for c in curves for k, v in c.fem_h.items()},
+            frozenset().union(*(c.end_checked for c in curves)),
+        )
+
+    def estimate(self, solver: Any) -> Estimate:
+        """The parts' estimates added per point (inf where one is: its warning says why)."""
+        parts = [part.estimate(solver) for part in self.parts]
+        failed = next((e for e in parts if e.rich_q is None), None)
+        if failed is not None:
+            return failed
+        pose = [sum(v) for v in zip(*(e.pose for e in parts))]
+        compliance = [sum(v) for v in zip(*(e.compliance for e in parts))]
+        warning = next((e.warning for e in parts if e.warning), None)
+        rich_q = [x for e in parts for x in cast(list, e.rich_q)]
+        return estimate_of(pose, compliance, warning)._replace(rich_q=rich_q)
+
+
+def poorer_reference(model: Any) -> bool:
+    """A smooth curvature model with no richer kernel shipped (``richer``: scm N - 2)."""
+    return getattr(model, "kind", None) == "scm" and int(model.n_dof) + 2 > MAX_SCM
+
+
+def estimate_groups(models: Mapping[str, Any]) -> list[frozenset[str]] | None:
+    """The flexures checked against poorer models (scm7, scm8) and the others, where a scene
+    has both (``SplitEstimator``); None where one difference over the scene holds."""
+    poorer = frozenset(n for n, m in models.items() if poorer_reference(m))
+    rest = frozenset(models) - poorer
+    return [rest, poorer] if poorer and rest else None
+
+
+def estimator_of(solver: Any) -> Estimator | SplitEstimator:
+    """The solver's Estimator (a SplitEstimator where ``estimate_groups`` splits its scene),
+    prepared on first use and kept on the solver (from outside, ``Solver.estimator()``)."""
     est = solver._estimator
     if est is None:
-        est = solver._estimator = Estimator(solver)
+        groups = estimate_groups(solver.models)
+        est = solver._estimator = (
+            Estimator(solver) if groups is None else SplitEstimator(solver, groups)
+        )
     return est
 
 
