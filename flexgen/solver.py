@@ -493,7 +493,8 @@ class Solver:
 
     def estimator(self):
         """The ``flexgen.estimate.Estimator`` of this solver's scene and models (the richer
-        model's prepared solver), built on first use and kept."""
+        model's prepared solver; a ``SplitEstimator`` of two where scm7 or scm8 stand beside
+        other models: ``estimate.estimate_groups``), built on first use and kept."""
         from .estimate import estimator_of
 
         return estimator_of(self)

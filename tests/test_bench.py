@@ -122,6 +122,9 @@ def test_a_slower_model_of_the_same_error_is_off_the_front():
     pts = [(10.8, 5.859280193e-4), (11.6, 5.859279964e-4), (12.0, 5.0e-4)]
     assert bench.pareto_front(pts) == [0, 2]
     assert bench.pareto_front([(10.8, 5.9e-4), (11.6, 5.8e-4)]) == [0, 1]
+    # only points on the front dominate: the middle one ties the first (off the front), the
+    # last is better than the first by more than the tie (review: it was dropped)
+    assert bench.pareto_front([(1.0, 1 + 1.5e-6), (2.0, 1 + 0.6e-6), (3.0, 1.0)]) == [0, 2]
 
 
 def test_error_decreases_with_elements_and_modes(run):

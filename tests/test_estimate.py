@@ -291,7 +291,7 @@ def test_a_scene_mixing_fem_with_other_models_is_estimated_honestly(tmp_path, na
     assert case.curvature_covered and case.curvature_ratio <= 1.0, case
 
 
-def _two_flexures(a: dict, b: dict, fa: list[float], fb: list[float]) -> dict:
+def _two_flexures(a: dict, b: dict, fa: list[float], fb: list[float], mb: float = 0.0) -> dict:
     """A on the base, B on A's link 0.05 further along, forces on both links, the output at
     B's link (the review's scenes of SplitEstimator)."""
     flexure = {"length": 1.0, "EI": 1.0}
@@ -306,12 +306,12 @@ def _two_flexures(a: dict, b: dict, fa: list[float], fb: list[float]) -> dict:
             {"name": "la", "parent": "A", "points": {"p": [0.0, 0.0]}},
             {"name": "lb", "parent": "B", "points": {"p": [0.0, 0.0]}},
         ],
-        "load": [{"point": "la.p", "force": fa}, {"point": "lb.p", "force": fb}],
+        "load": [{"point": "la.p", "force": fa}, {"point": "lb.p", "force": fb, "moment": mb}],
     }
 
 
 @pytest.mark.parametrize(
-    "a, b, fa, fb",
+    "a, b, fa, fb, mb",
     [
         # scm7 with fem16: the pose was 4.9 times its estimate
         (
@@ -319,6 +319,7 @@ def _two_flexures(a: dict, b: dict, fa: list[float], fb: list[float]) -> dict:
             {"kind": "fem", "elements": 16},
             [-7.394211243018267, -23.42929616214756],
             [-1.1396001524752037, -1.2821500116907119],
+            0.0,
         ),
         # scm8 with scm4: the compliance 3.5 times
         (
@@ -326,6 +327,7 @@ def _two_flexures(a: dict, b: dict, fa: list[float], fb: list[float]) -> dict:
             {"kind": "scm", "modes": 4},
             [50.04951295933318, 2.203600810841268],
             [-0.15833542326303954, -1.8110919064862816],
+            0.0,
         ),
         # scm5 with scm7: the richer models were the scene with its flexures swapped, 2.5 times
         (
@@ -333,15 +335,25 @@ def _two_flexures(a: dict, b: dict, fa: list[float], fb: list[float]) -> dict:
             {"kind": "scm", "modes": 7},
             [12.2511313309973, -0.5393979149536203],
             [-2.895586855853118, -1.1618850030061738],
+            0.0,
+        ),
+        # cc with scm7: scm7's stress estimate counted only its own group's error, 2360 times
+        # short (review of the first SplitEstimator)
+        (
+            {"kind": "cc"},
+            {"kind": "scm", "modes": 7},
+            [2.6228008245794197, -4.978939466488893],
+            [-0.1638384178355956, 0.6646200970223477],
+            -0.5424755574590947,
         ),
     ],
-    ids=["scm7+fem16", "scm8+scm4", "scm5+scm7"],
+    ids=["scm7+fem16", "scm8+scm4", "scm5+scm7", "cc+scm7"],
 )
-def test_scm7_and_scm8_beside_other_models_are_estimated_by_groups(a, b, fa, fb):
+def test_scm7_and_scm8_beside_other_models_are_estimated_by_groups(a, b, fa, fb, mb):
     """scm7 and scm8 are checked against scm N - 2, poorer, and the others against richer
     models: one difference over the scene let errors cancel (review); by groups
     (estimate.SplitEstimator) every answer is within its estimate, against the exact elastica."""
-    scene = flexgen.scene_from_dict(_two_flexures(a, b, fa, fb))
+    scene = flexgen.scene_from_dict(_two_flexures(a, b, fa, fb, mb))
     assert isinstance(flexgen.Solver(scene).estimator(), E.SplitEstimator)
     [case] = estimate_cases([("two", scene)], [("own", {})])
     assert not case.warned
