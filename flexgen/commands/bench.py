@@ -8,7 +8,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from flexgen.commands.common import MissingExtra, UsageError, integer, output_path
+from flexgen.commands.common import UsageError, integer, output_path, require_extra
 
 
 def register(sub) -> None:
@@ -56,15 +56,12 @@ def run(args) -> int:
         raise UsageError(
             f"flexgen bench needs the flexgen_tools package of a source checkout ({exc})"
         ) from None
-    import importlib.util
-
     from flexgen.outfiles import check_writable
 
     check_writable(args.out, PAGES)  # before minutes of solving, not after
-    if importlib.util.find_spec("matplotlib") is None:  # its chart: found before, not after
-        raise MissingExtra(
-            "flexgen bench draws its chart with matplotlib: pip install 'flexgen[plot]'"
-        )
+    require_extra(  # its chart
+        "matplotlib", "flexgen bench draws its chart with matplotlib: pip install 'flexgen[plot]'"
+    )
     try:
         data = run_bench(quick=args.quick, out=args.out, n_random=args.random)
     except NeedsCheckout as exc:

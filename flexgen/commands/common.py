@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 from pathlib import Path
 
@@ -32,6 +33,13 @@ class UsageError(Exception):
 class MissingExtra(Exception):
     """An optional dependency the command needs is not installed: one line naming the extra
     to install, exit code 1 (the input may be right: as flexgen plot without matplotlib)."""
+
+
+def require_extra(module: str, message: str) -> None:
+    """MissingExtra(message) unless ``module`` is installed (found, not imported: asked
+    before any work, so that nothing is solved for an output that cannot be made)."""
+    if importlib.util.find_spec(module) is None:
+        raise MissingExtra(message)
 
 
 def output_path(text: str) -> Path:

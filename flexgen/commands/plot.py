@@ -9,10 +9,10 @@ import sys
 
 from flexgen.commands.common import (
     ExamplesFormatter,
-    MissingExtra,
     UsageError,
     output_file,
     printable,
+    require_extra,
 )
 from flexgen.commands.solve import add_model_options, one_line, solve_args
 
@@ -53,7 +53,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import importlib.util
 
     from flexgen.drawing import INSTALL_HINT, PlotError, check_output
 
@@ -61,8 +60,7 @@ def run(args) -> int:
         check_output(args.output)
     except PlotError as exc:
         raise UsageError(str(exc)) from None
-    if importlib.util.find_spec("matplotlib") is None:
-        raise MissingExtra(INSTALL_HINT)
+    require_extra("matplotlib", INSTALL_HINT)
     scene, result, exact = solve_args(args)
     if not result.converged:
         print(f"flexgen: no equilibrium: {one_line(result.reason)}", file=sys.stderr)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from flexgen.commands.common import MissingExtra, UsageError, output_path
+from flexgen.commands.common import UsageError, output_path, require_extra
 
 
 def register(sub) -> None:
@@ -44,15 +44,13 @@ def run(args) -> int:
         raise UsageError(
             f"flexgen stability needs the flexgen_tools package of a source checkout ({exc})"
         ) from None
-    import importlib.util
-
     from flexgen.outfiles import check_writable
 
     check_writable(args.out, PAGES)  # before minutes of solving, not after
-    if importlib.util.find_spec("matplotlib") is None:  # its chart: found before, not after
-        raise MissingExtra(
-            "flexgen stability draws its chart with matplotlib: pip install 'flexgen[plot]'"
-        )
+    require_extra(  # its chart
+        "matplotlib",
+        "flexgen stability draws its chart with matplotlib: pip install 'flexgen[plot]'",
+    )
     try:
         data = run_stability(quick=args.quick, out=args.out)
     except NeedsCheckout as exc:

@@ -12,7 +12,6 @@ checked before anything is solved).
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 import threading
 import time
@@ -21,11 +20,11 @@ from typing import Any
 
 from flexgen.commands.common import (
     ExamplesFormatter,
-    MissingExtra,
     UsageError,
     integer,
     output_file,
     printable,
+    require_extra,
 )
 from flexgen.outfiles import write_all
 from flexgen.sweep_plan import CHUNK_SIZE, DISTRIBUTIONS, plan
@@ -203,10 +202,12 @@ def run(args) -> int:
             check_output(plot, option="--plot")
     except PlotError as exc:
         raise UsageError(str(exc)) from None
-    if out is not None and out.suffix.lower() == ".parquet" and not _has("pyarrow"):
-        raise MissingExtra("--out: writing Parquet needs pyarrow: pip install 'flexgen[parquet]'")
-    if plot is not None and not _has("matplotlib"):
-        raise MissingExtra("--plot needs matplotlib: pip install 'flexgen[plot]'")
+    if out is not None and out.suffix.lower() == ".parquet":
+        require_extra(
+            "pyarrow", "--out: writing Parquet needs pyarrow: pip install 'flexgen[parquet]'"
+        )
+    if plot is not None:
+        require_extra("matplotlib", "--plot needs matplotlib: pip install 'flexgen[plot]'")
     if args.seed is not None and args.samples is None:
         raise UsageError("--seed: only with --samples N (a grid draws nothing)")
     vary = parse_vary(args.vary, args.samples is not None)
@@ -268,15 +269,12 @@ def run(args) -> int:
     return 0
 
 
-def _has(module: str) -> bool:
-    return importlib.util.find_spec(module) is not None
-
-
 def _client(address: str) -> Any:
     """A dask.distributed Client of the scheduler at ``address``: UsageError (exit 2) for an
     address that cannot be one, SchedulerError (exit 1) for one that cannot be reached."""
-    if not _has("distributed"):
-        raise MissingExtra("--scheduler needs dask.distributed: pip install 'flexgen[cluster]'")
+    require_extra(
+        "distributed", "--scheduler needs dask.distributed: pip install 'flexgen[cluster]'"
+    )
     from distributed import Client
 
     _check_address(address)
