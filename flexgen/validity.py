@@ -215,9 +215,12 @@ def _at_tip(scene: Scene, ref: str) -> bool:
     flexure = scene.flexures[0].name
     if ref == f"{flexure}.tip":
         return True
-    body, _, point = ref.partition(".")
-    link = next((lk for lk in scene.links if lk.name == body), None)
-    return link is not None and link.parent == flexure and link.points.get(point) == (0.0, 0.0)
+    body, xy = scene.resolve_point(ref)
+    return (
+        scene.body_kind(body) == "link"
+        and scene.link(body).parent == flexure
+        and tuple(xy) == (0.0, 0.0)
+    )
 
 
 def model_label(model) -> str:
