@@ -136,12 +136,6 @@ def _require_matplotlib() -> None:
         raise PlotError(INSTALL_HINT) from None
 
 
-def _unit(scene: Scene, quantity: str) -> str:
-    """The unit of ``quantity`` in the scene's units system (every answer is in it), or "" for a
-    scene of plain numbers (any consistent set, unnamed: docs/scene.md, Units)."""
-    return scene.units.label(quantity) if scene.units is not None else ""
-
-
 def _with_unit(name: str, unit: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
@@ -180,10 +174,10 @@ def colouring(scene: Scene, result: Result | None) -> Colouring | None:
     name = max(peak_of, key=lambda n: peak_of[n])
     peak = (name, float(entries[name].at), peak_of[name])
     if by_stress:
-        unit = _unit(scene, "stress")
+        unit = scene.unit_of("stress")
         label = "|bending + axial stress|" if axial else "|bending stress|"
         return Colouring(_with_unit(label, unit), "|σ|", unit, along, peak)
-    unit = _unit(scene, "curvature")
+    unit = scene.unit_of("curvature")
     return Colouring(_with_unit("|curvature|", unit), "|κ|", unit, along, peak)
 
 
@@ -373,8 +367,8 @@ def draw_on(ax, scene: Scene, result: Result | None, exact_solution=None, title=
     handles += _tendons(ax, scene, shown)
     handles += _loads(ax, scene, shown, size)
     if result is not None:
-        handles += _ellipses(ax, result, size, _unit(scene, "force"))
-    length = _unit(scene, "length")
+        handles += _ellipses(ax, result, size, scene.unit_of("force"))
+    length = scene.unit_of("length")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.4, alpha=0.5)
     ax.set_xlabel(_with_unit("x", length))
@@ -543,7 +537,7 @@ def _tendons(ax, scene: Scene, g: Geometry) -> list:
         )
     if not scene.tendons:
         return []
-    force = _unit(scene, "force")
+    force = scene.unit_of("force")
     tensions = ", ".join(f"{t.tension:g}" for t in scene.tendons) + (f" {force}" if force else "")
     return [Line2D([], [], color="C3", lw=1.2, marker=".", label=f"tendon (tension {tensions})")]
 
@@ -595,7 +589,7 @@ def _loads(ax, scene: Scene, g: Geometry, size: float) -> list:
                     gid=f"load:{i}:moment",
                 )
             )
-            moment = _unit(scene, "moment")
+            moment = scene.unit_of("moment")
             ax.annotate(
                 f"M = {ld.moment:.4g}{' ' + moment if moment else ''}",
                 _xy(xy),
@@ -608,7 +602,7 @@ def _loads(ax, scene: Scene, g: Geometry, size: float) -> list:
         return []
     label = "dead loads"
     if fmax > 0:
-        length, force = _unit(scene, "length"), _unit(scene, "force")
+        length, force = scene.unit_of("length"), scene.unit_of("force")
         label += (
             f": an arrow {scale * fmax:.3g}{' ' + length if length else ''} long is a force of "
             f"{fmax:.3g}{' ' + force if force else ''}"

@@ -303,6 +303,12 @@ class Scene:
         """Every body name: "base", then flexures and links in declaration order."""
         return (BASE,) + tuple(self._index["order"])
 
+    def unit_of(self, quantity: str) -> str:
+        """The unit of ``quantity`` (``Units.label``'s names) in the scene's units system, which
+        every answer is in, or "" for a scene of plain numbers (any consistent set, unnamed:
+        docs/scene.md, Units)."""
+        return "" if self.units is None else self.units.label(quantity)
+
     def body_kind(self, name: str) -> str:
         """ "base", "flexure" or "link"."""
         self._known(name)

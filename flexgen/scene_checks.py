@@ -53,17 +53,16 @@ def scene_notes(scene: Scene) -> list[str]:
             notes.append(
                 f"flexure {f.name!r} starts at the origin of link {link.name!r} (the tip of "
                 f"flexure {link.parent!r}) while the link's point {name!r} lies "
-                f"{reach:.4g}{_length_unit(scene)} "
+                f"{reach:.4g}{_spaced(scene.unit_of('length'))} "
                 f"from that origin: a link has no length; if {f.name!r} should start further "
                 f"along, give it at = [x, y, angle] in the frame of {link.name!r}"
             )
     return notes
 
 
-def _length_unit(scene: Scene) -> str:
-    """ " mm" where the scene names its units (review: "lies 30 from that origin" in an mm
-    scene), else "" (plain SI numbers, as the answers)."""
-    return "" if scene.units is None else " " + scene.units.label("length")
+def _spaced(unit: str) -> str:
+    """A unit after a number: " mm", or nothing for a scene of plain numbers."""
+    return f" {unit}" if unit else ""
 
 
 # below this length/thickness the model's slender beam (no shear, plane sections: the elastica
@@ -173,7 +172,7 @@ def scene_warnings(scene: Scene) -> list[str]:
     if mixed:
         out.append(mixed)
     out.extend(implausible_stresses(scene))
-    unit = _length_unit(scene)
+    unit = _spaced(scene.unit_of("length"))  # (review: "lies 30 from that origin" in mm)
     for f in thick_flexures(scene):
         t = cast(float, f.thickness)  # given: thick_flexures reads only given thicknesses
         out.append(

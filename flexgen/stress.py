@@ -310,7 +310,8 @@ def safety_warnings(scene: Scene, stresses: Mapping[str, FlexureStress]) -> list
     out = []
     # the stresses' unit where the scene names its units (review: "max stress 2360 ... yield
     # strength 1400" in an mm/N scene)
-    unit = "" if scene.units is None else " " + scene.units.label("stress")
+    unit = scene.unit_of("stress")
+    unit = f" {unit}" if unit else ""
     for f in scene.flexures:
         st = stresses.get(f.name)
         if st is None or st.safety_factor is None:
